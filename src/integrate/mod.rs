@@ -1,0 +1,218 @@
+//! Integrators users pick between, trading speed for accuracy.
+//!
+//! | name          | order | keeps                                   | cost per step            |
+//! |---------------|-------|-----------------------------------------|--------------------------|
+//! | `rk4`         | 4     | constraints by projection after a step  | 4 evaluations            |
+//! | `rkmk4`       | 4     | `|q_i| = 1` by construction (Lie group) | 4 evaluations + 4 exp    |
+//! | `variational` | 2     | momentum exactly, energy bounded        | Newton solve (O(n) each) |
+//! | `lie_euler`   | 1     | `|q_i| = 1`, tangency                   | 1 evaluation + 1 exp     |
+//! | `adaptive`    | 5(4)  | error per step below a tolerance        | 7 evaluations per step   |
+//!
+//! All are O(n) per step and allocate nothing: buffers live in a [`Stepper`].
+
+mod adaptive;
+mod lie_euler;
+mod rk4;
+mod rkmk4;
+mod variational;
+
+use crate::error::{ChainError, Result};
+use crate::geometry::{Geometry, Vector};
+use crate::model::{Chain, Workspace};
+
+/// Which integrator; see the module table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    Rk4,
+    Rkmk4,
+    Variational,
+    LieEuler,
+    Adaptive,
+}
+
+impl Method {
+    pub const ALL: [Method; 5] = [
+        Method::Rk4,
+        Method::Rkmk4,
+        Method::Variational,
+        Method::LieEuler,
+        Method::Adaptive,
+    ];
+    pub const NAMES: &'static str =
+        "\"rk4\", \"rkmk4\", \"variational\", \"lie_euler\", \"adaptive\"";
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Rk4 => "rk4",
+            Method::Rkmk4 => "rkmk4",
+            Method::Variational => "variational",
+            Method::LieEuler => "lie_euler",
+            Method::Adaptive => "adaptive",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Result<Self> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| ChainError::UnknownName {
+                kind: "integrator",
+                name: name.to_string(),
+                expected: Method::NAMES,
+            })
+    }
+
+    /// Order of accuracy of the fixed-step methods (the adaptive one: of its solution).
+    pub fn order(self) -> u32 {
+        match self {
+            Method::Rk4 | Method::Rkmk4 => 4,
+            Method::Variational => 2,
+            Method::LieEuler => 1,
+            Method::Adaptive => 5,
+        }
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = ChainError;
+    fn from_str(s: &str) -> Result<Self> {
+        Method::from_name(s)
+    }
+}
+
+/// How to advance one control period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepOptions {
+    pub method: Method,
+    /// Integrator steps per control period (the adaptive method's first trial step is dt/substeps).
+    pub substeps: usize,
+    /// Adaptive method: relative and absolute error tolerance per step.
+    pub tolerance: f64,
+    /// Variational method: Newton stops when every `||q_i|^2 - 1| / 2` is below this.
+    pub newton_tolerance: f64,
+    pub max_newton_iterations: usize,
+}
+
+impl StepOptions {
+    pub fn new(method: Method, substeps: usize) -> Result<Self> {
+        let opts = Self {
+            method,
+            substeps,
+            ..Self::default()
+        };
+        opts.validate()?;
+        Ok(opts)
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        if self.substeps == 0 {
+            return Err(ChainError::InvalidParameter {
+                name: "substeps",
+                value: 0.0,
+                expected: "an integer >= 1",
+            });
+        }
+        for (name, value) in [
+            ("tolerance", self.tolerance),
+            ("newton_tolerance", self.newton_tolerance),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ChainError::InvalidParameter {
+                    name,
+                    value,
+                    expected: "a finite number > 0",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for StepOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::Rk4,
+            substeps: 1,
+            tolerance: 1e-9,
+            newton_tolerance: 1e-14,
+            max_newton_iterations: 50,
+        }
+    }
+}
+
+/// Everything an integrator needs besides the state; one per thread, reused every step.
+#[derive(Debug, Clone)]
+pub struct Stepper<G: Geometry> {
+    pub(crate) ws: Workspace<G>,
+    pub(crate) stages: [Vec<f64>; 7],
+    pub(crate) base: Vec<f64>,
+    pub(crate) trial: Vec<f64>,
+    pub(crate) spins: [Vec<G::Spin>; 3],
+    pub(crate) links: [Vec<G::Link>; 5],
+    pub(crate) scalars: [Vec<f64>; 6],
+    /// Statistics of the last call.
+    pub stats: StepStats,
+}
+
+/// What the last [`Stepper::step`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepStats {
+    pub evaluations: usize,
+    pub accepted_steps: usize,
+    pub rejected_steps: usize,
+    pub newton_iterations: usize,
+}
+
+impl<G: Geometry> Stepper<G> {
+    pub fn new(chain: &Chain<G>) -> Self {
+        let (n, dim) = (chain.n_links(), chain.state_dim());
+        let v = || vec![0.0; dim];
+        Self {
+            ws: chain.workspace(),
+            stages: [v(), v(), v(), v(), v(), v(), v()],
+            base: v(),
+            trial: v(),
+            spins: std::array::from_fn(|_| vec![G::Spin::zero(); n]),
+            links: std::array::from_fn(|_| vec![G::Link::zero(); n]),
+            scalars: std::array::from_fn(|_| vec![0.0; n]),
+            stats: StepStats::default(),
+        }
+    }
+
+    /// Advances `y` by one control period `dt` under the constant force `force`.
+    /// On error `y` holds the state reached so far (callers that must not lose the
+    /// old state keep a copy).
+    pub fn step(
+        &mut self,
+        chain: &Chain<G>,
+        y: &mut [f64],
+        force: G::Cart,
+        dt: f64,
+        opts: &StepOptions,
+    ) -> Result<()> {
+        debug_assert_eq!(y.len(), chain.state_dim());
+        self.stats = StepStats::default();
+        if opts.method == Method::Adaptive {
+            return adaptive::integrate(chain, self, y, force, dt, opts);
+        }
+        let h = dt / opts.substeps as f64;
+        for _ in 0..opts.substeps {
+            match opts.method {
+                Method::Rk4 => rk4::step(chain, self, y, force, h),
+                Method::Rkmk4 => rkmk4::step(chain, self, y, force, h),
+                Method::LieEuler => lie_euler::step(chain, self, y, force, h),
+                Method::Variational => variational::step(chain, self, y, force, h, opts)?,
+                Method::Adaptive => unreachable!(),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `out = a + c * b`, elementwise.
+#[inline(always)]
+pub(crate) fn axpy(out: &mut [f64], a: &[f64], c: f64, b: &[f64]) {
+    for ((o, a), b) in out.iter_mut().zip(a).zip(b) {
+        *o = a + c * b;
+    }
+}

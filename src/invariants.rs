@@ -1,0 +1,113 @@
+//! Quantities conserved or constrained by the exact flow, and the paper's error
+//! measures. Computed only when asked for: nothing here runs in the step loop.
+
+use crate::geometry::{Geometry, Vector};
+use crate::model::Chain;
+
+/// Kinetic and potential energy (paper eqs. T and V); the cart's height is the zero of V.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Energy {
+    pub kinetic: f64,
+    pub potential: f64,
+    /// `T_q`: the kinetic energy of the chain relative to the cart (paper eq. T2).
+    pub kinetic_links: f64,
+}
+
+impl Energy {
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.potential
+    }
+}
+
+/// Largest violations of `|q_i| = 1` and `w_i . q_i = 0` (the latter scaled by `|w_i|`-free
+/// absolute value, in rad/s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Residuals {
+    pub unit_length: f64,
+    pub tangency: f64,
+}
+
+impl<G: Geometry> Chain<G> {
+    pub fn energy(&self, y: &[f64]) -> Energy {
+        let lay = self.layout();
+        let p = self.params();
+        let xdot = lay.load_xdot(y);
+        let cart_velocity = G::lift(xdot);
+        let mut rel_velocity = G::Link::zero();
+        let mut rel_position = G::Link::zero();
+        let (mut kinetic, mut kinetic_links, mut potential) =
+            (0.5 * p.cart_mass() * xdot.norm_squared(), 0.0, 0.0);
+        for i in 0..lay.n {
+            let q = lay.load_q(y, i);
+            rel_velocity += G::velocity(lay.load_w(y, i), q) * p.lengths()[i];
+            rel_position += q * p.lengths()[i];
+            let m = p.masses()[i];
+            kinetic += 0.5 * m * (cart_velocity + rel_velocity).norm_squared();
+            kinetic_links += 0.5 * m * rel_velocity.norm_squared();
+            potential -= m * p.gravity() * G::down(rel_position);
+        }
+        Energy {
+            kinetic,
+            potential,
+            kinetic_links,
+        }
+    }
+
+    /// Total horizontal momentum `m xdot + sum_i m_i C^T v_i`, conserved when u = 0.
+    pub fn horizontal_momentum(&self, y: &[f64]) -> G::Cart {
+        let lay = self.layout();
+        let p = self.params();
+        let xdot = lay.load_xdot(y);
+        let mut momentum = xdot * p.total_mass();
+        let mut rel_velocity = G::Link::zero();
+        for i in 0..lay.n {
+            rel_velocity += G::velocity(lay.load_w(y, i), lay.load_q(y, i)) * p.lengths()[i];
+            momentum += G::horizontal(rel_velocity) * p.masses()[i];
+        }
+        momentum
+    }
+
+    pub fn residuals(&self, y: &[f64]) -> Residuals {
+        let lay = self.layout();
+        let mut r = Residuals {
+            unit_length: 0.0,
+            tangency: 0.0,
+        };
+        for i in 0..lay.n {
+            let q = lay.load_q(y, i);
+            r.unit_length = r.unit_length.max((q.norm_squared().sqrt() - 1.0).abs());
+            let w = lay.load_w(y, i);
+            let normal = w - G::tangent(w, q);
+            r.tangency = r.tangency.max(normal.norm_squared().sqrt());
+        }
+        r
+    }
+
+    /// The paper's errors `e_q = sum |q_i - s_i e3|` and `e_w = sum |w_i|` (s unchecked: use
+    /// [`Chain::equilibrium`] to validate a sign tuple).
+    pub fn errors(&self, y: &[f64], s: &[f64]) -> (f64, f64) {
+        let lay = self.layout();
+        let mut e_q = 0.0;
+        let mut e_w = 0.0;
+        for i in 0..lay.n {
+            e_q += (lay.load_q(y, i) - G::down_unit() * s[i])
+                .norm_squared()
+                .sqrt();
+            e_w += lay.load_w(y, i).norm_squared().sqrt();
+        }
+        (e_q, e_w)
+    }
+
+    /// Position of mass i relative to the cart, `sum_{a<=i} l_a q_a`.
+    pub fn mass_position(&self, y: &[f64], i: usize) -> G::Link {
+        let lay = self.layout();
+        (0..=i).fold(G::Link::zero(), |acc, a| {
+            acc + lay.load_q(y, a) * self.params().lengths()[a]
+        })
+    }
+
+    /// True when every entry is finite and `|q_i|` is within `tolerance` of 1.
+    pub fn is_healthy(&self, y: &[f64], tolerance: f64) -> bool {
+        y.iter().all(|v| v.is_finite()) && self.residuals(y).unit_length <= tolerance
+    }
+}

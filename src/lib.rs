@@ -1,0 +1,27 @@
+//! chaincart: the chain pendulum on a cart (Lee, Leok, McClamroch, CDC 2012).
+//!
+//! Pure Rust physics and batch engine; the Python bindings live in [`python`]
+//! behind the `python` feature.
+//!
+//! * [`params`]: validated physical parameters.
+//! * [`geometry`]: the spatial scene and its planar special case.
+//! * [`model`]: exact O(n) accelerations; [`dense`]: the paper's O(n^3) form (oracle).
+//! * [`integrate`]: rk4, rkmk4, variational, lie_euler, adaptive.
+//! * [`invariants`]: energy, momentum, constraint residuals, the paper's errors.
+//! * [`batch`]: struct-of-arrays batches stepped in parallel.
+
+pub mod batch;
+pub mod dense;
+pub mod error;
+pub mod geometry;
+pub mod integrate;
+pub mod invariants;
+pub mod model;
+pub mod params;
+pub mod tridiagonal;
+
+pub use error::{ChainError, Result};
+pub use geometry::{Geometry, Planar, Spatial};
+pub use integrate::{Method, StepOptions, Stepper};
+pub use model::{Chain, PlanarChain, SpatialChain};
+pub use params::ChainParams;

@@ -1,0 +1,249 @@
+//! The chain model and its exact O(n) accelerations.
+//!
+//! Links are massless rods between point masses; the cart is a mass on a
+//! horizontal rail. Newton's law for each mass plus the twice-differentiated
+//! rod constraint `q_i . qdd_i = -|qdot_i|^2` give a symmetric positive-definite
+//! tridiagonal system for the rod tensions `T_i` (DESIGN.md, fact 1):
+//!
+//! ```text
+//! (1/m_1 + |C^T q_1|^2/m) T_1 - (q_1.q_2/m_1) T_2          = l_1|qdot_1|^2 + g e3.q_1 - q_1.Cu/m
+//! -(q_{i-1}.q_i/m_{i-1}) T_{i-1} + (1/m_i + 1/m_{i-1}) T_i
+//!                                   - (q_i.q_{i+1}/m_i) T_{i+1} = l_i |qdot_i|^2
+//! ```
+//!
+//! after which `m xdd = u + T_1 C^T q_1`, each mass's acceleration follows, and
+//! `wdot_i = q_i x qdd_i`. This is algebraically the paper's eq. (ELwm) (tested
+//! against [`crate::dense`]) at O(n) instead of O(n^3) cost.
+
+use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::geometry::{Geometry, Layout, Planar, Spatial, Vector};
+use crate::params::ChainParams;
+use crate::tridiagonal;
+
+/// Parameters plus the constants the step loop reads; immutable once built.
+#[derive(Debug, Clone)]
+pub struct Chain<G: Geometry> {
+    params: ChainParams,
+    layout: Layout<G>,
+    inv_cart_mass: f64,
+    /// `g l_i sum_{a>=i} m_a`: the gravity force on the free coordinate q_i.
+    gravity_coefficients: Vec<f64>,
+}
+
+pub type SpatialChain = Chain<Spatial>;
+pub type PlanarChain = Chain<Planar>;
+
+/// Buffers one evaluation needs, allocated once per chain size and reused.
+#[derive(Debug, Clone)]
+pub struct Workspace<G: Geometry> {
+    pub(crate) q: Vec<G::Link>,
+    pub(crate) qdot: Vec<G::Link>,
+    pub(crate) diag: Vec<f64>,
+    pub(crate) off: Vec<f64>,
+    pub(crate) tension: Vec<f64>,
+    pub(crate) scratch: Vec<f64>,
+}
+
+impl<G: Geometry> Workspace<G> {
+    pub fn new(n: usize) -> Self {
+        Self {
+            q: vec![G::Link::zero(); n],
+            qdot: vec![G::Link::zero(); n],
+            diag: vec![0.0; n],
+            off: vec![0.0; n],
+            tension: vec![0.0; n],
+            scratch: vec![0.0; n],
+        }
+    }
+}
+
+impl<G: Geometry> Chain<G> {
+    pub fn new(params: ChainParams) -> Self {
+        let n = params.n_links();
+        let gravity_coefficients = (0..n).map(|i| params.gravity_coefficient(i)).collect();
+        Self {
+            inv_cart_mass: 1.0 / params.cart_mass(),
+            layout: Layout::new(n),
+            gravity_coefficients,
+            params,
+        }
+    }
+
+    pub fn params(&self) -> &ChainParams {
+        &self.params
+    }
+    pub fn n_links(&self) -> usize {
+        self.layout.n
+    }
+    pub fn layout(&self) -> Layout<G> {
+        self.layout
+    }
+    /// Length of a state vector: 4 + 6n (spatial) or 2 + 3n (planar).
+    pub fn state_dim(&self) -> usize {
+        self.layout.dim()
+    }
+    /// Length of a force vector: 2 (spatial) or 1 (planar).
+    pub fn force_dim(&self) -> usize {
+        G::Cart::DIM
+    }
+    pub fn workspace(&self) -> Workspace<G> {
+        Workspace::new(self.layout.n)
+    }
+    pub(crate) fn inv_cart_mass(&self) -> f64 {
+        self.inv_cart_mass
+    }
+    pub(crate) fn gravity_coefficients(&self) -> &[f64] {
+        &self.gravity_coefficients
+    }
+
+    /// Checks a state and a force from outside: lengths and finiteness.
+    pub fn check_input(&self, state: &[f64], force: &[f64]) -> Result<()> {
+        check_len("state", state, self.state_dim())?;
+        check_len("force", force, self.force_dim())?;
+        check_finite("state", state)?;
+        check_finite("force", force)
+    }
+
+    /// Time derivative of the state: `dy = [xdot, xdd, qdot_1..n, wdot_1..n]`,
+    /// `qdot_i = w_i x q_i`. Exact, O(n), no allocation.
+    pub fn derivative(&self, y: &[f64], force: G::Cart, ws: &mut Workspace<G>, dy: &mut [f64]) {
+        let lay = self.layout;
+        let n = lay.n;
+        let p = &self.params;
+        let (inv_m, lengths) = (p.inv_masses(), p.lengths());
+        let g = p.gravity();
+
+        for i in 0..n {
+            let q = lay.load_q(y, i);
+            let qdot = G::velocity(lay.load_w(y, i), q);
+            ws.q[i] = q;
+            ws.qdot[i] = qdot;
+            lay.store_q(dy, i, qdot);
+            ws.tension[i] = lengths[i] * qdot.norm_squared();
+            ws.diag[i] = if i == 0 {
+                inv_m[0]
+            } else {
+                inv_m[i] + inv_m[i - 1]
+            };
+            if i + 1 < n {
+                ws.off[i] = -q.dot(lay.load_q(y, i + 1)) * inv_m[i];
+            }
+        }
+        let h1 = G::horizontal(ws.q[0]);
+        ws.diag[0] += h1.norm_squared() * self.inv_cart_mass;
+        ws.tension[0] += g * G::down(ws.q[0]) - ws.q[0].dot(G::lift(force)) * self.inv_cart_mass;
+        let (off, rest) = (&ws.off[..n.saturating_sub(1)], &mut ws.tension);
+        tridiagonal::solve(&ws.diag, off, off, rest, &mut ws.scratch);
+
+        let xdd = (force + h1 * ws.tension[0]) * self.inv_cart_mass;
+        lay.store_x(dy, lay.load_xdot(y));
+        lay.store_xdot(dy, xdd);
+        // Accelerations of the masses without gravity: it cancels between
+        // neighbours, so it enters only link 1 (through the cart, which has none).
+        let mut prev = G::lift(xdd) - G::down_unit() * g;
+        for i in 0..n {
+            let mut acc = ws.q[i] * (-ws.tension[i]);
+            if i + 1 < n {
+                acc += ws.q[i + 1] * ws.tension[i + 1];
+            }
+            acc = acc * inv_m[i];
+            let qdd = (acc - prev) * (1.0 / lengths[i]);
+            lay.store_w(dy, i, G::spin(ws.q[i], qdd));
+            prev = acc;
+        }
+    }
+
+    /// Rod tensions `T_i` from the last [`Chain::derivative`] call on `ws`.
+    pub fn tensions<'a>(&self, ws: &'a Workspace<G>) -> &'a [f64] {
+        &ws.tension
+    }
+
+    /// Equilibrium `s` (`s_i = +1` hanging link, `-1` upright) with the cart at the origin.
+    pub fn equilibrium(&self, s: &[f64]) -> Result<Vec<f64>> {
+        check_len("s", s, self.n_links())?;
+        for (index, &value) in s.iter().enumerate() {
+            if value != 1.0 && value != -1.0 {
+                return Err(ChainError::InvalidSign { index, value });
+            }
+        }
+        let mut y = vec![0.0; self.state_dim()];
+        for (i, &si) in s.iter().enumerate() {
+            self.layout.store_q(&mut y, i, G::down_unit() * si);
+        }
+        Ok(y)
+    }
+
+    /// Restores `|q_i| = 1` and `w_i . q_i = 0` (for methods that do not keep them).
+    pub fn project(&self, y: &mut [f64]) {
+        let lay = self.layout;
+        for i in 0..lay.n {
+            let q = lay.load_q(y, i);
+            let q = q * (1.0 / q.norm_squared().sqrt());
+            lay.store_q(y, i, q);
+            lay.store_w(y, i, G::tangent(lay.load_w(y, i), q));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn hanging_equilibrium_is_at_rest() {
+        let chain = SpatialChain::new(ChainParams::paper());
+        let y = chain.equilibrium(&[1.0; 5]).unwrap();
+        let mut dy = vec![1.0; chain.state_dim()];
+        chain.derivative(
+            &y,
+            nalgebra::Vector2::zeros(),
+            &mut chain.workspace(),
+            &mut dy,
+        );
+        assert!(dy.iter().all(|v| v.abs() < 1e-15), "{dy:?}");
+    }
+
+    #[test]
+    fn hanging_tensions_carry_the_weight_below() {
+        let chain = SpatialChain::new(ChainParams::paper());
+        let y = chain.equilibrium(&[1.0; 5]).unwrap();
+        let mut ws = chain.workspace();
+        let mut dy = vec![0.0; chain.state_dim()];
+        chain.derivative(&y, nalgebra::Vector2::zeros(), &mut ws, &mut dy);
+        for (i, t) in chain.tensions(&ws).iter().enumerate() {
+            let expected = 9.81 * 0.1 * (5 - i) as f64;
+            assert!(
+                (t - expected).abs() < 1e-12,
+                "T_{i} = {t}, expected {expected}"
+            );
+        }
+    }
+
+    #[test]
+    fn equilibrium_rejects_bad_signs() {
+        let chain = SpatialChain::new(ChainParams::paper());
+        assert_eq!(
+            chain.equilibrium(&[1.0, 1.0, 0.5, 1.0, 1.0]).unwrap_err(),
+            ChainError::InvalidSign {
+                index: 2,
+                value: 0.5
+            }
+        );
+        assert!(matches!(
+            chain.equilibrium(&[1.0]),
+            Err(ChainError::LengthMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn project_restores_constraints() {
+        let chain = SpatialChain::new(ChainParams::uniform(1, 1.0, 1.0, 1.0, 9.81).unwrap());
+        let mut y = vec![0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 1.0, 1.0, 1.0];
+        chain.project(&mut y);
+        let q = Vector3::new(y[4], y[5], y[6]);
+        let w = Vector3::new(y[7], y[8], y[9]);
+        assert!((q.norm() - 1.0).abs() < 1e-15);
+        assert!(w.dot(q).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,188 @@
+//! Physical parameters of the chain pendulum on a cart, validated once.
+//!
+//! Everything the dynamics needs per link is precomputed here (inverse masses,
+//! the mass carried below each joint, gravity torques), so the step loop only
+//! reads.
+
+use crate::error::{ChainError, Result};
+
+/// Validated parameters: cart mass `m`, link masses `m_i`, lengths `l_i`, gravity `g`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChainParams {
+    cart_mass: f64,
+    masses: Vec<f64>,
+    lengths: Vec<f64>,
+    gravity: f64,
+    /// `1/m_i`.
+    inv_masses: Vec<f64>,
+    /// `sum_{a>=i} m_a`: the mass carried at and beyond link i.
+    outboard_mass: Vec<f64>,
+}
+
+fn check_positive(name: &'static str, value: f64) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ChainError::InvalidParameter {
+            name,
+            value,
+            expected: "a finite number > 0",
+        })
+    }
+}
+
+fn check_positive_links(name: &'static str, values: &[f64]) -> Result<()> {
+    for (link, &value) in values.iter().enumerate() {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(ChainError::InvalidLinkParameter {
+                name,
+                link,
+                value,
+                expected: "a finite number > 0",
+            });
+        }
+    }
+    Ok(())
+}
+
+impl ChainParams {
+    /// Parameters with one mass and one length per link.
+    pub fn new(cart_mass: f64, masses: &[f64], lengths: &[f64], gravity: f64) -> Result<Self> {
+        if masses.is_empty() {
+            return Err(ChainError::NoLinks);
+        }
+        if lengths.len() != masses.len() {
+            return Err(ChainError::LengthMismatch {
+                name: "link_lengths",
+                got: lengths.len(),
+                expected: masses.len(),
+            });
+        }
+        check_positive("cart_mass", cart_mass)?;
+        check_positive("gravity", gravity)?;
+        check_positive_links("link_masses", masses)?;
+        check_positive_links("link_lengths", lengths)?;
+        let n = masses.len();
+        let mut outboard_mass = vec![0.0; n];
+        let mut acc = 0.0;
+        for i in (0..n).rev() {
+            acc += masses[i];
+            outboard_mass[i] = acc;
+        }
+        Ok(Self {
+            cart_mass,
+            masses: masses.to_vec(),
+            lengths: lengths.to_vec(),
+            gravity,
+            inv_masses: masses.iter().map(|m| 1.0 / m).collect(),
+            outboard_mass,
+        })
+    }
+
+    /// `n` identical links (scalars broadcast).
+    pub fn uniform(n: usize, cart_mass: f64, mass: f64, length: f64, gravity: f64) -> Result<Self> {
+        Self::new(cart_mass, &vec![mass; n], &vec![length; n], gravity)
+    }
+
+    /// The paper's example system: n = 5, m = 0.5 kg, m_i = 0.1 kg, l_i = 0.1 m, g = 9.81.
+    pub fn paper() -> Self {
+        Self::uniform(5, 0.5, 0.1, 0.1, 9.81).expect("paper parameters are valid")
+    }
+
+    pub fn n_links(&self) -> usize {
+        self.masses.len()
+    }
+    pub fn cart_mass(&self) -> f64 {
+        self.cart_mass
+    }
+    pub fn masses(&self) -> &[f64] {
+        &self.masses
+    }
+    pub fn lengths(&self) -> &[f64] {
+        &self.lengths
+    }
+    pub fn gravity(&self) -> f64 {
+        self.gravity
+    }
+    pub fn inv_masses(&self) -> &[f64] {
+        &self.inv_masses
+    }
+    /// `sum_{a>=i} m_a` for each link i (0-based).
+    pub fn outboard_mass(&self) -> &[f64] {
+        &self.outboard_mass
+    }
+    /// Total mass `M_00 = m + sum m_i`.
+    pub fn total_mass(&self) -> f64 {
+        self.cart_mass + self.outboard_mass[0]
+    }
+    /// Paper's inertia constant `M_ij = (sum_{a>=max(i,j)} m_a) l_i l_j` (0-based).
+    pub fn inertia(&self, i: usize, j: usize) -> f64 {
+        self.outboard_mass[i.max(j)] * self.lengths[i] * self.lengths[j]
+    }
+    /// Paper's `M_0i` scalar: `(sum_{a>=i} m_a) l_i` (the 2x3 block is this times C^T).
+    pub fn cart_coupling(&self, i: usize) -> f64 {
+        self.outboard_mass[i] * self.lengths[i]
+    }
+    /// Gravity coefficient of link i: `(sum_{a>=i} m_a) g l_i`.
+    pub fn gravity_coefficient(&self, i: usize) -> f64 {
+        self.outboard_mass[i] * self.gravity * self.lengths[i]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_bad_values_naming_them() {
+        let e = ChainParams::new(0.5, &[0.1, -1.0], &[0.1, 0.1], 9.81).unwrap_err();
+        assert_eq!(
+            e,
+            ChainError::InvalidLinkParameter {
+                name: "link_masses",
+                link: 1,
+                value: -1.0,
+                expected: "a finite number > 0"
+            }
+        );
+        assert!(e.to_string().contains("link_masses[1] = -1"));
+        assert_eq!(
+            ChainParams::new(0.5, &[], &[], 9.81).unwrap_err(),
+            ChainError::NoLinks
+        );
+        assert!(matches!(
+            ChainParams::new(0.5, &[0.1], &[0.1, 0.2], 9.81),
+            Err(ChainError::LengthMismatch { .. })
+        ));
+        assert!(matches!(
+            ChainParams::new(f64::NAN, &[0.1], &[0.1], 9.81),
+            Err(ChainError::InvalidParameter {
+                name: "cart_mass",
+                ..
+            })
+        ));
+        assert!(matches!(
+            ChainParams::new(0.5, &[0.1], &[0.1], 0.0),
+            Err(ChainError::InvalidParameter {
+                name: "gravity",
+                ..
+            })
+        ));
+        assert!(matches!(
+            ChainParams::new(0.5, &[0.1], &[f64::INFINITY], 9.81),
+            Err(ChainError::InvalidLinkParameter {
+                name: "link_lengths",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn inertia_constants_follow_the_paper() {
+        let p = ChainParams::new(0.5, &[1.0, 2.0, 3.0], &[0.1, 0.2, 0.3], 9.81).unwrap();
+        assert_eq!(p.outboard_mass(), &[6.0, 5.0, 3.0]);
+        assert!((p.inertia(0, 2) - 3.0 * 0.1 * 0.3).abs() < 1e-15);
+        assert!((p.inertia(1, 1) - 5.0 * 0.04).abs() < 1e-15);
+        assert!((p.total_mass() - 6.5).abs() < 1e-15);
+    }
+}
