@@ -1,1 +1,242 @@
-pub struct Placeholder;
+//! A struct-of-arrays batch of N states of one chain, stepped together.
+//!
+//! States, forces and statuses are each one contiguous array. The batch is cut
+//! into fixed chunks of envs, each with its own preallocated [`Stepper`] and
+//! backup buffer; chunks are stepped in parallel by rayon. The chunking does not
+//! depend on the number of threads and every env is stepped by the same code on
+//! its own data, so results are bit-identical whatever the thread count. Nothing
+//! is allocated in [`Batch::step`].
+
+use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::geometry::{Geometry, Vector};
+use crate::integrate::{StepOptions, Stepper};
+use crate::model::Chain;
+use rayon::prelude::*;
+
+/// Envs per parallel work item: large enough to amortise scheduling, small enough
+/// to balance 2..64 cores at N = 4096.
+pub const CHUNK: usize = 32;
+
+/// Outcome of the last step of one env.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(u8)]
+pub enum StepStatus {
+    #[default]
+    Ok = 0,
+    /// The state became NaN or infinite; the env keeps its last good state.
+    NonFinite = 1,
+    /// `| |q_i| - 1 |` exceeded the failure tolerance; the env keeps its last good state.
+    ConstraintViolation = 2,
+    /// An implicit solve or step-size control gave up; the env keeps its last good state.
+    SolverFailure = 3,
+}
+
+impl StepStatus {
+    pub fn is_failure(self) -> bool {
+        self != StepStatus::Ok
+    }
+    pub fn describe(self) -> &'static str {
+        match self {
+            StepStatus::Ok => "ok",
+            StepStatus::NonFinite => "non-finite state",
+            StepStatus::ConstraintViolation => "constraint violation (|q_i| drifted from 1)",
+            StepStatus::SolverFailure => "integrator failed (Newton or step-size control)",
+        }
+    }
+}
+
+/// Steps one env, keeping its old state on failure. Shared by batches and single envs.
+pub fn guarded_step<G: Geometry>(
+    chain: &Chain<G>,
+    stepper: &mut Stepper<G>,
+    backup: &mut [f64],
+    y: &mut [f64],
+    force: G::Cart,
+    dt: f64,
+    opts: &StepOptions,
+    failure_tolerance: f64,
+) -> StepStatus {
+    backup.copy_from_slice(y);
+    let status = match stepper.step(chain, y, force, dt, opts) {
+        Err(_) => StepStatus::SolverFailure,
+        Ok(()) if !y.iter().all(|v| v.is_finite()) => StepStatus::NonFinite,
+        Ok(()) if chain.residuals(y).unit_length > failure_tolerance => {
+            StepStatus::ConstraintViolation
+        }
+        Ok(()) => StepStatus::Ok,
+    };
+    if status.is_failure() {
+        y.copy_from_slice(backup);
+    }
+    status
+}
+
+struct Worker<G: Geometry> {
+    stepper: Stepper<G>,
+    backup: Vec<f64>,
+}
+
+/// N states of one chain with one integrator setting.
+pub struct Batch<G: Geometry> {
+    chain: Chain<G>,
+    opts: StepOptions,
+    dt: f64,
+    failure_tolerance: f64,
+    n_envs: usize,
+    states: Vec<f64>,
+    status: Vec<StepStatus>,
+    workers: Vec<Worker<G>>,
+}
+
+impl<G: Geometry> Batch<G> {
+    /// `n_envs` copies of `initial` (or of the hanging equilibrium if `None`).
+    pub fn new(chain: Chain<G>, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
+        if n_envs == 0 {
+            return Err(ChainError::InvalidParameter {
+                name: "num_envs",
+                value: 0.0,
+                expected: "an integer >= 1",
+            });
+        }
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(ChainError::InvalidParameter {
+                name: "dt",
+                value: dt,
+                expected: "a finite number > 0",
+            });
+        }
+        opts.validate()?;
+        let dim = chain.state_dim();
+        let hanging = chain.equilibrium(&vec![1.0; chain.n_links()])?;
+        let states = hanging.iter().copied().cycle().take(n_envs * dim).collect();
+        let workers = (0..n_envs.div_ceil(CHUNK))
+            .map(|_| Worker {
+                stepper: Stepper::new(&chain),
+                backup: vec![0.0; dim],
+            })
+            .collect();
+        Ok(Self {
+            chain,
+            opts,
+            dt,
+            failure_tolerance: 1e-6,
+            n_envs,
+            states,
+            status: vec![StepStatus::Ok; n_envs],
+            workers,
+        })
+    }
+
+    pub fn chain(&self) -> &Chain<G> {
+        &self.chain
+    }
+    pub fn n_envs(&self) -> usize {
+        self.n_envs
+    }
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+    pub fn options(&self) -> &StepOptions {
+        &self.opts
+    }
+    pub fn state_dim(&self) -> usize {
+        self.chain.state_dim()
+    }
+    /// All states, env-major: env k is `states[k*dim..(k+1)*dim]`.
+    pub fn states(&self) -> &[f64] {
+        &self.states
+    }
+    pub fn states_mut(&mut self) -> &mut [f64] {
+        &mut self.states
+    }
+    pub fn state(&self, env: usize) -> &[f64] {
+        let d = self.state_dim();
+        &self.states[env * d..(env + 1) * d]
+    }
+    /// Statuses of the last step.
+    pub fn status(&self) -> &[StepStatus] {
+        &self.status
+    }
+    /// Largest tolerated `| |q_i| - 1 |` after a step before the env is flagged.
+    pub fn set_failure_tolerance(&mut self, tolerance: f64) -> Result<()> {
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            return Err(ChainError::InvalidParameter {
+                name: "failure_tolerance",
+                value: tolerance,
+                expected: "a finite number > 0",
+            });
+        }
+        self.failure_tolerance = tolerance;
+        Ok(())
+    }
+
+    /// Overwrites env `env`'s state (validated: length, finiteness) and clears its status.
+    pub fn set_state(&mut self, env: usize, state: &[f64]) -> Result<()> {
+        if env >= self.n_envs {
+            return Err(ChainError::InvalidParameter {
+                name: "env index",
+                value: env as f64,
+                expected: "an index below num_envs",
+            });
+        }
+        let d = self.state_dim();
+        check_len("state", state, d)?;
+        check_finite("state", state)?;
+        self.states[env * d..(env + 1) * d].copy_from_slice(state);
+        self.status[env] = StepStatus::Ok;
+        Ok(())
+    }
+
+    /// Checks a force array for the whole batch before anything is stepped, so a bad
+    /// force for one env changes no env.
+    pub fn check_forces(&self, forces: &[f64]) -> Result<()> {
+        check_len("forces", forces, self.n_envs * self.chain.force_dim())?;
+        check_finite("forces", forces)
+    }
+
+    /// Advances every env by one control period; env k feels the constant force
+    /// `forces[k*f..(k+1)*f]` (f = 1 planar, 2 spatial). Envs whose step fails keep
+    /// their last good state and report why in [`Batch::status`].
+    pub fn step(&mut self, forces: &[f64]) -> Result<()> {
+        self.check_forces(forces)?;
+        let d = self.state_dim();
+        let f = self.chain.force_dim();
+        let (chain, opts, dt, tol) = (&self.chain, &self.opts, self.dt, self.failure_tolerance);
+        let work = |(((states, forces), status), worker): (
+            ((&mut [f64], &[f64]), &mut [StepStatus]),
+            &mut Worker<G>,
+        )| {
+            for ((y, u), st) in states
+                .chunks_exact_mut(d)
+                .zip(forces.chunks_exact(f))
+                .zip(status.iter_mut())
+            {
+                *st = guarded_step(
+                    chain,
+                    &mut worker.stepper,
+                    &mut worker.backup,
+                    y,
+                    G::Cart::load(u),
+                    dt,
+                    opts,
+                    tol,
+                );
+            }
+        };
+        if self.n_envs <= CHUNK {
+            // One chunk: step it on this thread and skip the pool's wake-up cost.
+            work((
+                ((&mut self.states[..], forces), &mut self.status[..]),
+                &mut self.workers[0],
+            ));
+        } else {
+            self.states
+                .par_chunks_mut(CHUNK * d)
+                .zip(forces.par_chunks(CHUNK * f))
+                .zip(self.status.par_chunks_mut(CHUNK))
+                .zip(self.workers.par_iter_mut())
+                .for_each(work);
+        }
+        Ok(())
+    }
+}

@@ -10,6 +10,7 @@
 //! * [`invariants`]: energy, momentum, constraint residuals, the paper's errors.
 //! * [`batch`]: struct-of-arrays batches stepped in parallel.
 
+pub mod any;
 pub mod batch;
 pub mod dense;
 pub mod error;

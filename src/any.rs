@@ -1,0 +1,239 @@
+//! Spatial or planar, chosen at run time: the flat-slice API that front ends
+//! (the Python bindings, command-line tools) call. Every method validates its
+//! inputs and returns errors; nothing here panics on bad input.
+
+use crate::batch::{guarded_step, Batch, StepStatus};
+use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::geometry::{planar_to_spatial, spatial_to_planar, Geometry, Planar, Spatial, Vector};
+use crate::integrate::{StepOptions, Stepper};
+use crate::invariants::{Energy, Residuals};
+use crate::model::Chain;
+use crate::params::ChainParams;
+
+/// A chain in either scene.
+#[derive(Debug, Clone)]
+pub enum AnyChain {
+    Spatial(Chain<Spatial>),
+    Planar(Chain<Planar>),
+}
+
+/// Runs `$body` with `$c` bound to the concrete chain and `$G` to its geometry.
+macro_rules! dispatch {
+    ($self:expr, $c:ident, $body:expr) => {
+        match $self {
+            AnyChain::Spatial($c) => $body,
+            AnyChain::Planar($c) => $body,
+        }
+    };
+}
+
+impl AnyChain {
+    pub fn new(params: ChainParams, planar: bool) -> Self {
+        if planar {
+            AnyChain::Planar(Chain::new(params))
+        } else {
+            AnyChain::Spatial(Chain::new(params))
+        }
+    }
+    pub fn is_planar(&self) -> bool {
+        matches!(self, AnyChain::Planar(_))
+    }
+    pub fn params(&self) -> &ChainParams {
+        dispatch!(self, c, c.params())
+    }
+    pub fn n_links(&self) -> usize {
+        dispatch!(self, c, c.n_links())
+    }
+    pub fn state_dim(&self) -> usize {
+        dispatch!(self, c, c.state_dim())
+    }
+    pub fn force_dim(&self) -> usize {
+        dispatch!(self, c, c.force_dim())
+    }
+
+    /// Time derivative of `state` under `force`.
+    pub fn derivative(&self, state: &[f64], force: &[f64]) -> Result<Vec<f64>> {
+        dispatch!(self, c, {
+            c.check_input(state, force)?;
+            let mut dy = vec![0.0; c.state_dim()];
+            c.derivative(state, Vector::load(force), &mut c.workspace(), &mut dy);
+            Ok(dy)
+        })
+    }
+
+    /// One control period from `state`; errors on a numerical failure instead of
+    /// returning a bad state.
+    pub fn step(
+        &self,
+        state: &[f64],
+        force: &[f64],
+        dt: f64,
+        opts: &StepOptions,
+    ) -> Result<Vec<f64>> {
+        let mut traj = self.simulate(state, force, 1, dt, opts)?;
+        Ok(traj.split_off(self.state_dim()))
+    }
+
+    /// `steps` control periods with forces `forces[k*f..(k+1)*f]`; returns the
+    /// `(steps+1) x dim` trajectory, row-major. Stops with an error naming the step
+    /// at which the integration failed.
+    pub fn simulate(
+        &self,
+        state: &[f64],
+        forces: &[f64],
+        steps: usize,
+        dt: f64,
+        opts: &StepOptions,
+    ) -> Result<Vec<f64>> {
+        check_dt(dt)?;
+        opts.validate()?;
+        self.check_state(state)?;
+        dispatch!(self, c, {
+            let f = c.force_dim();
+            check_len("forces", forces, steps * f)?;
+            check_finite("forces", forces)?;
+            let mut runner = Runner::new(c);
+            let d = c.state_dim();
+            let mut traj = Vec::with_capacity((steps + 1) * d);
+            traj.extend_from_slice(state);
+            let mut y = state.to_vec();
+            for k in 0..steps {
+                runner.step(c, &mut y, &forces[k * f..(k + 1) * f], dt, opts, k)?;
+                traj.extend_from_slice(&y);
+            }
+            Ok(traj)
+        })
+    }
+
+    pub fn energy(&self, state: &[f64]) -> Result<Energy> {
+        self.check_state(state)?;
+        Ok(dispatch!(self, c, c.energy(state)))
+    }
+    pub fn horizontal_momentum(&self, state: &[f64]) -> Result<Vec<f64>> {
+        self.check_state(state)?;
+        dispatch!(self, c, {
+            let mut out = vec![0.0; c.force_dim()];
+            c.horizontal_momentum(state).store(&mut out);
+            Ok(out)
+        })
+    }
+    pub fn residuals(&self, state: &[f64]) -> Result<Residuals> {
+        self.check_state(state)?;
+        Ok(dispatch!(self, c, c.residuals(state)))
+    }
+    /// The paper's `(e_q, e_w)` for equilibrium `s`.
+    pub fn errors(&self, state: &[f64], s: &[f64]) -> Result<(f64, f64)> {
+        self.check_state(state)?;
+        dispatch!(self, c, {
+            c.equilibrium(s)?;
+            Ok(c.errors(state, s))
+        })
+    }
+    pub fn equilibrium(&self, s: &[f64]) -> Result<Vec<f64>> {
+        dispatch!(self, c, c.equilibrium(s))
+    }
+
+    /// Spatial state of a state of this chain (identity for a spatial chain).
+    pub fn to_spatial(&self, state: &[f64]) -> Result<Vec<f64>> {
+        self.check_state(state)?;
+        Ok(match self {
+            AnyChain::Spatial(_) => state.to_vec(),
+            AnyChain::Planar(c) => {
+                let mut out = vec![0.0; 4 + 6 * c.n_links()];
+                planar_to_spatial(c.n_links(), state, &mut out);
+                out
+            }
+        })
+    }
+    /// Planar part of a spatial state (for a planar chain).
+    pub fn from_spatial(&self, spatial: &[f64]) -> Result<Vec<f64>> {
+        let n = self.n_links();
+        check_len("spatial state", spatial, 4 + 6 * n)?;
+        Ok(match self {
+            AnyChain::Spatial(_) => spatial.to_vec(),
+            AnyChain::Planar(c) => {
+                let mut out = vec![0.0; c.state_dim()];
+                spatial_to_planar(n, spatial, &mut out);
+                out
+            }
+        })
+    }
+
+    pub fn check_state(&self, state: &[f64]) -> Result<()> {
+        check_len("state", state, self.state_dim())?;
+        check_finite("state", state)
+    }
+}
+
+fn check_dt(dt: f64) -> Result<()> {
+    if dt.is_finite() && dt > 0.0 {
+        Ok(())
+    } else {
+        Err(ChainError::InvalidParameter {
+            name: "dt",
+            value: dt,
+            expected: "a finite number > 0",
+        })
+    }
+}
+
+/// Stepper plus backup buffer for stepping one state repeatedly.
+struct Runner<G: Geometry> {
+    stepper: Stepper<G>,
+    backup: Vec<f64>,
+}
+
+impl<G: Geometry> Runner<G> {
+    fn new(chain: &Chain<G>) -> Self {
+        Self {
+            stepper: Stepper::new(chain),
+            backup: vec![0.0; chain.state_dim()],
+        }
+    }
+
+    fn step(
+        &mut self,
+        chain: &Chain<G>,
+        y: &mut [f64],
+        force: &[f64],
+        dt: f64,
+        opts: &StepOptions,
+        k: usize,
+    ) -> Result<()> {
+        let tol = 1e-6;
+        match guarded_step(
+            chain,
+            &mut self.stepper,
+            &mut self.backup,
+            y,
+            G::Cart::load(force),
+            dt,
+            opts,
+            tol,
+        ) {
+            StepStatus::Ok => Ok(()),
+            status => Err(ChainError::NumericalFailure {
+                reason: format!(
+                    "{} at step {k} ({} integrator, dt = {dt})",
+                    status.describe(),
+                    opts.method.name()
+                ),
+            }),
+        }
+    }
+}
+
+/// A batch in either scene.
+pub enum AnyBatch {
+    Spatial(Batch<Spatial>),
+    Planar(Batch<Planar>),
+}
+
+impl AnyBatch {
+    pub fn new(chain: AnyChain, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
+        Ok(match chain {
+            AnyChain::Spatial(c) => AnyBatch::Spatial(Batch::new(c, n_envs, dt, opts)?),
+            AnyChain::Planar(c) => AnyBatch::Planar(Batch::new(c, n_envs, dt, opts)?),
+        })
+    }
+}
