@@ -1,6 +1,8 @@
 //! Shared helpers for the integration tests: random parameters and states.
 #![allow(dead_code)]
 
+pub mod scenes;
+
 use chaincart::geometry::{Geometry, Layout, Vector};
 use chaincart::{ChainParams, Planar, Spatial};
 use nalgebra::{Vector2, Vector3};
