@@ -1,1 +1,148 @@
-fn main() {}
+//! Criterion benchmarks of the Rust core (numbers quoted in README.md).
+//!
+//! * `accel/{fast,dense}/n`: one acceleration evaluation.
+//! * `step/<method>/n`: one control step (1 substep) of the spatial model.
+//! * `planar_vs_spatial/<scene>/n`: one rk4 step of each model on the same in-plane motion.
+//! * `batch/N`: one step of a batch of N paper systems (5 links, rk4), throughput in env-steps.
+
+use chaincart::batch::Batch;
+use chaincart::dense::dense_derivative;
+use chaincart::geometry::planar_to_spatial;
+use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use nalgebra::Vector2;
+use std::hint::black_box;
+
+const SIZES: [usize; 6] = [1, 2, 5, 10, 50, 200];
+
+/// A moving, non-degenerate state: links tilted from hanging, spinning.
+fn moving_state(chain: &SpatialChain) -> Vec<f64> {
+    let n = chain.n_links();
+    let mut planar = vec![0.0; 2 + 3 * n];
+    for i in 0..n {
+        let a = 0.3 + 0.2 * i as f64;
+        planar[2 + 2 * i] = a.sin();
+        planar[3 + 2 * i] = a.cos();
+        planar[2 + 2 * n + i] = 0.5;
+    }
+    let mut y = vec![0.0; chain.state_dim()];
+    planar_to_spatial(n, &planar, &mut y);
+    // Leave the plane a little so the spatial code does real 3-D work.
+    for i in 0..n {
+        y[4 + 3 * i + 1] = 0.1;
+        y[4 + 3 * n + 3 * i] = 0.2;
+    }
+    chain.project(&mut y);
+    y
+}
+
+fn chain(n: usize) -> SpatialChain {
+    SpatialChain::new(ChainParams::uniform(n, 0.5, 0.1, 0.1, 9.81).unwrap())
+}
+
+fn accelerations(c: &mut Criterion) {
+    let mut group = c.benchmark_group("accel");
+    for n in SIZES {
+        let chain = chain(n);
+        let y = moving_state(&chain);
+        let mut ws = chain.workspace();
+        let mut dy = vec![0.0; chain.state_dim()];
+        let u = Vector2::new(0.3, -0.2);
+        group.bench_with_input(BenchmarkId::new("fast", n), &n, |b, _| {
+            b.iter(|| chain.derivative(black_box(&y), u, &mut ws, &mut dy))
+        });
+        if n <= 50 {
+            group.bench_with_input(BenchmarkId::new("dense", n), &n, |b, _| {
+                b.iter(|| dense_derivative(chain.params(), black_box(&y), u, &mut dy))
+            });
+        }
+    }
+    group.finish();
+}
+
+fn steps(c: &mut Criterion) {
+    let mut group = c.benchmark_group("step");
+    for method in Method::ALL {
+        for n in SIZES {
+            let chain = chain(n);
+            let y0 = moving_state(&chain);
+            let mut stepper = Stepper::new(&chain);
+            let opts = StepOptions {
+                method,
+                ..StepOptions::default()
+            };
+            let mut y = y0.clone();
+            group.bench_with_input(BenchmarkId::new(method.name(), n), &n, |b, _| {
+                b.iter(|| {
+                    y.copy_from_slice(&y0);
+                    stepper
+                        .step(&chain, &mut y, Vector2::zeros(), 1e-3, &opts)
+                        .unwrap();
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+fn planar_vs_spatial(c: &mut Criterion) {
+    let mut group = c.benchmark_group("planar_vs_spatial");
+    for n in [1, 2, 5, 10] {
+        let params = ChainParams::uniform(n, 0.5, 0.1, 0.1, 9.81).unwrap();
+        let planar = PlanarChain::new(params.clone());
+        let spatial = SpatialChain::new(params);
+        let mut yp0 = vec![0.0; planar.state_dim()];
+        for i in 0..n {
+            let a = 0.3 + 0.2 * i as f64;
+            yp0[2 + 2 * i] = a.sin();
+            yp0[3 + 2 * i] = a.cos();
+            yp0[2 + 2 * n + i] = 0.5;
+        }
+        let mut ys0 = vec![0.0; spatial.state_dim()];
+        planar_to_spatial(n, &yp0, &mut ys0);
+        let opts = StepOptions::default();
+        let (mut sp, mut ss) = (Stepper::new(&planar), Stepper::new(&spatial));
+        let (mut yp, mut ys) = (yp0.clone(), ys0.clone());
+        group.bench_with_input(BenchmarkId::new("planar", n), &n, |b, _| {
+            b.iter(|| {
+                yp.copy_from_slice(&yp0);
+                sp.step(&planar, &mut yp, 0.1, 1e-3, &opts).unwrap();
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("spatial", n), &n, |b, _| {
+            b.iter(|| {
+                ys.copy_from_slice(&ys0);
+                ss.step(&spatial, &mut ys, Vector2::new(0.1, 0.0), 1e-3, &opts)
+                    .unwrap();
+            })
+        });
+    }
+    group.finish();
+}
+
+fn batch(c: &mut Criterion) {
+    let mut group = c.benchmark_group("batch");
+    for n_envs in [1usize, 64, 4096] {
+        let chain = chain(5);
+        let y0 = moving_state(&chain);
+        let mut batch = Batch::new(chain, n_envs, 1e-3, StepOptions::default()).unwrap();
+        let states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
+        let forces = vec![0.0; 2 * n_envs];
+        group.throughput(Throughput::Elements(n_envs as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(n_envs), &n_envs, |b, _| {
+            b.iter(|| {
+                // Restart from the same states so every iteration does the same work.
+                batch.states_mut().copy_from_slice(&states);
+                batch.step(black_box(&forces)).unwrap();
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(300)).measurement_time(std::time::Duration::from_millis(800));
+    targets = accelerations, steps, planar_vs_spatial, batch
+}
+criterion_main!(benches);

@@ -18,7 +18,6 @@
 use crate::error::{check_finite, check_len, ChainError, Result};
 use crate::geometry::{Geometry, Layout, Planar, Spatial, Vector};
 use crate::params::ChainParams;
-use crate::tridiagonal;
 
 /// Parameters plus the constants the step loop reads; immutable once built.
 #[derive(Debug, Clone)]
@@ -26,6 +25,7 @@ pub struct Chain<G: Geometry> {
     params: ChainParams,
     layout: Layout<G>,
     inv_cart_mass: f64,
+    inv_lengths: Vec<f64>,
     /// `g l_i sum_{a>=i} m_a`: the gravity force on the free coordinate q_i.
     gravity_coefficients: Vec<f64>,
 }
@@ -37,22 +37,18 @@ pub type PlanarChain = Chain<Planar>;
 #[derive(Debug, Clone)]
 pub struct Workspace<G: Geometry> {
     pub(crate) q: Vec<G::Link>,
-    pub(crate) qdot: Vec<G::Link>,
     pub(crate) diag: Vec<f64>,
     pub(crate) off: Vec<f64>,
     pub(crate) tension: Vec<f64>,
-    pub(crate) scratch: Vec<f64>,
 }
 
 impl<G: Geometry> Workspace<G> {
     pub fn new(n: usize) -> Self {
         Self {
             q: vec![G::Link::zero(); n],
-            qdot: vec![G::Link::zero(); n],
             diag: vec![0.0; n],
             off: vec![0.0; n],
             tension: vec![0.0; n],
-            scratch: vec![0.0; n],
         }
     }
 }
@@ -63,6 +59,7 @@ impl<G: Geometry> Chain<G> {
         let gravity_coefficients = (0..n).map(|i| params.gravity_coefficient(i)).collect();
         Self {
             inv_cart_mass: 1.0 / params.cart_mass(),
+            inv_lengths: params.lengths().iter().map(|l| 1.0 / l).collect(),
             layout: Layout::new(n),
             gravity_coefficients,
             params,
@@ -106,51 +103,72 @@ impl<G: Geometry> Chain<G> {
 
     /// Time derivative of the state: `dy = [xdot, xdd, qdot_1..n, wdot_1..n]`,
     /// `qdot_i = w_i x q_i`. Exact, O(n), no allocation.
+    ///
+    /// Two passes: the first builds each row of the tension system and eliminates
+    /// it at once (Thomas forward sweep, one division per row); the second
+    /// back-substitutes the tensions from the free end and turns each pair of
+    /// neighbouring tensions into the link's angular acceleration.
     pub fn derivative(&self, y: &[f64], force: G::Cart, ws: &mut Workspace<G>, dy: &mut [f64]) {
         let lay = self.layout;
         let n = lay.n;
         let p = &self.params;
-        let (inv_m, lengths) = (p.inv_masses(), p.lengths());
+        let (inv_m, lengths, inv_l) = (p.inv_masses(), p.lengths(), &self.inv_lengths);
         let g = p.gravity();
-
+        // ws.diag holds 1/pivot, ws.off the eliminated super-diagonal, ws.tension
+        // the eliminated right-hand side.
+        let mut pivot_inv = 0.0;
         for i in 0..n {
             let q = lay.load_q(y, i);
             let qdot = G::velocity(lay.load_w(y, i), q);
             ws.q[i] = q;
-            ws.qdot[i] = qdot;
             lay.store_q(dy, i, qdot);
-            ws.tension[i] = lengths[i] * qdot.norm_squared();
-            ws.diag[i] = if i == 0 {
-                inv_m[0]
+            let mut rhs = lengths[i] * qdot.norm_squared();
+            let mut diag;
+            if i == 0 {
+                let h = G::horizontal(q);
+                diag = inv_m[0] + h.norm_squared() * self.inv_cart_mass;
+                rhs += g * G::down(q) - q.dot(G::lift(force)) * self.inv_cart_mass;
             } else {
-                inv_m[i] + inv_m[i - 1]
-            };
-            if i + 1 < n {
-                ws.off[i] = -q.dot(lay.load_q(y, i + 1)) * inv_m[i];
+                let off = -ws.q[i - 1].dot(q) * inv_m[i - 1];
+                let c = off * pivot_inv;
+                ws.off[i - 1] = c;
+                diag = inv_m[i] + inv_m[i - 1] - off * c;
+                rhs -= off * ws.tension[i - 1];
             }
+            pivot_inv = 1.0 / diag;
+            diag = pivot_inv;
+            ws.diag[i] = diag;
+            ws.tension[i] = rhs * pivot_inv;
         }
-        let h1 = G::horizontal(ws.q[0]);
-        ws.diag[0] += h1.norm_squared() * self.inv_cart_mass;
-        ws.tension[0] += g * G::down(ws.q[0]) - ws.q[0].dot(G::lift(force)) * self.inv_cart_mass;
-        let (off, rest) = (&ws.off[..n.saturating_sub(1)], &mut ws.tension);
-        tridiagonal::solve(&ws.diag, off, off, rest, &mut ws.scratch);
-
-        let xdd = (force + h1 * ws.tension[0]) * self.inv_cart_mass;
-        lay.store_x(dy, lay.load_xdot(y));
-        lay.store_xdot(dy, xdd);
-        // Accelerations of the masses without gravity: it cancels between
-        // neighbours, so it enters only link 1 (through the cart, which has none).
-        let mut prev = G::lift(xdd) - G::down_unit() * g;
-        for i in 0..n {
-            let mut acc = ws.q[i] * (-ws.tension[i]);
+        // Back substitution from the free end, where T_{n+1} = 0.
+        let mut t_next = 0.0;
+        let mut acc_next = G::Link::zero();
+        for i in (0..n).rev() {
+            let t = if i + 1 < n {
+                ws.tension[i] - ws.off[i] * t_next
+            } else {
+                ws.tension[i]
+            };
+            ws.tension[i] = t;
+            // Acceleration of mass i without gravity (it cancels between neighbours
+            // and enters link 1 only, through the cart, which feels none).
+            let mut acc = ws.q[i] * (-t);
             if i + 1 < n {
-                acc += ws.q[i + 1] * ws.tension[i + 1];
+                acc += ws.q[i + 1] * t_next;
             }
             acc = acc * inv_m[i];
-            let qdd = (acc - prev) * (1.0 / lengths[i]);
-            lay.store_w(dy, i, G::spin(ws.q[i], qdd));
-            prev = acc;
+            if i + 1 < n {
+                let qdd = (acc_next - acc) * inv_l[i + 1];
+                lay.store_w(dy, i + 1, G::spin(ws.q[i + 1], qdd));
+            }
+            acc_next = acc;
+            t_next = t;
         }
+        let xdd = (force + G::horizontal(ws.q[0]) * t_next) * self.inv_cart_mass;
+        lay.store_x(dy, lay.load_xdot(y));
+        lay.store_xdot(dy, xdd);
+        let qdd = (acc_next - G::lift(xdd) + G::down_unit() * g) * inv_l[0];
+        lay.store_w(dy, 0, G::spin(ws.q[0], qdd));
     }
 
     /// Rod tensions `T_i` from the last [`Chain::derivative`] call on `ws`.
