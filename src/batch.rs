@@ -9,7 +9,7 @@
 
 use crate::error::{check_finite, check_len, ChainError, Result};
 use crate::geometry::{Geometry, Vector};
-use crate::integrate::{StepOptions, Stepper};
+use crate::integrate::{Method, StepOptions, Stepper};
 use crate::model::Chain;
 use rayon::prelude::*;
 
@@ -29,7 +29,15 @@ pub enum StepStatus {
     ConstraintViolation = 2,
     /// An implicit solve or step-size control gave up; the env keeps its last good state.
     SolverFailure = 3,
+    /// A link turned more than [`MAX_TURN_PER_STEP`] in one integrator step: the motion
+    /// is too fast for the step size and the result would be finite but wrong.
+    Unresolved = 4,
 }
+
+/// Largest angle (rad) a link may turn in one integrator step before the step is
+/// flagged [`StepStatus::Unresolved`]. At this angle a 4th-order step already errs
+/// by about a percent; beyond it explicit methods return finite garbage.
+pub const MAX_TURN_PER_STEP: f64 = 0.5;
 
 impl StepStatus {
     pub fn is_failure(self) -> bool {
@@ -41,6 +49,9 @@ impl StepStatus {
             StepStatus::NonFinite => "non-finite state",
             StepStatus::ConstraintViolation => "constraint violation (|q_i| drifted from 1)",
             StepStatus::SolverFailure => "integrator failed (Newton or step-size control)",
+            StepStatus::Unresolved => {
+                "motion too fast for the step size (a link turned > 0.5 rad in one step)"
+            }
         }
     }
 }
@@ -63,12 +74,38 @@ pub fn guarded_step<G: Geometry>(
         Ok(()) if chain.residuals(y).unit_length > failure_tolerance => {
             StepStatus::ConstraintViolation
         }
+        Ok(()) if turn_per_step(chain, backup, y, dt, opts) > MAX_TURN_PER_STEP => {
+            StepStatus::Unresolved
+        }
         Ok(()) => StepStatus::Ok,
     };
     if status.is_failure() {
         y.copy_from_slice(backup);
     }
     status
+}
+
+/// Estimated largest angle a link turned in one integrator step: the larger of the
+/// end spin times the step and the angle between the old and new link directions
+/// spread over the substeps. The adaptive method controls its own error: 0.
+fn turn_per_step<G: Geometry>(
+    chain: &Chain<G>,
+    old: &[f64],
+    new: &[f64],
+    dt: f64,
+    opts: &StepOptions,
+) -> f64 {
+    if opts.method == Method::Adaptive {
+        return 0.0;
+    }
+    let lay = chain.layout();
+    let substeps = opts.substeps as f64;
+    let chord = (0..lay.n)
+        .map(|i| (lay.load_q(new, i) - lay.load_q(old, i)).norm_squared())
+        .fold(0.0, f64::max)
+        .sqrt();
+    let swept = 2.0 * (0.5 * chord).min(1.0).asin();
+    (chain.max_spin(new) * dt / substeps).max(swept / substeps)
 }
 
 struct Worker<G: Geometry> {

@@ -83,6 +83,15 @@ impl<G: Geometry> Chain<G> {
         r
     }
 
+    /// Largest angular speed `max_i |w_i|` (rad/s).
+    pub fn max_spin(&self, y: &[f64]) -> f64 {
+        let lay = self.layout();
+        (0..lay.n)
+            .map(|i| lay.load_w(y, i).norm_squared())
+            .fold(0.0, f64::max)
+            .sqrt()
+    }
+
     /// The paper's errors `e_q = sum |q_i - s_i e3|` and `e_w = sum |w_i|` (s unchecked: use
     /// [`Chain::equilibrium`] to validate a sign tuple).
     pub fn errors(&self, y: &[f64], s: &[f64]) -> (f64, f64) {
