@@ -1,0 +1,97 @@
+//! Software rendering of chain states into RGB frames (no windowing, no Python).
+
+pub mod canvas;
+pub mod scene;
+
+pub use canvas::Canvas;
+pub use scene::{draw_frame, FrameSpec};
+
+use crate::error::{check_finite, check_len, ChainError, Result};
+
+/// Renders one `height x width x 3` frame into `pixels`, validating sizes. Wild
+/// (huge or off-screen) states draw without error; NaN coordinates are skipped.
+pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) -> Result<()> {
+    if width < 16 || height < 16 || width > 8192 || height > 8192 {
+        return Err(ChainError::InvalidParameter {
+            name: "frame size",
+            value: width.min(height) as f64,
+            expected: "width and height between 16 and 8192 pixels",
+        });
+    }
+    check_len("state", spec.state, 4 + 6 * spec.lengths.len())?;
+    check_finite("force", &spec.force)?;
+    if let Some(s) = spec.target {
+        check_len("target", s, spec.lengths.len())?;
+    }
+    if pixels.len() != width * height * 3 {
+        return Err(ChainError::LengthMismatch {
+            name: "pixels",
+            got: pixels.len(),
+            expected: width * height * 3,
+        });
+    }
+    draw_frame(&mut Canvas::new(width, height, pixels), spec);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{ChainParams, SpatialChain};
+
+    fn frame(state: &[f64], target: Option<&[f64]>) -> Vec<u8> {
+        let mut px = vec![0u8; 120 * 80 * 3];
+        let spec = FrameSpec {
+            lengths: &[0.1; 5],
+            state,
+            target,
+            force: [3.0, -1.0],
+            max_force: 10.0,
+            track_limit: 0.5,
+            top_view: true,
+        };
+        render(120, 80, &spec, &mut px).unwrap();
+        px
+    }
+
+    #[test]
+    fn frames_depend_on_the_state_only() {
+        let chain = SpatialChain::new(ChainParams::paper());
+        let hanging = chain.equilibrium(&[1.0; 5]).unwrap();
+        let folded = chain.equilibrium(&[1.0, -1.0, 1.0, -1.0, 1.0]).unwrap();
+        assert_eq!(frame(&hanging, None), frame(&hanging, None));
+        assert_ne!(frame(&hanging, None), frame(&folded, None));
+        assert_ne!(frame(&hanging, None), frame(&hanging, Some(&[-1.0; 5])));
+    }
+
+    #[test]
+    fn wild_states_draw_without_panicking() {
+        let chain = SpatialChain::new(ChainParams::paper());
+        let mut y = chain.equilibrium(&[1.0; 5]).unwrap();
+        y[0] = 1e12;
+        y[5] = f64::NAN;
+        y[8] = -1e300;
+        let px = frame(&y, Some(&[1.0; 5]));
+        assert_eq!(px.len(), 120 * 80 * 3);
+    }
+
+    #[test]
+    fn rejects_bad_sizes() {
+        let spec = FrameSpec {
+            lengths: &[0.1],
+            state: &[0.0; 10],
+            target: None,
+            force: [0.0; 2],
+            max_force: 1.0,
+            track_limit: 1.0,
+            top_view: false,
+        };
+        assert!(render(4, 4, &spec, &mut [0u8; 48]).is_err());
+        assert!(render(32, 32, &spec, &mut [0u8; 10]).is_err());
+        let bad = FrameSpec {
+            state: &[0.0; 9],
+            ..spec
+        };
+        assert!(render(32, 32, &bad, &mut vec![0u8; 32 * 32 * 3]).is_err());
+    }
+}

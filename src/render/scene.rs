@@ -1,0 +1,242 @@
+//! Draws one frame of the chain: a side view (e1 right, e3 = gravity down) and a
+//! top view (e1 right, e2 up), the cart on its track, the target equilibrium drawn
+//! faintly from the cart, and the applied force as an arrow.
+
+use super::canvas::{Canvas, Rgb};
+
+const BACKGROUND: Rgb = [250, 250, 250];
+const TRACK: Rgb = [150, 150, 150];
+const CART: Rgb = [40, 70, 160];
+const LINK: Rgb = [30, 30, 30];
+const MASS: Rgb = [220, 120, 30];
+const TARGET: Rgb = [110, 110, 110];
+const FORCE: Rgb = [200, 30, 30];
+const SEPARATOR: Rgb = [200, 200, 200];
+
+/// What to draw. `state` is a spatial state `[x(2), xdot(2), q(3n), w(3n)]` (planar
+/// states are embedded first); `target` is a sign tuple or `None`.
+pub struct FrameSpec<'a> {
+    pub lengths: &'a [f64],
+    pub state: &'a [f64],
+    pub target: Option<&'a [f64]>,
+    pub force: [f64; 2],
+    pub max_force: f64,
+    pub track_limit: f64,
+    /// Draw the top view beside the side view (planar scenes need only the side view).
+    pub top_view: bool,
+}
+
+/// Maps world coordinates of one view to pixels of its panel.
+struct View {
+    origin: [f64; 2],
+    center: [f64; 2],
+    scale: f64,
+    flip_y: bool,
+}
+
+impl View {
+    fn px(&self, p: [f64; 2]) -> [f64; 2] {
+        let dy = (p[1] - self.center[1]) * self.scale;
+        [
+            self.origin[0] + (p[0] - self.center[0]) * self.scale,
+            self.origin[1] + if self.flip_y { -dy } else { dy },
+        ]
+    }
+}
+
+fn finite_or(v: f64, fallback: f64) -> f64 {
+    if v.is_finite() {
+        v
+    } else {
+        fallback
+    }
+}
+
+/// Points of the chain from the cart: the cart, then each mass (3-D).
+fn chain_points(
+    cart: [f64; 2],
+    lengths: &[f64],
+    direction: impl Fn(usize) -> [f64; 3],
+) -> Vec<[f64; 3]> {
+    let mut p = [cart[0], cart[1], 0.0];
+    let mut out = vec![p];
+    for (i, l) in lengths.iter().enumerate() {
+        let q = direction(i);
+        for k in 0..3 {
+            p[k] += l * q[k];
+        }
+        out.push(p);
+    }
+    out
+}
+
+/// Links as lines, masses as discs sized to the shortest link on screen so that
+/// short links stay visible.
+fn draw_chain(
+    canvas: &mut Canvas,
+    view: &View,
+    points: &[[f64; 3]],
+    axes: (usize, usize),
+    width: f64,
+    colors: (Rgb, Rgb),
+    alpha: f64,
+) {
+    let project = |p: &[f64; 3]| view.px([p[axes.0], p[axes.1]]);
+    let shortest = points
+        .windows(2)
+        .map(|pair| {
+            (0..3)
+                .map(|k| (pair[1][k] - pair[0][k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(f64::INFINITY, f64::min);
+    let radius = (0.22 * shortest * view.scale).clamp(1.5, 2.0 * width.max(1.0));
+    for pair in points.windows(2) {
+        canvas.capsule(project(&pair[0]), project(&pair[1]), width, colors.0, alpha);
+    }
+    for p in &points[1..] {
+        canvas.capsule(project(p), project(p), radius, colors.1, alpha);
+    }
+}
+
+fn draw_arrow(canvas: &mut Canvas, from: [f64; 2], to: [f64; 2], width: f64) {
+    let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+    let len = (dx * dx + dy * dy).sqrt();
+    if !(len > 1.0) {
+        return;
+    }
+    canvas.capsule(from, to, width, FORCE, 1.0);
+    let (ux, uy) = (dx / len, dy / len);
+    let head = (3.0 * width + 4.0).min(0.5 * len);
+    for side in [-1.0, 1.0] {
+        let tip = [
+            to[0] - head * (ux - side * 0.6 * uy),
+            to[1] - head * (uy + side * 0.6 * ux),
+        ];
+        canvas.capsule(to, tip, width, FORCE, 1.0);
+    }
+}
+
+/// Draws the frame into the whole canvas.
+pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
+    canvas.fill(BACKGROUND);
+    let n = spec.lengths.len();
+    let y = spec.state;
+    let chain_length: f64 = spec.lengths.iter().sum();
+    let cart = [finite_or(y[0], 0.0), finite_or(y[1], 0.0)];
+    let q = |i: usize| [y[4 + 3 * i], y[5 + 3 * i], y[6 + 3 * i]];
+    let points = chain_points(cart, spec.lengths, q);
+
+    let (w, h) = (canvas.width() as f64, canvas.height() as f64);
+    // The side view shows the track, so it gets the larger share of the width.
+    let panel_w = if spec.top_view { 0.62 * w } else { w };
+    let top_w = w - panel_w;
+    // Show the whole track when it is not much longer than the chain; otherwise
+    // follow the cart.
+    let track = if spec.track_limit.is_finite() {
+        spec.track_limit.max(0.0)
+    } else {
+        f64::INFINITY
+    };
+    let follow = track > 2.0 * chain_length;
+    let half_width = if follow {
+        1.6 * chain_length
+    } else {
+        track + 1.15 * chain_length
+    };
+    let half_height = 1.15 * chain_length;
+    let scale = (0.5 * panel_w / half_width).min(0.5 * h / half_height);
+    let center_x = if follow { cart[0] } else { 0.0 };
+    let link_width = (0.006 * h).max(0.8);
+
+    // Side view: e1 to the right, e3 (gravity) down the screen.
+    let side = View {
+        origin: [0.5 * panel_w, 0.5 * h],
+        center: [center_x, 0.0],
+        scale,
+        flip_y: false,
+    };
+    let track_ends = if track.is_finite() {
+        [-track, track]
+    } else {
+        [center_x - 2.0 * half_width, center_x + 2.0 * half_width]
+    };
+    canvas.capsule(
+        side.px([track_ends[0], 0.0]),
+        side.px([track_ends[1], 0.0]),
+        0.5 * link_width,
+        TRACK,
+        1.0,
+    );
+    if track.is_finite() {
+        for end in track_ends {
+            let p = side.px([end, 0.0]);
+            canvas.capsule(
+                [p[0], p[1] - 3.0 * link_width],
+                [p[0], p[1] + 3.0 * link_width],
+                0.5 * link_width,
+                TRACK,
+                1.0,
+            );
+        }
+    }
+    if let Some(s) = spec.target {
+        let target = chain_points(cart, spec.lengths, |i| [0.0, 0.0, s[i]]);
+        draw_chain(
+            canvas,
+            &side,
+            &target,
+            (0, 2),
+            link_width,
+            (TARGET, TARGET),
+            0.3,
+        );
+    }
+    let cart_half = [0.12 * chain_length.max(1e-9), 0.05 * chain_length.max(1e-9)];
+    let c = side.px([cart[0], 0.0]);
+    let (cw, ch) = (cart_half[0] * scale, cart_half[1] * scale);
+    canvas.rect([c[0] - cw, c[1] - ch], [c[0] + cw, c[1] + ch], CART, 1.0);
+    draw_chain(
+        canvas,
+        &side,
+        &points,
+        (0, 2),
+        link_width,
+        (LINK, MASS),
+        1.0,
+    );
+    let arrow_scale = if spec.max_force > 0.0 {
+        0.6 * chain_length / spec.max_force
+    } else {
+        0.0
+    };
+    let tip = side.px([cart[0] + spec.force[0] * arrow_scale, 0.0]);
+    draw_arrow(canvas, [c[0], c[1]], [tip[0], c[1]], 0.6 * link_width);
+
+    if !spec.top_view || n == 0 {
+        return;
+    }
+    // Top view: e1 to the right, e2 up; the chain seen from above, centred on the cart.
+    canvas.rect([panel_w - 0.5, 0.0], [panel_w + 0.5, h], SEPARATOR, 1.0);
+    let top = View {
+        origin: [panel_w + 0.5 * top_w, 0.5 * h],
+        center: cart,
+        scale: 0.5 * top_w.min(h) / half_height,
+        flip_y: true,
+    };
+    let c = top.px(cart);
+    let cw = (cart_half[0] * top.scale).min(0.06 * h);
+    canvas.rect([c[0] - cw, c[1] - cw], [c[0] + cw, c[1] + cw], CART, 0.35);
+    draw_chain(canvas, &top, &points, (0, 1), link_width, (LINK, MASS), 1.0);
+    let arrow_scale = if spec.max_force > 0.0 {
+        0.6 * chain_length / spec.max_force
+    } else {
+        0.0
+    };
+    let tip = top.px([
+        cart[0] + spec.force[0] * arrow_scale,
+        cart[1] + spec.force[1] * arrow_scale,
+    ]);
+    draw_arrow(canvas, c, tip, 0.6 * link_width);
+}
