@@ -108,6 +108,12 @@ fn turn_per_step<G: Geometry>(
     (chain.max_spin(new) * dt / substeps).max(swept / substeps)
 }
 
+/// One parallel work item: a chunk's states, forces and statuses, and its worker.
+type ChunkItem<'a, G> = (
+    ((&'a mut [f64], &'a [f64]), &'a mut [StepStatus]),
+    &'a mut Worker<G>,
+);
+
 struct Worker<G: Geometry> {
     stepper: Stepper<G>,
     backup: Vec<f64>,
@@ -239,10 +245,7 @@ impl<G: Geometry> Batch<G> {
         let d = self.state_dim();
         let f = self.chain.force_dim();
         let (chain, opts, dt, tol) = (&self.chain, &self.opts, self.dt, self.failure_tolerance);
-        let work = |(((states, forces), status), worker): (
-            ((&mut [f64], &[f64]), &mut [StepStatus]),
-            &mut Worker<G>,
-        )| {
+        let work = |(((states, forces), status), worker): ChunkItem<'_, G>| {
             for ((y, u), st) in states
                 .chunks_exact_mut(d)
                 .zip(forces.chunks_exact(f))

@@ -98,8 +98,8 @@ impl<G: Geometry> Chain<G> {
         let lay = self.layout();
         let mut e_q = 0.0;
         let mut e_w = 0.0;
-        for i in 0..lay.n {
-            e_q += (lay.load_q(y, i) - G::down_unit() * s[i])
+        for (i, &si) in s.iter().enumerate().take(lay.n) {
+            e_q += (lay.load_q(y, i) - G::down_unit() * si)
                 .norm_squared()
                 .sqrt();
             e_w += lay.load_w(y, i).norm_squared().sqrt();

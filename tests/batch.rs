@@ -124,12 +124,12 @@ fn a_blow_up_in_one_env_leaves_the_others_untouched() {
     f[2 * 40] = 1e9; // far past what a 2 ms step resolves
     batch.step(&f).unwrap();
     reference.step(&g).unwrap();
-    for k in 0..n_envs {
+    for (k, start) in states.iter().enumerate() {
         if k == 40 {
             assert!(batch.status()[k].is_failure());
             assert_eq!(
                 batch.state(k),
-                &states[k][..],
+                &start[..],
                 "failed env keeps its last good state"
             );
         } else {

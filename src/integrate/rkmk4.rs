@@ -56,18 +56,18 @@ pub(super) fn step<G: Geometry>(
         for i in 0..n {
             theta[i] = kq[i] * (a * h);
         }
-        rotate_stage(chain, base, tmp, &theta, kq);
+        rotate_stage(chain, base, tmp, theta, kq);
         chain.derivative(tmp, u, &mut s.ws, next);
-        for i in 0..n {
-            ksum[i] += kq[i] * w;
+        for (sum, k) in ksum.iter_mut().zip(kq.iter()) {
+            *sum += *k * w;
         }
     }
     let c = h / 6.0;
     for (j, yj) in y.iter_mut().enumerate() {
         *yj = base[j] + c * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
     }
-    for i in 0..n {
-        let q = G::rotate(ksum[i] * c, lay.load_q(base, i));
+    for (i, &sum) in ksum.iter().enumerate() {
+        let q = G::rotate(sum * c, lay.load_q(base, i));
         lay.store_q(y, i, q);
         lay.store_w(y, i, G::tangent(lay.load_w(y, i), q));
     }

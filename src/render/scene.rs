@@ -103,7 +103,7 @@ fn draw_chain(
 fn draw_arrow(canvas: &mut Canvas, from: [f64; 2], to: [f64; 2], width: f64) {
     let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
     let len = (dx * dx + dy * dy).sqrt();
-    if !(len > 1.0) {
+    if len.is_nan() || len <= 1.0 {
         return;
     }
     canvas.capsule(from, to, width, FORCE, 1.0);
