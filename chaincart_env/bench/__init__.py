@@ -1,0 +1,1 @@
+"""Benchmarks against the systems users would otherwise pick (MuJoCo, Gymnasium CartPole)."""
