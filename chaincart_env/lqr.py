@@ -1,0 +1,128 @@
+"""The paper's LQR controller (eq. u) as a baseline policy with the SB3 calling convention.
+
+The gain ``K`` (shape ``(2, 4 + 4n)``) comes from the Rust core's Riccati solver for
+the linearisation of Prop. 2 at the target equilibrium ``s``. Applied to the
+nonlinear state as in the paper,
+
+    u = -K z,  z = [x, C^T(s_1 e3 x q_1) .. C^T(s_n e3 x q_n), xdot, C^T w_1 .. C^T w_n],
+
+then scaled to the env's normalised action space and clipped to [-1, 1] (the force
+saturates at ``max_force``). Planar observations are embedded in the spatial state
+(the planar dynamics are the e1-e3 block of the spatial ones) and only the e1 force
+is returned.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Optional, Sequence
+
+import numpy as np
+
+__all__ = ["LQRPolicy", "lqr_coordinates"]
+
+
+def lqr_coordinates(states: np.ndarray, target: Sequence[float]) -> np.ndarray:
+    """Local coordinates z of eq. (u) for a batch of spatial states, shape (N, 4 + 4n)."""
+    states = np.atleast_2d(np.asarray(states, dtype=np.float64))
+    s = np.asarray(target, dtype=np.float64)
+    n = s.shape[0]
+    q = states[:, 4 : 4 + 3 * n].reshape(-1, n, 3)
+    w = states[:, 4 + 3 * n : 4 + 6 * n].reshape(-1, n, 3)
+    # C^T (s_i e3 x q_i) = s_i (-q_y, q_x).
+    xi = np.stack([-q[:, :, 1], q[:, :, 0]], axis=2) * s[None, :, None]
+    return np.concatenate(
+        [states[:, 0:2], xi.reshape(-1, 2 * n), states[:, 2:4], w[:, :, :2].reshape(-1, 2 * n)],
+        axis=1,
+    )
+
+
+def _planar_to_spatial(obs: np.ndarray, n: int) -> np.ndarray:
+    """[x, xdot, (q_e1, q_e3)_i, w_i] -> [x(2), xdot(2), q_i(3), w_i(3)]."""
+    batch = obs.shape[0]
+    q2 = obs[:, 2 : 2 + 2 * n].reshape(batch, n, 2)
+    q = np.zeros((batch, n, 3))
+    q[:, :, 0], q[:, :, 2] = q2[:, :, 0], q2[:, :, 1]
+    w = np.zeros((batch, n, 3))
+    w[:, :, 1] = obs[:, 2 + 2 * n : 2 + 3 * n]
+    out = np.zeros((batch, 4 + 6 * n))
+    out[:, 0], out[:, 2] = obs[:, 0], obs[:, 1]
+    out[:, 4 : 4 + 3 * n] = q.reshape(batch, -1)
+    out[:, 4 + 3 * n :] = w.reshape(batch, -1)
+    return out
+
+
+class LQRPolicy:
+    """LQR baseline: ``predict(obs) -> (action, None)`` like a stable-baselines3 model.
+
+    Build it with :meth:`from_env` (gain for the env's target, force limit and scene)
+    or :meth:`from_model`. Works on one observation or a batch.
+    """
+
+    def __init__(self, gain: np.ndarray, target: Sequence[float], max_force: float, planar: bool = False):
+        self.target = np.asarray(target, dtype=np.float64)
+        self.n_links = int(self.target.shape[0])
+        gain = np.asarray(gain, dtype=np.float64)
+        expected = (2, 4 + 4 * self.n_links)
+        if gain.shape != expected:
+            raise ValueError(f"gain has shape {gain.shape}: expected {expected} for {self.n_links} links")
+        if not np.all(np.isfinite(gain)):
+            raise ValueError("gain has non-finite entries: expected a finite matrix")
+        if not (np.isfinite(max_force) and max_force > 0):
+            raise ValueError(f"max_force = {max_force}: expected a finite number > 0")
+        self.gain = gain
+        self.max_force = float(max_force)
+        self.planar = bool(planar)
+        self.state_dim = (2 + 3 * self.n_links) if planar else (4 + 6 * self.n_links)
+
+    @classmethod
+    def from_model(
+        cls,
+        model: Any,
+        target: Sequence[float],
+        max_force: float,
+        Q: Optional[np.ndarray] = None,
+        R: Optional[np.ndarray] = None,
+        planar: Optional[bool] = None,
+    ) -> "LQRPolicy":
+        """Gain from ``model.lqr_gain(target, Q, R)`` (defaults: the paper's weights)."""
+        gain = model.lqr_gain(list(target), Q, R)
+        return cls(gain, target, max_force, model.planar if planar is None else planar)
+
+    @classmethod
+    def from_env(cls, env: Any, Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None) -> "LQRPolicy":
+        """For a ``ChainCartEnv``, its vector envs or SB3 VecEnv (anything exposing the
+        config through ``unwrapped`` or ``config``)."""
+        base = getattr(env, "unwrapped", env)
+        config = getattr(base, "config", None)
+        if config is None:
+            raise ValueError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+        return cls.from_model(base.model, config.target_signs, config.max_force, Q, R, planar=config.planar)
+
+    def forces(self, observation: np.ndarray) -> np.ndarray:
+        """Unsaturated forces in newtons, shape (N, 2) for spatial, (N, 1) for planar."""
+        obs = np.asarray(observation, dtype=np.float64)
+        batch = np.atleast_2d(obs)
+        if batch.ndim != 2 or batch.shape[1] != self.state_dim:
+            raise ValueError(
+                f"observation has shape {obs.shape}: expected ({self.state_dim},) or (N, {self.state_dim})"
+            )
+        if not np.all(np.isfinite(batch)):
+            raise ValueError("observation has non-finite entries: expected finite states")
+        states = _planar_to_spatial(batch, self.n_links) if self.planar else batch
+        u = -lqr_coordinates(states, self.target) @ self.gain.T
+        return u[:, :1] if self.planar else u
+
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: Optional[Any] = None,
+        episode_start: Optional[np.ndarray] = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Optional[Any]]:
+        """Actions in the env's normalised space, clipped to [-1, 1]; same batch shape as the input."""
+        single = np.asarray(observation).ndim == 1
+        actions = np.clip(self.forces(observation) / self.max_force, -1.0, 1.0).astype(np.float32)
+        return (actions[0] if single else actions), state
+
+    def __call__(self, observation: np.ndarray) -> np.ndarray:
+        return self.predict(observation)[0]
