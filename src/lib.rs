@@ -9,7 +9,10 @@
 //! * [`integrate`]: rk4, rkmk4, variational, lie_euler, adaptive.
 //! * [`invariants`]: energy, momentum, constraint residuals, the paper's errors.
 //! * [`batch`]: struct-of-arrays batches stepped in parallel.
+//! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati, LQR.
+//! * [`render`]: software rendering of chain states into RGB frames.
 
+pub mod analysis;
 pub mod any;
 pub mod batch;
 pub mod dense;
@@ -19,6 +22,7 @@ pub mod integrate;
 pub mod invariants;
 pub mod model;
 pub mod params;
+pub mod render;
 pub mod tridiagonal;
 
 pub use error::{ChainError, Result};

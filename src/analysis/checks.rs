@@ -99,7 +99,7 @@ pub fn check_psd(name: &str, m: &DMatrix<f64>) -> Result<()> {
 pub fn check_pd(name: &str, m: &DMatrix<f64>) -> Result<()> {
     check_symmetric(name, m)?;
     let low = min_symmetric_eigenvalue(m);
-    if !(low > DEFINITENESS_TOLERANCE * m.amax()) {
+    if low.is_nan() || low <= DEFINITENESS_TOLERANCE * m.amax() {
         return Err(analysis(format!(
             "{name} has eigenvalue {low:e}: expected a positive definite matrix"
         )));
@@ -115,7 +115,10 @@ mod tests {
     fn messages_name_the_matrix_and_the_value() {
         let q = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 0.0, 1.0]);
         let e = check_symmetric("Q", &q).unwrap_err().to_string();
-        assert!(e.contains("Q[0, 1] = 2") && e.contains("Q[1, 0] = 0"), "{e}");
+        assert!(
+            e.contains("Q[0, 1] = 2") && e.contains("Q[1, 0] = 0"),
+            "{e}"
+        );
         let r = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, -1.0]);
         let e = check_pd("R", &r).unwrap_err().to_string();
         assert!(e.contains("R has eigenvalue -1") && e.contains("positive definite"));

@@ -182,9 +182,15 @@ mod tests {
             Err(ChainError::LengthMismatch { got: 1, .. })
         ));
         let e = all_signs(21).unwrap_err().to_string();
-        assert!(e.contains("n_links = 21") && e.contains("at most 20"), "{e}");
+        assert!(
+            e.contains("n_links = 21") && e.contains("at most 20"),
+            "{e}"
+        );
         let e = named_signs("upside_down", 3).unwrap_err().to_string();
-        assert!(e.contains("\"upside_down\"") && e.contains("folded_up"), "{e}");
+        assert!(
+            e.contains("\"upside_down\"") && e.contains("folded_up"),
+            "{e}"
+        );
     }
 
     #[test]
