@@ -11,11 +11,13 @@
 //! * [`batch`]: struct-of-arrays batches stepped in parallel.
 //! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati, LQR.
 //! * [`render`]: software rendering of chain states into RGB frames.
+//! * [`env`]: the RL task (target, start, reward, termination, autoreset) over a batch.
 
 pub mod analysis;
 pub mod any;
 pub mod batch;
 pub mod dense;
+pub mod env;
 pub mod error;
 pub mod geometry;
 pub mod integrate;

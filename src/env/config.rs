@@ -1,0 +1,429 @@
+//! The task: which equilibrium to reach, where episodes start, how they are scored
+//! and when they end. Plain data, checked once by [`TaskConfig::validate`].
+
+use crate::analysis::equilibria::{check_signs, named_signs};
+use crate::error::{check_finite, ChainError, Result};
+use crate::integrate::StepOptions;
+
+/// Names accepted for a target equilibrium (besides a sign tuple).
+pub const TARGET_NAMES: &str =
+    "\"hanging\", \"inverted\", \"folded\", \"folded_up\", \"paper-fig1\", \"paper-fig2\", \"paper-fig3\"";
+
+/// Names accepted for a start (besides a sign tuple or a full state).
+pub const START_NAMES: &str = "\"target\", \"hanging\", \"inverted\", \"folded\", \"folded_up\", \"paper-fig1\", \"paper-fig2\", \"paper-fig3\"";
+
+/// `| |q_i| - 1 |` above which a step counts as a numerical failure (as in [`crate::batch`]).
+pub const FAILURE_TOLERANCE: f64 = 1e-6;
+
+/// The paper's numerical examples (Sec. V). Figs. 1 and 2 share the initial
+/// condition IC1; Fig. 3 has its own. All three are defined for n = 5 links.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PaperFigure {
+    /// Uncontrolled motion from IC1, near the folded equilibrium s = (-1, 1, -1, 1, -1).
+    Fig1,
+    /// LQR stabilisation of the hanging equilibrium from IC1.
+    Fig2,
+    /// LQR stabilisation of s = (-1, -1, -1, 1, 1) from the Fig. 3 initial condition.
+    Fig3,
+}
+
+impl PaperFigure {
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "paper-fig1" => Some(Self::Fig1),
+            "paper-fig2" => Some(Self::Fig2),
+            "paper-fig3" => Some(Self::Fig3),
+            _ => None,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Fig1 => "paper-fig1",
+            Self::Fig2 => "paper-fig2",
+            Self::Fig3 => "paper-fig3",
+        }
+    }
+    /// The equilibrium the figure is about: Fig. 1 starts near it, Figs. 2-3 stabilise it.
+    pub fn target(self) -> Vec<f64> {
+        match self {
+            Self::Fig1 => vec![-1.0, 1.0, -1.0, 1.0, -1.0],
+            Self::Fig2 => vec![1.0; 5],
+            Self::Fig3 => vec![-1.0, -1.0, -1.0, 1.0, 1.0],
+        }
+    }
+}
+
+/// A target equilibrium given by name: the four equilibrium names of
+/// [`named_signs`] or a paper figure's equilibrium (n = 5 only).
+pub fn target_signs(name: &str, n: usize) -> Result<Vec<f64>> {
+    if let Some(fig) = PaperFigure::from_name(name) {
+        check_paper_links(fig, n)?;
+        return Ok(fig.target());
+    }
+    named_signs(name, n).map_err(|e| match e {
+        ChainError::UnknownName { kind, name, .. } => ChainError::UnknownName {
+            kind,
+            name,
+            expected: TARGET_NAMES,
+        },
+        other => other,
+    })
+}
+
+pub(crate) fn check_paper_links(fig: PaperFigure, n: usize) -> Result<()> {
+    if n == 5 {
+        return Ok(());
+    }
+    Err(ChainError::InvalidParameter {
+        name: "n_links",
+        value: n as f64,
+        expected: match fig {
+            PaperFigure::Fig1 => "5 for the paper's Fig. 1 (\"paper-fig1\")",
+            PaperFigure::Fig2 => "5 for the paper's Fig. 2 (\"paper-fig2\")",
+            PaperFigure::Fig3 => "5 for the paper's Fig. 3 (\"paper-fig3\")",
+        },
+    })
+}
+
+/// Where episodes start, before the noise of [`TaskConfig::start_noise`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Start {
+    /// At the target equilibrium.
+    Target,
+    /// At the equilibrium with these signs (e.g. hanging, for swing-up).
+    Equilibrium(Vec<f64>),
+    /// The initial condition of one of the paper's figures (n = 5).
+    Paper(PaperFigure),
+    /// An explicit state in the scene's layout (checked: length, finite, `|q_i| = 1`,
+    /// `w_i . q_i = 0`).
+    State(Vec<f64>),
+}
+
+impl Start {
+    /// `"target"`, a paper figure, or an equilibrium name.
+    pub fn from_name(name: &str, n: usize) -> Result<Self> {
+        if name == "target" {
+            return Ok(Self::Target);
+        }
+        if let Some(fig) = PaperFigure::from_name(name) {
+            return Ok(Self::Paper(fig));
+        }
+        named_signs(name, n)
+            .map(Self::Equilibrium)
+            .map_err(|e| match e {
+                ChainError::UnknownName { name, .. } => ChainError::UnknownName {
+                    kind: "start",
+                    name,
+                    expected: START_NAMES,
+                },
+                other => other,
+            })
+    }
+}
+
+/// Weights of the reward `r = exp(-c)`,
+/// `c = q sum_i |q_i - s_i e3|^2 + w sum_i |w_i|^2 + x |x|^2 + v |xdot|^2 + u |a|^2`
+/// (`a` the clipped, normalised action). All must be finite and >= 0.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RewardWeights {
+    pub q: f64,
+    pub w: f64,
+    pub x: f64,
+    pub v: f64,
+    pub u: f64,
+}
+
+impl Default for RewardWeights {
+    /// `q = 1, w = 0.1, x = 0.1, v = 0.1, u = 0.01`: a tilt of 0.3 rad costs 9% of the
+    /// reward, a hanging link (|q - s e3|^2 = 4) leaves 2%, and the cart, the rates and
+    /// the force only shape the reward near the target.
+    fn default() -> Self {
+        Self {
+            q: 1.0,
+            w: 0.1,
+            x: 0.1,
+            v: 0.1,
+            u: 0.01,
+        }
+    }
+}
+
+impl RewardWeights {
+    pub fn as_array(&self) -> [f64; 5] {
+        [self.q, self.w, self.x, self.v, self.u]
+    }
+    pub fn from_array(a: [f64; 5]) -> Self {
+        Self {
+            q: a[0],
+            w: a[1],
+            x: a[2],
+            v: a[3],
+            u: a[4],
+        }
+    }
+    pub fn validate(&self) -> Result<()> {
+        for (name, value) in [
+            ("reward_weights.q", self.q),
+            ("reward_weights.w", self.w),
+            ("reward_weights.x", self.x),
+            ("reward_weights.v", self.v),
+            ("reward_weights.u", self.u),
+        ] {
+            check_non_negative(name, value)?;
+        }
+        Ok(())
+    }
+}
+
+/// An episode that reaches its time limit (and was not terminated) is a success when
+/// the paper's errors `e_q = sum |q_i - s_i e3|` and `e_w = sum |w_i|` are at most these.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SuccessTolerances {
+    pub e_q: f64,
+    pub e_w: f64,
+}
+
+impl Default for SuccessTolerances {
+    /// `e_q <= 0.1` (about 6 degrees of tilt in total) and `e_w <= 0.5` rad/s in total.
+    fn default() -> Self {
+        Self { e_q: 0.1, e_w: 0.5 }
+    }
+}
+
+/// How a vector of envs restarts episodes (Gymnasium's `AutoresetMode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AutoresetMode {
+    /// The step after an episode ended resets that env (its action is ignored) and
+    /// returns the first observation with reward 0 and both flags false.
+    #[default]
+    NextStep,
+    /// An env whose episode ends is reset in the same step: the returned observation is
+    /// the new episode's first, the last one is kept as the final observation.
+    SameStep,
+    /// Ended envs stay ended until reset explicitly; stepping one is an error.
+    Disabled,
+}
+
+impl AutoresetMode {
+    pub const NAMES: &'static str = "\"next_step\", \"same_step\", \"disabled\"";
+    pub fn from_name(name: &str) -> Result<Self> {
+        match name {
+            "next_step" => Ok(Self::NextStep),
+            "same_step" => Ok(Self::SameStep),
+            "disabled" => Ok(Self::Disabled),
+            _ => Err(ChainError::UnknownName {
+                kind: "autoreset_mode",
+                name: name.to_string(),
+                expected: Self::NAMES,
+            }),
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::NextStep => "next_step",
+            Self::SameStep => "same_step",
+            Self::Disabled => "disabled",
+        }
+    }
+}
+
+/// Everything that defines the RL task on top of a chain.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TaskConfig {
+    /// Target equilibrium `s` (`+1` hanging link, `-1` upright link).
+    pub target: Vec<f64>,
+    pub start: Start,
+    /// Half-width of the uniform start noise in every local coordinate (see
+    /// [`crate::env::start`]); 0 starts every episode exactly at the base state.
+    pub start_noise: f64,
+    /// Control period (seconds): one env step.
+    pub dt: f64,
+    pub step_options: StepOptions,
+    /// Force (N) of a normalised action of magnitude 1, per cart axis. 0 makes the
+    /// env uncontrolled.
+    pub max_force: f64,
+    /// The episode terminates when `max(|x_1|, |x_2|) > track_limit` (metres).
+    pub track_limit: f64,
+    /// The episode is truncated after this many steps.
+    pub max_episode_steps: u64,
+    pub reward: RewardWeights,
+    pub success: SuccessTolerances,
+}
+
+impl TaskConfig {
+    /// A task with the default reward and tolerances, starting near the target.
+    pub fn new(target: Vec<f64>, dt: f64, step_options: StepOptions) -> Self {
+        Self {
+            target,
+            start: Start::Target,
+            start_noise: 0.05,
+            dt,
+            step_options,
+            max_force: 10.0,
+            track_limit: 2.4,
+            max_episode_steps: 500,
+            reward: RewardWeights::default(),
+            success: SuccessTolerances::default(),
+        }
+    }
+
+    /// Checks every field for a chain of `n` links (the start state itself is checked
+    /// when it is built, see [`crate::env::start::base_state`]).
+    pub fn validate(&self, n: usize) -> Result<()> {
+        check_signs(&self.target, n).map_err(|e| match e {
+            ChainError::LengthMismatch { got, expected, .. } => ChainError::LengthMismatch {
+                name: "target",
+                got,
+                expected,
+            },
+            other => other,
+        })?;
+        match &self.start {
+            Start::Equilibrium(s) => {
+                check_signs(s, n).map_err(|e| match e {
+                    ChainError::LengthMismatch { got, expected, .. } => {
+                        ChainError::LengthMismatch {
+                            name: "start",
+                            got,
+                            expected,
+                        }
+                    }
+                    other => other,
+                })?;
+            }
+            Start::Paper(fig) => check_paper_links(*fig, n)?,
+            Start::State(y) => check_finite("start", y)?,
+            Start::Target => {}
+        }
+        check_non_negative("start_noise", self.start_noise)?;
+        check_positive("dt", self.dt)?;
+        self.step_options.validate()?;
+        check_non_negative("max_force", self.max_force)?;
+        check_positive("track_limit", self.track_limit)?;
+        if self.max_episode_steps == 0 {
+            return Err(ChainError::InvalidParameter {
+                name: "max_episode_steps",
+                value: 0.0,
+                expected: "an integer >= 1",
+            });
+        }
+        self.reward.validate()?;
+        check_positive("success_tolerances.e_q", self.success.e_q)?;
+        check_positive("success_tolerances.e_w", self.success.e_w)
+    }
+}
+
+fn check_positive(name: &'static str, value: f64) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ChainError::InvalidParameter {
+            name,
+            value,
+            expected: "a finite number > 0",
+        })
+    }
+}
+
+fn check_non_negative(name: &'static str, value: f64) -> Result<()> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(ChainError::InvalidParameter {
+            name,
+            value,
+            expected: "a finite number >= 0",
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn task(n: usize) -> TaskConfig {
+        TaskConfig::new(vec![-1.0; n], 0.02, StepOptions::default())
+    }
+
+    type Spoiler = Box<dyn Fn(&mut TaskConfig)>;
+
+    #[test]
+    fn names_resolve_to_signs() {
+        assert_eq!(target_signs("inverted", 2).unwrap(), vec![-1.0, -1.0]);
+        assert_eq!(
+            target_signs("paper-fig3", 5).unwrap(),
+            vec![-1.0, -1.0, -1.0, 1.0, 1.0]
+        );
+        assert_eq!(
+            target_signs("paper-fig1", 5).unwrap(),
+            named_signs("folded_up", 5).unwrap()
+        );
+        assert_eq!(Start::from_name("target", 3).unwrap(), Start::Target);
+        assert_eq!(
+            Start::from_name("hanging", 2).unwrap(),
+            Start::Equilibrium(vec![1.0, 1.0])
+        );
+        assert_eq!(
+            Start::from_name("paper-fig2", 5).unwrap(),
+            Start::Paper(PaperFigure::Fig2)
+        );
+    }
+
+    #[test]
+    fn bad_names_say_what_is_accepted() {
+        let e = target_signs("upright", 2).unwrap_err().to_string();
+        assert!(e.contains("\"upright\"") && e.contains("paper-fig3"), "{e}");
+        let e = Start::from_name("upside", 2).unwrap_err().to_string();
+        assert!(e.contains("start") && e.contains("\"target\""), "{e}");
+        let e = target_signs("paper-fig3", 2).unwrap_err().to_string();
+        assert!(e.contains("n_links = 2") && e.contains("Fig. 3"), "{e}");
+        let e = AutoresetMode::from_name("sometimes")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("same_step"), "{e}");
+    }
+
+    #[test]
+    fn validation_names_the_bad_field() {
+        assert!(task(2).validate(2).is_ok());
+        let e = task(2).validate(3).unwrap_err();
+        assert_eq!(
+            e,
+            ChainError::LengthMismatch {
+                name: "target",
+                got: 2,
+                expected: 3
+            }
+        );
+        let mut t = task(1);
+        t.target = vec![0.5];
+        assert!(matches!(
+            t.validate(1),
+            Err(ChainError::InvalidSign { index: 0, .. })
+        ));
+        let cases: Vec<(&str, Spoiler)> = vec![
+            ("start_noise", Box::new(|t| t.start_noise = -0.1)),
+            ("dt", Box::new(|t| t.dt = 0.0)),
+            ("max_force", Box::new(|t| t.max_force = f64::NAN)),
+            ("track_limit", Box::new(|t| t.track_limit = -1.0)),
+            ("max_episode_steps", Box::new(|t| t.max_episode_steps = 0)),
+            ("reward_weights.u", Box::new(|t| t.reward.u = -1.0)),
+            ("success_tolerances.e_w", Box::new(|t| t.success.e_w = 0.0)),
+        ];
+        for (name, spoil) in cases {
+            let mut t = task(1);
+            spoil(&mut t);
+            let e = t.validate(1).unwrap_err().to_string();
+            assert!(e.contains(name), "{name}: {e}");
+        }
+        let mut t = task(2);
+        t.start = Start::Equilibrium(vec![1.0]);
+        assert!(t.validate(2).unwrap_err().to_string().contains("start"));
+        t.start = Start::Paper(PaperFigure::Fig1);
+        assert!(t.validate(2).unwrap_err().to_string().contains("n_links"));
+        // max_force = 0 is an uncontrolled env, not an error.
+        let mut t = task(1);
+        t.max_force = 0.0;
+        assert!(t.validate(1).is_ok());
+    }
+}

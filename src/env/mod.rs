@@ -1,0 +1,43 @@
+//! The reinforcement-learning task layer, pure Rust: a target equilibrium, a start
+//! distribution, reward, termination, success and autoreset for a batch of envs.
+//! The Python envs (`chaincart_env`) are thin front ends over [`EnvBatch`].
+//!
+//! **Action.** Normalised force `a` (2 numbers spatial, 1 planar), clipped to
+//! `[-1, 1]` per axis, times [`TaskConfig::max_force`]; held for one control period
+//! [`TaskConfig::dt`]. NaN or infinite actions are refused for the whole batch before
+//! any env moves.
+//!
+//! **Observation.** The state in the scene's layout (spatial `4 + 6n`, planar
+//! `2 + 3n`), cast to `f32` or `f64`.
+//!
+//! **Reward.** `r = exp(-c)` in `(0, 1]`, with
+//! `c = w_q sum_i |q_i - s_i e3|^2 + w_w sum_i |w_i|^2 + w_x |x|^2 + w_v |xdot|^2 + w_u |a|^2`
+//! evaluated after the step ([`RewardWeights`], defaults `1, 0.1, 0.1, 0.1, 0.01`). It is
+//! 1 exactly at the target with the cart at rest at the origin and no force, smooth
+//! everywhere, and `|q_i - s_i e3|^2 = 2 (1 - cos tilt_i)`. The step on which the
+//! integration fails is rewarded 0.
+//!
+//! **Episode end.** Terminated when `max_k |x_k| > track_limit` (out of track) or when
+//! the integration fails (non-finite state, `| |q_i| - 1 | > 1e-6`, or an implicit
+//! solver gives up; the env keeps its last good state, so observations stay finite).
+//! Truncated when the episode reaches `max_episode_steps` (both flags may be set
+//! together). A success is an episode that is truncated without being terminated with
+//! the paper's `e_q <= tol_q` and `e_w <= tol_w` ([`SuccessTolerances`], defaults 0.1 and
+//! 0.5).
+//!
+//! **Start.** A base state ([`Start`]: the target, another equilibrium, a paper figure's
+//! initial condition, or an explicit state) plus uniform noise in every local
+//! coordinate, documented in [`start`].
+
+pub mod batch;
+pub mod config;
+pub mod start;
+
+pub use batch::{event, AnyEnvBatch, EnvBatch, Real, Snapshot, StepOutputs, DIAGNOSTICS};
+pub use config::{
+    target_signs, AutoresetMode, PaperFigure, RewardWeights, Start, SuccessTolerances, TaskConfig,
+};
+pub use start::{base_state, paper_initial_condition, perturb};
+
+#[cfg(test)]
+mod tests;

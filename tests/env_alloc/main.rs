@@ -1,0 +1,86 @@
+//! The RL task layer's step and reset allocate nothing (its own test binary: the
+//! counting allocator sees every thread, so no other test may run beside it).
+
+use chaincart::batch::CHUNK;
+use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs, TaskConfig};
+use chaincart::{ChainParams, SpatialChain, StepOptions};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct CountingAllocator;
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    static THIS_THREAD: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        THIS_THREAD.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+fn counts() -> (usize, usize) {
+    (
+        ALLOCATIONS.load(Ordering::SeqCst),
+        THIS_THREAD.with(|c| c.get()),
+    )
+}
+
+#[test]
+fn env_steps_and_resets_allocate_nothing() {
+    for mode in [
+        AutoresetMode::NextStep,
+        AutoresetMode::SameStep,
+        AutoresetMode::Disabled,
+    ] {
+        for n in [1, CHUNK, 8 * CHUNK] {
+            let mut task = TaskConfig::new(vec![-1.0; 3], 0.01, StepOptions::default());
+            // Short episodes and a narrow track: every kind of episode end happens.
+            task.max_episode_steps = 3;
+            task.track_limit = 0.05;
+            task.start_noise = 0.1;
+            let chain = SpatialChain::new(ChainParams::uniform(3, 1.0, 0.1, 0.3, 9.81).unwrap());
+            let mut batch = EnvBatch::new(chain, task, n, 1, mode, true).unwrap();
+            let d = batch.state_dim();
+            let (mut obs, mut rewards) = (vec![0.0f32; n * d], vec![0.0; n]);
+            let (mut terminated, mut truncated) = (vec![false; n], vec![false; n]);
+            let actions: Vec<f64> = (0..2 * n).map(|j| (j % 5) as f64 * 0.5 - 1.0).collect();
+            let seeds: Vec<Option<u64>> = (0..n as u64).map(Some).collect();
+            let all = vec![true; n];
+            let mut run = |batch: &mut EnvBatch<_>| {
+                for _ in 0..4 {
+                    let out = StepOutputs {
+                        obs: &mut obs,
+                        rewards: &mut rewards,
+                        terminated: &mut terminated,
+                        truncated: &mut truncated,
+                    };
+                    if mode == AutoresetMode::Disabled && (0..n).any(|k| batch.has_ended(k)) {
+                        batch.reset(None, Some(&all), &mut obs).unwrap();
+                    } else {
+                        batch.step(&actions, out).unwrap();
+                    }
+                }
+                batch.reset(Some(&seeds), None, &mut obs).unwrap();
+            };
+            run(&mut batch); // warm up the thread pool
+            let (before, before_here) = counts();
+            run(&mut batch);
+            let (after, after_here) = counts();
+            let (during, here) = (after - before, after_here - before_here);
+            eprintln!("{mode:?} N = {n}: {during} allocations ({here} on the calling thread)");
+            assert_eq!(here, 0, "{mode:?} N = {n}");
+            // A stray allocation or two can come from the harness's other threads;
+            // anything that scaled with N would show far more.
+            assert!(during <= 5, "{mode:?} N = {n}: {during} allocations");
+        }
+    }
+}
