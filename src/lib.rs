@@ -27,6 +27,9 @@ pub mod params;
 pub mod render;
 pub mod tridiagonal;
 
+#[cfg(feature = "python")]
+mod python;
+
 pub use error::{ChainError, Result};
 pub use geometry::{Geometry, Planar, Spatial};
 pub use integrate::{Method, StepOptions, Stepper};

@@ -1,0 +1,549 @@
+//! `EnvBatch`: the native env batch behind the Python envs. Each call converts, calls
+//! [`AnyEnvBatch`] and hands back fresh NumPy arrays that the core wrote into
+//! directly. Batch steps and resets release the GIL; `step_one` (a single env, about
+//! a microsecond) keeps it, since releasing and re-taking it would cost a sizeable
+//! part of the step.
+
+use super::convert::{check_shape, error, signs, ActionSlice, Actions, Floats};
+use super::model::ChainCart;
+use crate::env::{
+    AnyEnvBatch, AutoresetMode, Real, RewardWeights, Snapshot, Start, StepOutputs,
+    SuccessTolerances, TaskConfig, DIAGNOSTICS,
+};
+use crate::error::ChainError;
+use crate::integrate::{Method, StepOptions};
+use numpy::{
+    Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyString, PyTuple};
+
+#[pyclass(module = "chaincart_env._core", name = "EnvBatch")]
+pub struct EnvBatch {
+    batch: AnyEnvBatch,
+    obs_f64: bool,
+}
+
+fn start_arg(obj: &Bound<'_, PyAny>, n: usize, state_dim: usize) -> PyResult<Start> {
+    if let Ok(name) = obj.cast::<PyString>() {
+        return Ok(Start::from_name(name.to_str()?, n)?);
+    }
+    let v: Vec<f64> = obj.extract().map_err(|_| {
+        error(format!(
+            "start = {obj}: expected a name ({}), a sequence of {n} signs +1/-1, or a state of length {state_dim}",
+            crate::env::config::START_NAMES
+        ))
+    })?;
+    if v.len() == n {
+        Ok(Start::Equilibrium(v))
+    } else if v.len() == state_dim {
+        Ok(Start::State(v))
+    } else {
+        Err(error(format!(
+            "start has length {}, expected {n} (a sign tuple) or {state_dim} (a full state)",
+            v.len()
+        )))
+    }
+}
+
+fn new_array<'py, T: Element>(py: Python<'py>, shape: &[usize]) -> Bound<'py, PyArrayDyn<T>> {
+    PyArrayDyn::<T>::zeros(py, shape, false)
+}
+
+/// `(obs, rewards, terminated, truncated, n_ended)` of a batch step.
+type StepArrays<'py, T> = (
+    Bound<'py, PyArrayDyn<T>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<bool>>,
+    Bound<'py, PyArrayDyn<bool>>,
+    usize,
+);
+
+/// Runs one batch step writing into fresh arrays of shape `obs_shape` / `(n,)`.
+fn step_into<'py, T: Element + Real>(
+    py: Python<'py>,
+    batch: &mut AnyEnvBatch,
+    actions: &Actions<'py>,
+    obs_shape: &[usize],
+) -> PyResult<StepArrays<'py, T>> {
+    let n = batch.n_envs();
+    let obs = new_array::<T>(py, obs_shape);
+    let rewards = new_array::<f64>(py, &[n]);
+    let terminated = new_array::<bool>(py, &[n]);
+    let truncated = new_array::<bool>(py, &[n]);
+    let ended = {
+        let (mut o, mut r, mut te, mut tr) = (
+            obs.readwrite(),
+            rewards.readwrite(),
+            terminated.readwrite(),
+            truncated.readwrite(),
+        );
+        let contiguous = |e: numpy::NotContiguousError| error(e.to_string());
+        let out = StepOutputs {
+            obs: o.as_slice_mut().map_err(contiguous)?,
+            rewards: r.as_slice_mut().map_err(contiguous)?,
+            terminated: te.as_slice_mut().map_err(contiguous)?,
+            truncated: tr.as_slice_mut().map_err(contiguous)?,
+        };
+        let slice = actions.slice();
+        py.detach(|| match &slice {
+            ActionSlice::F32(a) => batch.step(a, out),
+            ActionSlice::F64(a) => batch.step(a, out),
+        })?
+    };
+    Ok((obs, rewards, terminated, truncated, ended))
+}
+
+/// One step of a batch of one, returning `(obs, reward, terminated, truncated, events)`.
+fn step_one_into<'py, T: Element + Real>(
+    py: Python<'py>,
+    batch: &mut AnyEnvBatch,
+    action: &Actions<'py>,
+    obs_shape: &[usize],
+) -> PyResult<Bound<'py, PyTuple>> {
+    let obs = new_array::<T>(py, obs_shape);
+    let (mut reward, mut terminated, mut truncated) = ([0.0], [false], [false]);
+    {
+        let mut o = obs.readwrite();
+        let out = StepOutputs {
+            obs: o.as_slice_mut().map_err(|e| error(e.to_string()))?,
+            rewards: &mut reward,
+            terminated: &mut terminated,
+            truncated: &mut truncated,
+        };
+        match action.slice() {
+            ActionSlice::F32(a) => batch.step(&a, out)?,
+            ActionSlice::F64(a) => batch.step(&a, out)?,
+        };
+    }
+    (
+        obs,
+        reward[0],
+        terminated[0],
+        truncated[0],
+        batch.events()[0],
+    )
+        .into_pyobject(py)
+}
+
+fn reset_into<'py, T: Element + Real>(
+    py: Python<'py>,
+    batch: &mut AnyEnvBatch,
+    seeds: Option<&[Option<u64>]>,
+    mask: Option<&[bool]>,
+    obs_shape: &[usize],
+) -> PyResult<Bound<'py, PyArrayDyn<T>>> {
+    let obs = new_array::<T>(py, obs_shape);
+    {
+        let mut o = obs.readwrite();
+        let o = o.as_slice_mut().map_err(|e| error(e.to_string()))?;
+        py.detach(|| batch.reset(seeds, mask, o))?;
+    }
+    Ok(obs)
+}
+
+impl EnvBatch {
+    fn obs_shape(&self, single: bool) -> Vec<usize> {
+        if single {
+            vec![self.batch.state_dim()]
+        } else {
+            vec![self.batch.n_envs(), self.batch.state_dim()]
+        }
+    }
+    fn check_single(&self) -> PyResult<()> {
+        if self.batch.n_envs() == 1 {
+            Ok(())
+        } else {
+            Err(error(format!(
+                "step_one/reset_one need num_envs = 1, this batch has {}",
+                self.batch.n_envs()
+            )))
+        }
+    }
+}
+
+#[pymethods]
+impl EnvBatch {
+    #[new]
+    #[pyo3(signature = (
+        model, num_envs=1, *, target=None,
+        start=None, start_noise=None, dt=None, integrator="rk4", substeps=1,
+        max_force=None, track_limit=None, max_episode_steps=None, reward_weights=None,
+        success_tolerances=None, obs_dtype="float32", autoreset_mode="next_step",
+        diagnostics=false, seed=0
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &Bound<'_, ChainCart>,
+        num_envs: usize,
+        target: Option<&Bound<'_, PyAny>>,
+        start: Option<&Bound<'_, PyAny>>,
+        start_noise: Option<f64>,
+        dt: Option<f64>,
+        integrator: &str,
+        substeps: usize,
+        max_force: Option<f64>,
+        track_limit: Option<f64>,
+        max_episode_steps: Option<u64>,
+        reward_weights: Option<[f64; 5]>,
+        success_tolerances: Option<[f64; 2]>,
+        obs_dtype: &str,
+        autoreset_mode: &str,
+        diagnostics: bool,
+        seed: u64,
+    ) -> PyResult<Self> {
+        let chain = model.get().chain.clone();
+        let n = chain.n_links();
+        let opts = StepOptions::new(Method::from_name(integrator)?, substeps)?;
+        let target = match target {
+            Some(t) => signs(t, n)?,
+            None => vec![-1.0; n],
+        };
+        let mut task = TaskConfig::new(target, 0.02, opts);
+        if let Some(s) = start {
+            task.start = start_arg(s, n, chain.state_dim())?;
+        }
+        if let Some(v) = start_noise {
+            task.start_noise = v;
+        }
+        if let Some(v) = dt {
+            task.dt = v;
+        }
+        if let Some(v) = max_force {
+            task.max_force = v;
+        }
+        if let Some(v) = track_limit {
+            task.track_limit = v;
+        }
+        if let Some(v) = max_episode_steps {
+            task.max_episode_steps = v;
+        }
+        if let Some(w) = reward_weights {
+            task.reward = RewardWeights::from_array(w);
+        }
+        if let Some([e_q, e_w]) = success_tolerances {
+            task.success = SuccessTolerances { e_q, e_w };
+        }
+        let obs_f64 = match obs_dtype {
+            "float32" => false,
+            "float64" => true,
+            other => {
+                return Err(ChainError::UnknownName {
+                    kind: "obs_dtype",
+                    name: other.to_string(),
+                    expected: "\"float32\", \"float64\"",
+                }
+                .into())
+            }
+        };
+        let mode = AutoresetMode::from_name(autoreset_mode)?;
+        let batch = AnyEnvBatch::new(chain, task, num_envs, seed, mode, diagnostics)?;
+        Ok(Self { batch, obs_f64 })
+    }
+
+    #[getter]
+    fn num_envs(&self) -> usize {
+        self.batch.n_envs()
+    }
+    #[getter]
+    fn state_dim(&self) -> usize {
+        self.batch.state_dim()
+    }
+    #[getter]
+    fn force_dim(&self) -> usize {
+        self.batch.force_dim()
+    }
+    #[getter]
+    fn planar(&self) -> bool {
+        self.batch.is_planar()
+    }
+    #[getter]
+    fn obs_dtype(&self) -> &'static str {
+        if self.obs_f64 {
+            "float64"
+        } else {
+            "float32"
+        }
+    }
+    #[getter]
+    fn autoreset_mode(&self) -> &'static str {
+        self.batch.mode().name()
+    }
+    #[getter]
+    fn diagnostics_enabled(&self) -> bool {
+        self.batch.diagnostics_enabled()
+    }
+    /// The resolved task as a dict of plain Python values.
+    #[getter]
+    fn task<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let t = self.batch.task();
+        let d = PyDict::new(py);
+        d.set_item(
+            "target",
+            t.target.iter().map(|&s| s as i64).collect::<Vec<_>>(),
+        )?;
+        d.set_item("start_noise", t.start_noise)?;
+        d.set_item("dt", t.dt)?;
+        d.set_item("integrator", t.step_options.method.name())?;
+        d.set_item("substeps", t.step_options.substeps)?;
+        d.set_item("max_force", t.max_force)?;
+        d.set_item("track_limit", t.track_limit)?;
+        d.set_item("max_episode_steps", t.max_episode_steps)?;
+        d.set_item("reward_weights", t.reward.as_array())?;
+        d.set_item("success_tolerances", [t.success.e_q, t.success.e_w])?;
+        Ok(d)
+    }
+    /// The state episodes start from before noise.
+    #[getter]
+    fn base_state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.batch.base_state())
+    }
+
+    /// Starts new episodes (in the envs where `mask` is true, all if `None`), env k
+    /// reseeded with `seeds[k]` unless that is `None`; returns every env's observation.
+    #[pyo3(signature = (seeds=None, mask=None))]
+    fn reset<'py>(
+        &mut self,
+        py: Python<'py>,
+        seeds: Option<Vec<Option<u64>>>,
+        mask: Option<PyReadonlyArray1<'py, bool>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mask = match &mask {
+            Some(m) => Some(m.as_slice().map_err(|e| error(e.to_string()))?),
+            None => None,
+        };
+        let shape = self.obs_shape(false);
+        let seeds = seeds.as_deref();
+        Ok(if self.obs_f64 {
+            reset_into::<f64>(py, &mut self.batch, seeds, mask, &shape)?.into_any()
+        } else {
+            reset_into::<f32>(py, &mut self.batch, seeds, mask, &shape)?.into_any()
+        })
+    }
+
+    /// `reset` for a batch of one: returns the observation of shape `(state_dim,)`.
+    #[pyo3(signature = (seed=None))]
+    fn reset_one<'py>(
+        &mut self,
+        py: Python<'py>,
+        seed: Option<u64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        self.check_single()?;
+        let shape = self.obs_shape(true);
+        let seeds = [seed];
+        Ok(if self.obs_f64 {
+            reset_into::<f64>(py, &mut self.batch, Some(&seeds), None, &shape)?.into_any()
+        } else {
+            reset_into::<f32>(py, &mut self.batch, Some(&seeds), None, &shape)?.into_any()
+        })
+    }
+
+    /// One step of every env; `actions` of shape `(num_envs, force_dim)`. Returns
+    /// `(obs, rewards, terminated, truncated, n_ended)`.
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let actions = Actions::extract(actions)?;
+        check_shape(
+            "actions",
+            actions.shape(),
+            &[self.batch.n_envs(), self.batch.force_dim()],
+        )?;
+        let shape = self.obs_shape(false);
+        if self.obs_f64 {
+            let (o, r, te, tr, n) = step_into::<f64>(py, &mut self.batch, &actions, &shape)?;
+            (o, r, te, tr, n).into_pyobject(py)
+        } else {
+            let (o, r, te, tr, n) = step_into::<f32>(py, &mut self.batch, &actions, &shape)?;
+            (o, r, te, tr, n).into_pyobject(py)
+        }
+    }
+
+    /// `step` for a batch of one: `action` of shape `(force_dim,)`; returns
+    /// `(obs, reward, terminated, truncated, events)` with Python scalars.
+    fn step_one<'py>(
+        &mut self,
+        py: Python<'py>,
+        action: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        self.check_single()?;
+        let actions = Actions::extract(action)?;
+        check_shape("action", actions.shape(), &[self.batch.force_dim()])?;
+        let shape = self.obs_shape(true);
+        Ok(if self.obs_f64 {
+            step_one_into::<f64>(py, &mut self.batch, &actions, &shape)?
+        } else {
+            step_one_into::<f32>(py, &mut self.batch, &actions, &shape)?
+        })
+    }
+
+    /// Event bits of the last step or reset, shape `(num_envs,)` (see `EVENT_*`).
+    fn events<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u8>> {
+        PyArray1::from_slice(py, self.batch.events())
+    }
+    /// The episode-end info of the last step as arrays of shape `(num_envs,)`:
+    /// `(ended, is_success, numerical_failure, out_of_track, e_q, e_w)`, the last five
+    /// false / zero where the episode did not end.
+    fn episode_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        use crate::env::event;
+        let (events, errors) = (self.batch.events(), self.batch.errors());
+        let flag = |bit: u8| -> Vec<bool> {
+            events
+                .iter()
+                .map(|&e| e & event::ENDED != 0 && e & bit != 0)
+                .collect()
+        };
+        let error = |k: usize| -> Vec<f64> {
+            events
+                .iter()
+                .enumerate()
+                .map(|(i, &e)| {
+                    if e & event::ENDED != 0 {
+                        errors[2 * i + k]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        };
+        (
+            PyArray1::from_vec(py, flag(event::ENDED)),
+            PyArray1::from_vec(py, flag(event::SUCCESS)),
+            PyArray1::from_vec(py, flag(event::NUMERICAL_FAILURE)),
+            PyArray1::from_vec(py, flag(event::OUT_OF_TRACK)),
+            PyArray1::from_vec(py, error(0)),
+            PyArray1::from_vec(py, error(1)),
+        )
+            .into_pyobject(py)
+    }
+
+    /// `(e_q, e_w)` per env after the last step (before any same-step reset), shape
+    /// `(num_envs, 2)`.
+    fn errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.batch.n_envs();
+        Ok(PyArray1::from_slice(py, self.batch.errors())
+            .reshape([n, 2])?
+            .into_any())
+    }
+    /// Same-step mode: observations of the episodes that ended on the last step (rows
+    /// of other envs are stale), shape `(num_envs, state_dim)`.
+    fn final_observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let shape = self.obs_shape(false);
+        let finals = self.batch.final_states();
+        Ok(if self.obs_f64 {
+            PyArray1::from_slice(py, finals).reshape(shape)?.into_any()
+        } else {
+            let v: Vec<f32> = finals.iter().map(|&x| x as f32).collect();
+            PyArray1::from_vec(py, v).reshape(shape)?.into_any()
+        })
+    }
+    /// `DIAGNOSTICS` per env of the last step (zeros unless enabled), shape
+    /// `(num_envs, 5)`.
+    fn diagnostics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.batch.n_envs();
+        Ok(PyArray1::from_slice(py, self.batch.diagnostics())
+            .reshape([n, DIAGNOSTICS.len()])?
+            .into_any())
+    }
+    /// A copy of every env's float64 state, shape `(num_envs, state_dim)`.
+    fn states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        Ok(PyArray1::from_slice(py, self.batch.states())
+            .reshape(self.obs_shape(false))?
+            .into_any())
+    }
+    /// Steps taken in each env's current episode.
+    fn step_counts<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
+        let v: Vec<u64> = (0..self.batch.n_envs())
+            .map(|k| self.batch.step_count(k))
+            .collect();
+        PyArray1::from_vec(py, v)
+    }
+    /// Which envs' episodes have ended without a reset since.
+    fn ended<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
+        let v: Vec<bool> = (0..self.batch.n_envs())
+            .map(|k| self.batch.has_ended(k))
+            .collect();
+        PyArray1::from_vec(py, v)
+    }
+    /// Overwrites env `env`'s state (checked: length, finite, on the constraint manifold).
+    fn set_state(&mut self, env: usize, state: Floats<'_>) -> PyResult<()> {
+        let y = super::convert::vector("state", &state, self.batch.state_dim())?;
+        Ok(self.batch.set_state(env, &y)?)
+    }
+
+    /// Everything that evolves (states, RNG streams, step counts, ended flags) as a dict
+    /// of arrays, for `restore`.
+    fn snapshot<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.batch.snapshot();
+        let n = self.batch.n_envs();
+        let d = PyDict::new(py);
+        d.set_item(
+            "states",
+            PyArray1::from_vec(py, s.states).reshape(self.obs_shape(false))?,
+        )?;
+        let rng: Vec<u8> = s.rng.iter().flatten().copied().collect();
+        d.set_item(
+            "rng",
+            PyArray1::from_vec(py, rng).reshape([n, crate::env::batch::RNG_BYTES])?,
+        )?;
+        d.set_item("steps", PyArray1::from_vec(py, s.steps))?;
+        d.set_item("ended", PyArray1::from_vec(py, s.ended))?;
+        Ok(d)
+    }
+
+    /// Continues from a `snapshot` of a batch with the same num_envs and state_dim.
+    fn restore(&mut self, snapshot: &Bound<'_, PyDict>) -> PyResult<()> {
+        let n = self.batch.n_envs();
+        let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
+            snapshot
+                .get_item(key)?
+                .ok_or_else(|| error(format!("snapshot has no {key:?} entry")))
+        };
+        let states: PyReadonlyArray2<'_, f64> = get("states")?.extract()?;
+        check_shape("snapshot states", states.shape(), &self.obs_shape(false))?;
+        let rng: PyReadonlyArray2<'_, u8> = get("rng")?.extract()?;
+        check_shape(
+            "snapshot rng",
+            rng.shape(),
+            &[n, crate::env::batch::RNG_BYTES],
+        )?;
+        let steps: PyReadonlyArray1<'_, u64> = get("steps")?.extract()?;
+        let ended: PyReadonlyArray1<'_, bool> = get("ended")?.extract()?;
+        let rng_rows = rng
+            .as_array()
+            .rows()
+            .into_iter()
+            .map(|r| {
+                let mut b = [0u8; crate::env::batch::RNG_BYTES];
+                for (x, y) in b.iter_mut().zip(r.iter()) {
+                    *x = *y;
+                }
+                b
+            })
+            .collect();
+        let snap = Snapshot {
+            states: states.as_array().iter().copied().collect(),
+            rng: rng_rows,
+            steps: steps.as_array().to_vec(),
+            ended: ended.as_array().to_vec(),
+        };
+        Ok(self.batch.restore(&snap)?)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "EnvBatch(num_envs={}, state_dim={}, planar={}, autoreset_mode={:?})",
+            self.batch.n_envs(),
+            self.batch.state_dim(),
+            if self.batch.is_planar() {
+                "True"
+            } else {
+                "False"
+            },
+            self.batch.mode().name()
+        )
+    }
+}

@@ -1,0 +1,341 @@
+//! `ChainCart`: the physics model from Python (float64 NumPy in and out).
+
+use super::convert::{contiguous, error, per_link, signs, vector, Floats};
+use crate::analysis::{LqrController, LqrWeights};
+use crate::any::AnyChain;
+use crate::env::PaperFigure;
+use crate::error::ChainError;
+use crate::integrate::{Method, StepOptions};
+use crate::params::ChainParams;
+use nalgebra::DMatrix;
+use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+
+#[pyclass(frozen, subclass, module = "chaincart_env._core", name = "ChainCart")]
+pub struct ChainCart {
+    pub(crate) chain: AnyChain,
+}
+
+fn options(integrator: &str, substeps: usize) -> PyResult<StepOptions> {
+    Ok(StepOptions::new(Method::from_name(integrator)?, substeps)?)
+}
+
+fn array<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
+    PyArray1::from_vec(py, v)
+}
+
+impl ChainCart {
+    pub fn from_params(
+        n_links: i64,
+        cart_mass: f64,
+        link_masses: &Bound<'_, PyAny>,
+        link_lengths: &Bound<'_, PyAny>,
+        gravity: f64,
+        planar: bool,
+    ) -> PyResult<Self> {
+        if n_links < 0 {
+            return Err(ChainError::InvalidParameter {
+                name: "n_links",
+                value: n_links as f64,
+                expected: "an integer >= 1",
+            }
+            .into());
+        }
+        let n = n_links as usize;
+        let masses = per_link("link_masses", link_masses, n)?;
+        let lengths = per_link("link_lengths", link_lengths, n)?;
+        let params = ChainParams::new(cart_mass, &masses, &lengths, gravity)?;
+        Ok(Self {
+            chain: AnyChain::new(params, planar),
+        })
+    }
+}
+
+#[pymethods]
+impl ChainCart {
+    #[new]
+    #[pyo3(signature = (n_links, cart_mass=0.5, link_masses=None, link_lengths=None, gravity=9.81, planar=false))]
+    fn new(
+        py: Python<'_>,
+        n_links: i64,
+        cart_mass: f64,
+        link_masses: Option<&Bound<'_, PyAny>>,
+        link_lengths: Option<&Bound<'_, PyAny>>,
+        gravity: f64,
+        planar: bool,
+    ) -> PyResult<Self> {
+        let default = 0.1f64.into_pyobject(py)?.into_any();
+        Self::from_params(
+            n_links,
+            cart_mass,
+            link_masses.unwrap_or(&default),
+            link_lengths.unwrap_or(&default),
+            gravity,
+            planar,
+        )
+    }
+
+    #[getter]
+    fn n_links(&self) -> usize {
+        self.chain.n_links()
+    }
+    #[getter]
+    fn planar(&self) -> bool {
+        self.chain.is_planar()
+    }
+    #[getter]
+    fn state_dim(&self) -> usize {
+        self.chain.state_dim()
+    }
+    #[getter]
+    fn force_dim(&self) -> usize {
+        self.chain.force_dim()
+    }
+    #[getter]
+    fn cart_mass(&self) -> f64 {
+        self.chain.params().cart_mass()
+    }
+    #[getter]
+    fn link_masses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        PyTuple::new(py, self.chain.params().masses())
+    }
+    #[getter]
+    fn link_lengths<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        PyTuple::new(py, self.chain.params().lengths())
+    }
+    #[getter]
+    fn gravity(&self) -> f64 {
+        self.chain.params().gravity()
+    }
+    /// The constructor's arguments as a dict.
+    #[getter]
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("n_links", self.n_links())?;
+        d.set_item("cart_mass", self.cart_mass())?;
+        d.set_item("link_masses", self.link_masses(py)?)?;
+        d.set_item("link_lengths", self.link_lengths(py)?)?;
+        d.set_item("gravity", self.gravity())?;
+        d.set_item("planar", self.planar())?;
+        Ok(d)
+    }
+
+    fn derivative<'py>(
+        &self,
+        py: Python<'py>,
+        state: Floats<'py>,
+        force: Floats<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        let u = vector("force", &force, self.chain.force_dim())?;
+        Ok(array(py, self.chain.derivative(&y, &u)?))
+    }
+
+    #[pyo3(signature = (state, force, dt, integrator="rk4", substeps=1))]
+    fn step<'py>(
+        &self,
+        py: Python<'py>,
+        state: Floats<'py>,
+        force: Floats<'py>,
+        dt: f64,
+        integrator: &str,
+        substeps: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let opts = options(integrator, substeps)?;
+        let y = vector("state", &state, self.chain.state_dim())?;
+        let u = vector("force", &force, self.chain.force_dim())?;
+        Ok(array(py, self.chain.step(&y, &u, dt, &opts)?))
+    }
+
+    #[pyo3(signature = (state, forces, dt, integrator="rk4", substeps=1))]
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        state: Floats<'py>,
+        forces: Floats<'py>,
+        dt: f64,
+        integrator: &str,
+        substeps: usize,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let opts = options(integrator, substeps)?;
+        let (d, f) = (self.chain.state_dim(), self.chain.force_dim());
+        let y = vector("state", &state, d)?;
+        let steps = match forces.shape() {
+            [steps, ff] if *ff == f => *steps,
+            shape => {
+                return Err(error(format!(
+                    "forces has shape {}, expected (steps, {f})",
+                    super::convert::shape_text(shape)
+                )))
+            }
+        };
+        let u = contiguous(&forces);
+        let chain = &self.chain;
+        let (y, u) = (&*y, &*u);
+        let traj = py.detach(|| chain.simulate(y, u, steps, dt, &opts))?;
+        Ok(array(py, traj).reshape([steps + 1, d])?.into_any())
+    }
+
+    /// Total energy (kinetic + potential).
+    fn energy(&self, state: Floats<'_>) -> PyResult<f64> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        Ok(self.chain.energy(&y)?.total())
+    }
+    fn kinetic_energy(&self, state: Floats<'_>) -> PyResult<f64> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        Ok(self.chain.energy(&y)?.kinetic)
+    }
+    fn potential_energy(&self, state: Floats<'_>) -> PyResult<f64> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        Ok(self.chain.energy(&y)?.potential)
+    }
+    fn horizontal_momentum<'py>(
+        &self,
+        py: Python<'py>,
+        state: Floats<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        Ok(array(py, self.chain.horizontal_momentum(&y)?))
+    }
+    /// `(max | |q_i| - 1 |, max |w_i . q_i|)`.
+    fn residuals(&self, state: Floats<'_>) -> PyResult<(f64, f64)> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        let r = self.chain.residuals(&y)?;
+        Ok((r.unit_length, r.tangency))
+    }
+    /// The paper's `(e_q, e_w)` with respect to equilibrium `s`.
+    fn errors(&self, state: Floats<'_>, s: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        let s = signs(s, self.chain.n_links())?;
+        Ok(self.chain.errors(&y, &s)?)
+    }
+    fn equilibrium<'py>(
+        &self,
+        py: Python<'py>,
+        s: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let s = signs(s, self.chain.n_links())?;
+        Ok(array(py, self.chain.equilibrium(&s)?))
+    }
+    fn to_spatial<'py>(
+        &self,
+        py: Python<'py>,
+        state: Floats<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let y = vector("state", &state, self.chain.state_dim())?;
+        Ok(array(py, self.chain.to_spatial(&y)?))
+    }
+    #[pyo3(name = "from_spatial")]
+    fn planar_part<'py>(
+        &self,
+        py: Python<'py>,
+        state: Floats<'py>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let y = vector("state", &state, 4 + 6 * self.chain.n_links())?;
+        Ok(array(py, self.chain.from_spatial(&y)?))
+    }
+
+    /// LQR gain `K` (shape `(2, 4 + 4n)`, the paper's ordering
+    /// `z = [x, C^T xi_1..n, xdot, C^T w_1..n]`) of the spatial linearisation at
+    /// equilibrium `s`, for weights `Q` (`(4+4n)` square) and `R` (2x2); by default the
+    /// paper's (`diag[8 I2, I_2n, 8 I2, I_2n]` for hanging, `diag[I2, 8 I_2n, I2, 8 I_2n]`
+    /// otherwise, `R = I2`). The same gain serves the planar model through
+    /// `to_spatial`.
+    #[pyo3(signature = (s, Q=None, R=None))]
+    #[allow(non_snake_case)]
+    fn lqr_gain<'py>(
+        &self,
+        py: Python<'py>,
+        s: &Bound<'py, PyAny>,
+        Q: Option<Floats<'py>>,
+        R: Option<Floats<'py>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.chain.n_links();
+        let s = signs(s, n)?;
+        crate::analysis::check_signs(&s, n)?;
+        let matrix = |name: &str, a: &Floats<'py>| -> PyResult<DMatrix<f64>> {
+            match a.shape() {
+                [r, c] => Ok(DMatrix::from_row_slice(*r, *c, &contiguous(a))),
+                shape => Err(error(format!(
+                    "{name} has shape {}, expected a 2-D matrix",
+                    super::convert::shape_text(shape)
+                ))),
+            }
+        };
+        let mut weights = LqrWeights::paper_default(&s);
+        if let Some(q) = &Q {
+            weights.q = matrix("Q", q)?;
+        }
+        if let Some(r) = &R {
+            weights.r = matrix("R", r)?;
+        }
+        let params = self.chain.params().clone();
+        let controller = py.detach(|| LqrController::new(&params, &s, &weights))?;
+        let k = controller.gain();
+        let rows: Vec<f64> = (0..k.nrows())
+            .flat_map(|i| (0..k.ncols()).map(move |j| k[(i, j)]))
+            .collect();
+        Ok(array(py, rows).reshape([k.nrows(), k.ncols()])?.into_any())
+    }
+
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyTuple>> {
+        let py = slf.py();
+        let me = slf.get();
+        let args = (
+            me.n_links(),
+            me.cart_mass(),
+            me.link_masses(py)?,
+            me.link_lengths(py)?,
+            me.gravity(),
+            me.planar(),
+        );
+        PyTuple::new(
+            py,
+            [
+                slf.get_type().into_any(),
+                args.into_pyobject(py)?.into_any(),
+            ],
+        )
+    }
+
+    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
+        let me = slf.get();
+        let py = slf.py();
+        Ok(format!(
+            "{}(n_links={}, cart_mass={}, link_masses={}, link_lengths={}, gravity={}, planar={})",
+            slf.get_type().qualname()?,
+            me.n_links(),
+            me.cart_mass(),
+            me.link_masses(py)?.repr()?,
+            me.link_lengths(py)?.repr()?,
+            me.gravity(),
+            if me.planar() { "True" } else { "False" }
+        ))
+    }
+}
+
+/// The sign tuple of a named equilibrium (`hanging`, `inverted`, `folded`,
+/// `folded_up`, or a paper figure's `paper-fig1..3`) for `n_links` links.
+#[pyfunction]
+pub fn target_signs(name: &str, n_links: usize) -> PyResult<Vec<i64>> {
+    Ok(crate::env::target_signs(name, n_links)?
+        .into_iter()
+        .map(|s| s as i64)
+        .collect())
+}
+
+/// The paper's initial condition for `figure` (`"paper-fig1"`, `"paper-fig2"`,
+/// `"paper-fig3"`) as a spatial state of the 5-link chain.
+#[pyfunction]
+pub fn paper_initial_condition<'py>(
+    py: Python<'py>,
+    figure: &str,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let fig = PaperFigure::from_name(figure).ok_or_else(|| ChainError::UnknownName {
+        kind: "paper figure",
+        name: figure.to_string(),
+        expected: "\"paper-fig1\", \"paper-fig2\", \"paper-fig3\"",
+    })?;
+    Ok(array(py, crate::env::paper_initial_condition(fig)))
+}
