@@ -1,0 +1,70 @@
+"""chaincart_env: the chain pendulum on a cart as Gymnasium and stable-baselines3
+environments, its physics and RL task in Rust (``chaincart_env._core``).
+
+* :class:`ChainCart`: the physics model (derivative, step, simulate, energy, ...).
+* :class:`ChainCartConfig`, :data:`SCENES`: the validated env configuration.
+* :class:`ChainCartEnv` (``gymnasium.make("ChainCart-v0", ...)``) and
+  :class:`ChainCartVectorEnv` (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``).
+* :class:`ChainCartVecEnv`: a stable-baselines3 VecEnv on the same Rust batch
+  (imported on first use; needs the ``sb3`` extra).
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
+
+import gymnasium
+
+from chaincart_env._core import ChainCartError
+from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights
+from chaincart_env.env import ChainCartEnv
+from chaincart_env.model import ChainCart
+from chaincart_env.vector import ChainCartVectorEnv
+
+if TYPE_CHECKING:
+    from chaincart_env.lqr import LQRPolicy
+    from chaincart_env.sb3 import ChainCartVecEnv
+
+__all__ = [
+    "ENV_ID",
+    "ChainCart",
+    "ChainCartConfig",
+    "ChainCartEnv",
+    "ChainCartError",
+    "ChainCartVecEnv",
+    "ChainCartVectorEnv",
+    "DEFAULT_SCENE",
+    "LQRPolicy",
+    "RewardWeights",
+    "SCENES",
+    "__version__",
+]
+
+try:
+    __version__ = version("chaincart-env")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0+unknown"
+
+#: The Gymnasium id.
+ENV_ID = "ChainCart-v0"
+
+if ENV_ID not in gymnasium.registry:
+    gymnasium.register(
+        id=ENV_ID,
+        entry_point="chaincart_env.env:ChainCartEnv",
+        vector_entry_point="chaincart_env.vector:ChainCartVectorEnv",
+    )
+
+
+def __getattr__(name: str) -> Any:
+    # Lazy: stable-baselines3 (and torch) load only when the SB3 VecEnv is used.
+    if name == "ChainCartVecEnv":
+        from chaincart_env.sb3 import ChainCartVecEnv
+
+        return ChainCartVecEnv
+    if name == "LQRPolicy":
+        from chaincart_env.lqr import LQRPolicy
+
+        return LQRPolicy
+    raise AttributeError(f"module 'chaincart_env' has no attribute {name!r}")

@@ -1,0 +1,263 @@
+"""The native extension of chaincart_env (Rust, PyO3): the physics model and the env batch.
+
+Arrays are NumPy; inputs accept any array-like (converted to float64), outputs are
+fresh arrays. Every invalid input raises :class:`ChainCartError` (a ``ValueError``)
+whose message names the value and what was expected.
+"""
+
+from collections.abc import Sequence
+from typing import Any, Optional, Union, final
+
+import numpy as np
+import numpy.typing as npt
+from typing_extensions import Self, disjoint_base
+
+__all__ = [
+    "ChainCartError",
+    "ChainCart",
+    "EnvBatch",
+    "num_threads",
+    "target_signs",
+    "paper_initial_condition",
+    "INTEGRATORS",
+    "DIAGNOSTICS",
+    "EVENT_ENDED",
+    "EVENT_SUCCESS",
+    "EVENT_OUT_OF_TRACK",
+    "EVENT_NUMERICAL_FAILURE",
+    "EVENT_RESET",
+    "RNG_BYTES",
+]
+
+#: Integrator names: "rk4", "rkmk4", "variational", "lie_euler", "adaptive".
+INTEGRATORS: tuple[str, ...]
+#: Names of the diagnostics columns (energy, kinetic_energy, potential_energy,
+#: residual_unit_length, residual_tangency).
+DIAGNOSTICS: tuple[str, ...]
+#: Event bit: the episode ended on the last step.
+EVENT_ENDED: int
+#: Event bit: the episode ended at the time limit within the success tolerances.
+EVENT_SUCCESS: int
+#: Event bit: terminated because the cart left the track.
+EVENT_OUT_OF_TRACK: int
+#: Event bit: terminated because the integration failed (last good state kept).
+EVENT_NUMERICAL_FAILURE: int
+#: Event bit: next-step autoreset reset the env instead of stepping it.
+EVENT_RESET: int
+#: Bytes of one env's RNG state in a snapshot.
+RNG_BYTES: int
+
+_Signs = Union[str, Sequence[float]]
+
+class ChainCartError(ValueError):
+    """Invalid input for chaincart (a ValueError); the message names the value and what was expected."""
+
+@disjoint_base
+class ChainCart:
+    """The chain pendulum on a cart: ``n_links`` point masses ``link_masses`` on massless
+    rods of ``link_lengths`` (scalars or one per link) on a cart of ``cart_mass``;
+    gravity ``gravity`` along e3. ``planar=True`` is the planar special case. Defaults
+    are the paper's system (0.5 kg cart, 0.1 kg and 0.1 m links).
+
+    State layout (DESIGN.md): ``[x(2), xdot(2), q_1..q_n (3 each), w_1..w_n (3 each)]``
+    (length ``4 + 6n``); planar ``[x, xdot, (q_i . e1, q_i . e3)_i, (w_i . e2)_i]``
+    (length ``2 + 3n``).
+    """
+
+    def __new__(
+        cls,
+        n_links: int,
+        cart_mass: float = 0.5,
+        link_masses: Optional[Union[float, Sequence[float]]] = None,
+        link_lengths: Optional[Union[float, Sequence[float]]] = None,
+        gravity: float = 9.81,
+        planar: bool = False,
+    ) -> Self: ...
+    @property
+    def n_links(self) -> int:
+        """Number of links."""
+    @property
+    def planar(self) -> bool:
+        """Whether this is the planar model."""
+    @property
+    def state_dim(self) -> int:
+        """Length of a state: ``4 + 6n`` (spatial) or ``2 + 3n`` (planar)."""
+    @property
+    def force_dim(self) -> int:
+        """Length of a force: 2 (spatial) or 1 (planar)."""
+    @property
+    def cart_mass(self) -> float:
+        """Cart mass (kg)."""
+    @property
+    def link_masses(self) -> tuple[float, ...]:
+        """Link masses (kg), one per link."""
+    @property
+    def link_lengths(self) -> tuple[float, ...]:
+        """Link lengths (m), one per link."""
+    @property
+    def gravity(self) -> float:
+        """Gravitational acceleration (m/s^2) along e3."""
+    @property
+    def params(self) -> dict[str, Any]:
+        """The constructor's arguments as a dict."""
+    def derivative(self, state: npt.ArrayLike, force: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Time derivative of ``state`` under the horizontal ``force`` (``qdot_i = w_i x q_i``)."""
+    def step(
+        self,
+        state: npt.ArrayLike,
+        force: npt.ArrayLike,
+        dt: float,
+        integrator: str = "rk4",
+        substeps: int = 1,
+    ) -> npt.NDArray[np.float64]:
+        """The state after ``dt`` under the constant ``force`` (``substeps`` integrator
+        steps); raises on a numerical failure."""
+    def simulate(
+        self,
+        state: npt.ArrayLike,
+        forces: npt.ArrayLike,
+        dt: float,
+        integrator: str = "rk4",
+        substeps: int = 1,
+    ) -> npt.NDArray[np.float64]:
+        """Trajectory of shape ``(steps + 1, state_dim)`` for ``forces`` of shape
+        ``(steps, force_dim)`` (GIL released); raises naming the step that failed."""
+    def energy(self, state: npt.ArrayLike) -> float:
+        """Total energy (kinetic + potential; the cart's height is the zero of potential)."""
+    def kinetic_energy(self, state: npt.ArrayLike) -> float:
+        """Kinetic energy of cart and masses."""
+    def potential_energy(self, state: npt.ArrayLike) -> float:
+        """Gravitational potential energy of the masses."""
+    def horizontal_momentum(self, state: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Total horizontal momentum (conserved without force), shape ``(force_dim,)``."""
+    def residuals(self, state: npt.ArrayLike) -> tuple[float, float]:
+        """``(max | |q_i| - 1 |, max |w_i . q_i|)``: how far ``state`` is off the constraints."""
+    def errors(self, state: npt.ArrayLike, s: _Signs) -> tuple[float, float]:
+        """The paper's ``(e_q, e_w) = (sum |q_i - s_i e3|, sum |w_i|)`` for equilibrium ``s``."""
+    def equilibrium(self, s: _Signs) -> npt.NDArray[np.float64]:
+        """The state of equilibrium ``s`` (name or signs) with the cart at rest at the origin."""
+    def to_spatial(self, state: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """The spatial state (``4 + 6n``) of a state of this model (planar: embedded)."""
+    def from_spatial(self, state: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """This model's part of a spatial state (planar: the in-plane components)."""
+    def lqr_gain(
+        self, s: _Signs, Q: Optional[npt.ArrayLike] = None, R: Optional[npt.ArrayLike] = None
+    ) -> npt.NDArray[np.float64]:
+        """LQR gain ``K``, shape ``(2, 4 + 4n)``, of the spatial linearisation at ``s`` in
+        the paper's ordering ``z = [x, C^T xi_i, xdot, C^T w_i]`` (``u = -K z``); default
+        weights are the paper's."""
+    def __reduce__(self) -> tuple[Any, ...]: ...
+
+@final
+class EnvBatch:
+    """``num_envs`` envs of one RL task on ``model``, stepped in Rust (see
+    ``chaincart_env.ChainCartEnv`` for the task). Env i's RNG is seeded ``seed + i``.
+    Keyword defaults: target all upright, start at the target, noise 0.05, dt 0.02,
+    max_force 10, track_limit 2.4, 500 steps, reward weights (1, 0.1, 0.1, 0.1, 0.01),
+    success tolerances (0.1, 0.5).
+    """
+
+    def __new__(
+        cls,
+        model: ChainCart,
+        num_envs: int = 1,
+        *,
+        target: Optional[_Signs] = None,
+        start: Optional[Union[str, Sequence[float]]] = None,
+        start_noise: Optional[float] = None,
+        dt: Optional[float] = None,
+        integrator: str = "rk4",
+        substeps: int = 1,
+        max_force: Optional[float] = None,
+        track_limit: Optional[float] = None,
+        max_episode_steps: Optional[int] = None,
+        reward_weights: Optional[Sequence[float]] = None,
+        success_tolerances: Optional[Sequence[float]] = None,
+        obs_dtype: str = "float32",
+        autoreset_mode: str = "next_step",
+        diagnostics: bool = False,
+        seed: int = 0,
+    ) -> Self: ...
+    @property
+    def num_envs(self) -> int:
+        """Number of envs."""
+    @property
+    def state_dim(self) -> int:
+        """Length of one state and observation."""
+    @property
+    def force_dim(self) -> int:
+        """Length of one action."""
+    @property
+    def planar(self) -> bool:
+        """Whether the model is planar."""
+    @property
+    def obs_dtype(self) -> str:
+        """``"float32"`` or ``"float64"``."""
+    @property
+    def autoreset_mode(self) -> str:
+        """``"next_step"``, ``"same_step"`` or ``"disabled"``."""
+    @property
+    def diagnostics_enabled(self) -> bool:
+        """Whether steps compute energies and residuals."""
+    @property
+    def task(self) -> dict[str, Any]:
+        """The resolved task as plain values."""
+    @property
+    def base_state(self) -> npt.NDArray[np.float64]:
+        """The state episodes start from before noise."""
+    def reset(
+        self, seeds: Optional[Sequence[Optional[int]]] = None, mask: Optional[npt.NDArray[np.bool_]] = None
+    ) -> npt.NDArray[Any]:
+        """New episodes in the envs where ``mask`` is true (all if None), env k reseeded
+        with ``seeds[k]`` unless None; returns every env's observation ``(num_envs, state_dim)``."""
+    def reset_one(self, seed: Optional[int] = None) -> npt.NDArray[Any]:
+        """``reset`` for a batch of one; the observation has shape ``(state_dim,)``."""
+    def step(
+        self, actions: npt.ArrayLike
+    ) -> tuple[npt.NDArray[Any], npt.NDArray[np.float64], npt.NDArray[np.bool_], npt.NDArray[np.bool_], int]:
+        """One step of every env (GIL released); ``actions`` of shape ``(num_envs,
+        force_dim)``, clipped to [-1, 1]. Returns ``(obs, rewards, terminated, truncated,
+        n_ended)``. Bad actions raise before any env moves."""
+    def step_one(self, action: npt.ArrayLike) -> tuple[npt.NDArray[Any], float, bool, bool, int]:
+        """``step`` for a batch of one: ``(obs, reward, terminated, truncated, events)``."""
+    def events(self) -> npt.NDArray[np.uint8]:
+        """Event bits (``EVENT_*``) of the last step or reset, shape ``(num_envs,)``."""
+    def episode_arrays(
+        self,
+    ) -> tuple[
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+    ]:
+        """``(ended, is_success, numerical_failure, out_of_track, e_q, e_w)`` of the last step."""
+    def errors(self) -> npt.NDArray[np.float64]:
+        """``(e_q, e_w)`` per env of the state the last step reached, shape ``(num_envs, 2)``."""
+    def final_observations(self) -> npt.NDArray[Any]:
+        """Same-step mode: last observations of the episodes that just ended (other rows stale)."""
+    def diagnostics(self) -> npt.NDArray[np.float64]:
+        """``DIAGNOSTICS`` per env of the last step (zeros unless enabled), shape ``(num_envs, 5)``."""
+    def states(self) -> npt.NDArray[np.float64]:
+        """A copy of every env's float64 state, shape ``(num_envs, state_dim)``."""
+    def step_counts(self) -> npt.NDArray[np.uint64]:
+        """Steps taken in each env's current episode."""
+    def ended(self) -> npt.NDArray[np.bool_]:
+        """Which envs' episodes ended without a reset since."""
+    def set_state(self, env: int, state: npt.ArrayLike) -> None:
+        """Overwrites env ``env``'s state (checked: length, finite, on the constraints)."""
+    def snapshot(self) -> dict[str, npt.NDArray[Any]]:
+        """Everything that evolves (states, RNG streams, step counts, ended flags)."""
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Continues from a ``snapshot`` of a batch of the same shape."""
+
+def num_threads() -> int:
+    """The core's number of worker threads (set ``RAYON_NUM_THREADS`` before the first parallel step)."""
+
+def target_signs(name: str, n_links: int) -> list[int]:
+    """The sign tuple of a named equilibrium (``hanging``, ``inverted``, ``folded``,
+    ``folded_up``, ``paper-fig1`` .. ``paper-fig3``)."""
+
+def paper_initial_condition(figure: str) -> npt.NDArray[np.float64]:
+    """The paper's initial condition (``"paper-fig1"`` .. ``"paper-fig3"``) as a spatial 5-link state."""

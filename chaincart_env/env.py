@@ -1,0 +1,264 @@
+"""The Gymnasium environment ``ChainCart-v0`` (one env; see :mod:`chaincart_env.vector`
+for the native vector env)."""
+
+from __future__ import annotations
+
+from typing import Any, Mapping, Optional, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+
+from chaincart_env import _core
+from chaincart_env._core import ChainCartError
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.model import ChainCart
+
+__all__ = ["ChainCartEnv", "observation_space", "action_space", "episode_info"]
+
+_ENDED = _core.EVENT_ENDED
+_SUCCESS = _core.EVENT_SUCCESS
+_OUT = _core.EVENT_OUT_OF_TRACK
+_FAILED = _core.EVENT_NUMERICAL_FAILURE
+
+
+def observation_space(config: ChainCartConfig) -> spaces.Box:
+    """Box of one observation: link direction components in [-1, 1], the rest any
+    finite number of the observation dtype (observations are never NaN or inf)."""
+    n, d = config.n_links, config.state_dim
+    cart = 1 if config.planar else 2
+    link = 2 if config.planar else 3
+    dtype = np.dtype(config.obs_dtype)
+    high = np.full(d, np.finfo(dtype).max, dtype=dtype)
+    high[2 * cart : 2 * cart + link * n] = 1.0
+    return spaces.Box(-high, high, dtype=dtype)
+
+
+def action_space(config: ChainCartConfig) -> spaces.Box:
+    """Box(-1, 1) of one normalised force: 2 numbers (spatial) or 1 (planar), float32."""
+    return spaces.Box(-1.0, 1.0, shape=(config.force_dim,), dtype=np.float32)
+
+
+def episode_info(events: int, e_q: float, e_w: float) -> dict[str, Any]:
+    """The info keys of an episode's last step."""
+    return {
+        "is_success": bool(events & _SUCCESS),
+        "numerical_failure": bool(events & _FAILED),
+        "out_of_track": bool(events & _OUT),
+        "e_q": float(e_q),
+        "e_w": float(e_w),
+    }
+
+
+def check_seed(seed: Any) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**64:
+        raise ChainCartError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
+    return int(seed)
+
+
+class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
+    """The chain pendulum on a cart (Lee, Leok & McClamroch, CDC 2012): stabilise an
+    equilibrium of ``n`` links on a cart by pushing the cart.
+
+    ## Description
+
+    Links are massless rods with point masses at their outboard ends, joined to each
+    other and to the cart by spherical joints (planar scenes: hinges in the e1-e3
+    plane). The cart moves in the horizontal plane (planar: along e1); ``e3`` points
+    along gravity, so a hanging link has ``q_i = +e3`` and an upright one ``q_i = -e3``.
+    Each of the ``2^n`` equilibria is a sign tuple ``s`` (``s_i = +1`` hanging link,
+    ``-1`` upright). The task is to bring the chain to the **target** equilibrium with
+    the cart at rest at the origin. The physics (exact O(n) dynamics, five integrators)
+    and the whole task run in Rust.
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)`` (planar: ``(1,)``): the horizontal force on the cart
+    divided by ``max_force``, held for one control period ``dt``. Values outside
+    ``[-1, 1]`` are clipped per axis; NaN or infinite actions raise
+    :class:`ChainCartError`. With ``max_force = 0`` (scene ``paper-fig1``) every
+    action is ignored.
+
+    ## Observation Space
+
+    The full state, float32 by default (``obs_dtype="float64"`` on request), spatial
+    length ``4 + 6n``:
+
+    | Index               | Observation                                          | Min   | Max  |
+    |---------------------|------------------------------------------------------|-------|------|
+    | 0, 1                | cart position ``x`` (m)                              | -MAX  | MAX  |
+    | 2, 3                | cart velocity ``xdot`` (m/s)                         | -MAX  | MAX  |
+    | 4 + 3i .. 6 + 3i    | link i direction ``q_i`` (unit vector), i = 0..n-1   | -1    | 1    |
+    | 4 + 3n + 3i .. + 2  | link i angular velocity ``w_i`` (rad/s, normal to q_i) | -MAX | MAX  |
+
+    ``MAX`` is the largest finite number of the observation dtype: observations are
+    always finite (a state beyond float32 range saturates). Planar scenes observe only
+    their planar state, length ``2 + 3n``: ``[x, xdot, (q_i . e1, q_i . e3) for each
+    link, w_i . e2 for each link]``. The cart position stays within ``track_limit``
+    (plus the last step's travel, when the episode terminates).
+
+    ## Rewards
+
+    ``r = exp(-c)`` in ``(0, 1]`` after each step, with
+
+    ``c = w_q sum_i |q_i - s_i e3|^2 + w_w sum_i |w_i|^2 + w_x |x|^2 + w_v |xdot|^2 + w_u |a|^2``
+
+    where ``a`` is the clipped normalised action and ``|q_i - s_i e3|^2 = 2(1 - cos
+    tilt_i)``. It is 1 exactly at the target with the cart at rest at the origin and
+    no force. Defaults (``reward_weights``): ``q=1, w=0.1, x=0.1, v=0.1, u=0.01``. The
+    step on which the integration fails is rewarded 0.
+
+    ## Starting State
+
+    A base state (``start``: the target equilibrium, another equilibrium, or one of
+    the paper's initial conditions) plus independent uniform noise in
+    ``[-start_noise, start_noise)`` on every local coordinate, drawn in this order:
+    cart position, cart velocity (1 or 2 numbers each), then per link a tilt about
+    the horizontal axes (a rotation vector ``(u, u, 0)``, planar: an angle about e2,
+    which keeps ``|q_i| = 1``), then per link a horizontal spin added to ``w_i`` and
+    projected onto the tangent plane of the tilted link (so ``w_i . q_i = 0``).
+    ``reset(seed=s)`` is reproducible bit for bit (ChaCha8 stream seeded with ``s``).
+
+    ## Episode End
+
+    * Termination: the cart leaves the track, ``max_k |x_k| > track_limit``
+      (``info["out_of_track"]``), or the integration fails numerically (non-finite
+      state, ``| |q_i| - 1 | > 1e-6``, or an implicit solver gives up;
+      ``info["numerical_failure"]``): the observation is then the last good state,
+      never NaN.
+    * Truncation: ``max_episode_steps`` steps (500 = 10 s in the default scene).
+
+    On the last step ``info`` holds ``is_success`` (truncated, not terminated, and the
+    paper's ``e_q = sum |q_i - s_i e3|`` and ``e_w = sum |w_i|`` at most
+    ``success_tolerances``, default ``(0.1, 0.5)``), ``numerical_failure``,
+    ``out_of_track``, ``e_q`` and ``e_w``; other steps' info is empty unless
+    ``diagnostics=True``, which adds ``energy``, ``kinetic_energy``,
+    ``potential_energy``, ``residual_unit_length``, ``residual_tangency``, ``e_q``,
+    ``e_w`` to every step. Stepping after the episode ended raises ``ResetNeeded``.
+
+    ## Arguments
+
+    ``ChainCartEnv(config=None, *, render_mode=None, **keywords)`` or
+    ``gymnasium.make("ChainCart-v0", **keywords)``, keywords of
+    :class:`ChainCartConfig` (explicit keywords override the scene's values):
+
+    * ``scene``: ``"inverted-2"`` (default: planar double inverted pendulum),
+      ``"inverted-1"``, ``"swingup-1"``, ``"paper-fig1"``, ``"paper-fig2"``,
+      ``"paper-fig3"``.
+    * ``n_links``, ``cart_mass``, ``link_masses``, ``link_lengths`` (scalar or per
+      link), ``gravity``, ``planar``: the physical system.
+    * ``target``: a sign tuple or ``"hanging"``, ``"inverted"``, ``"folded"``,
+      ``"folded_up"``, ``"paper-fig1"`` .. ``"paper-fig3"``.
+    * ``start``: ``"target"``, an equilibrium name or sign tuple (e.g. ``"hanging"``
+      for swing-up), ``"paper-fig1"`` .. ``"paper-fig3"``, or a full state; and
+      ``start_noise``.
+    * ``dt`` (control period), ``integrator`` (``rk4``, ``rkmk4``, ``variational``,
+      ``lie_euler``, ``adaptive``), ``substeps`` (integrator steps per period).
+    * ``max_force`` (N), ``track_limit`` (m), ``max_episode_steps``,
+      ``reward_weights``, ``success_tolerances``, ``obs_dtype``, ``diagnostics``.
+
+    Note: ``gymnasium.make``'s own ``max_episode_steps`` keyword is consumed by
+    Gymnasium (a ``TimeLimit`` wrapper) and never reaches the env; set the env's
+    episode length with ``config=ChainCartConfig(max_episode_steps=...)``.
+
+    ``render_mode`` must be ``None`` for now.
+
+    The unwrapped env exposes ``state`` (the full float64 spatial state, planar states
+    embedded), ``model_state`` (the float64 state in the observed layout), ``dt``,
+    ``model`` (its :class:`ChainCart`) and ``config``.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": [], "render_fps": 50}
+
+    def __init__(
+        self,
+        config: Optional[ChainCartConfig | Mapping[str, Any]] = None,
+        *,
+        render_mode: Optional[str] = None,
+        **kwargs: Any,
+    ) -> None:
+        if render_mode is not None:
+            raise ChainCartError(f"render_mode = {render_mode!r}: rendering is not available yet, expected None")
+        self.render_mode = render_mode
+        self.config = ChainCartConfig.coerce(config, **kwargs)
+        self.model: ChainCart = self.config.make_model()
+        self.observation_space = observation_space(self.config)
+        self.action_space = action_space(self.config)
+        self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.config.dt))}
+        self._batch = self.config.make_batch(1, "disabled")
+        self._diagnostics = self.config.diagnostics
+        self._needs_reset = True
+        self._seeded = False
+
+    @property
+    def dt(self) -> float:
+        """Control period (s): the time one step advances."""
+        return self.config.dt
+
+    @property
+    def model_state(self) -> np.ndarray:
+        """The float64 state in the model's (observed) layout."""
+        return self._batch.states()[0]
+
+    @property
+    def state(self) -> np.ndarray:
+        """The full float64 state ``[x(2), xdot(2), q_i(3), w_i(3)]`` (planar states embedded)."""
+        y = self._batch.states()[0]
+        return self.model.to_spatial(y) if self.config.planar else y
+
+    @property
+    def elapsed_steps(self) -> int:
+        """Steps taken in the current episode."""
+        return int(self._batch.step_counts()[0])
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Puts the env at ``state`` (model layout; checked) without ending the episode."""
+        self._batch.set_state(0, state)
+
+    def reset(
+        self, *, seed: Optional[int] = None, options: Optional[dict[str, Any]] = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        native_seed = None if seed is None else check_seed(seed)
+        super().reset(seed=native_seed)
+        if native_seed is None and not self._seeded:
+            native_seed = int(self.np_random.integers(0, 2**63))
+        # native_seed None: continue this env's stream
+        self._seeded = True
+        self._needs_reset = False
+        return self._batch.reset_one(native_seed), {}
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
+        if self._needs_reset:
+            raise ResetNeeded("ChainCartEnv: call reset() before step() (and after an episode ends)")
+        obs, reward, terminated, truncated, events = self._batch.step_one(action)
+        if not (events & _ENDED or self._diagnostics):
+            return obs, reward, terminated, truncated, {}
+        return obs, reward, terminated, truncated, self._info(events)
+
+    def _info(self, events: int) -> dict[str, Any]:
+        e_q, e_w = self._batch.errors()[0]
+        info: dict[str, Any] = {}
+        if self._diagnostics:
+            info.update(zip(_core.DIAGNOSTICS, map(float, self._batch.diagnostics()[0])))
+            info.update(e_q=float(e_q), e_w=float(e_w))
+        if events & _ENDED:
+            self._needs_reset = True
+            info.update(episode_info(events, e_q, e_w))
+        return info
+
+    def render(self) -> None:
+        return None
+
+    # Pickling / deepcopy: the native batch is rebuilt from the config and restored
+    # from a snapshot of everything that evolves, so a copy continues identically.
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_batch"] = self._batch.snapshot()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        snapshot = state.pop("_batch")
+        self.__dict__.update(state)
+        self._batch = self.config.make_batch(1, "disabled")
+        self._batch.restore(snapshot)

@@ -1,0 +1,184 @@
+"""``ChainCartVecEnv``: a stable-baselines3 ``VecEnv`` directly on the Rust batch (no
+DummyVecEnv or SubprocVecEnv). Importing this module imports stable-baselines3 (the
+``sb3`` extra); ``import chaincart_env`` alone does not."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Mapping, Optional
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
+
+from chaincart_env import _core
+from chaincart_env._core import ChainCartError
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.env import action_space, check_seed, episode_info, observation_space
+from chaincart_env.model import ChainCart
+from chaincart_env.vector import entropy_seed
+
+__all__ = ["ChainCartVecEnv"]
+
+
+class _EnvView:
+    """What ``env_method`` and ``get_attr`` see as sub-env ``index``."""
+
+    def __init__(self, vec: "ChainCartVecEnv", index: int) -> None:
+        self._vec = vec
+        self._index = index
+
+    @property
+    def model_state(self) -> np.ndarray:
+        return self._vec._batch.states()[self._index]
+
+    @property
+    def state(self) -> np.ndarray:
+        y = self.model_state
+        return self._vec.model.to_spatial(y) if self._vec.config.planar else y
+
+    @property
+    def elapsed_steps(self) -> int:
+        return int(self._vec._batch.step_counts()[self._index])
+
+    def set_state(self, state: np.ndarray) -> None:
+        self._vec._batch.set_state(self._index, state)
+
+    def get_wrapper_attr(self, name: str) -> Any:
+        return getattr(self, name)
+
+    def render(self) -> None:
+        return None
+
+    def __getattr__(self, name: str) -> Any:
+        # Everything else is shared by all envs of the batch.
+        return getattr(self._vec, name)
+
+
+class ChainCartVecEnv(VecEnv):
+    """``num_envs`` chaincart envs as one stable-baselines3 ``VecEnv``.
+
+    Arguments as for :class:`chaincart_env.ChainCartEnv` (a config and/or its keywords)
+    plus ``num_envs`` and an optional ``seed`` (env i gets ``seed + i`` at the first
+    reset; ``seed()`` does the same for the next reset). Autoreset is same-step, as
+    SB3 expects: a done env's ``info`` holds ``terminal_observation``,
+    ``TimeLimit.truncated`` (truncated and not terminated) and the episode-end keys
+    ``is_success``, ``numerical_failure``, ``out_of_track``, ``e_q``, ``e_w``.
+    Rewards are float32. Works with ``VecMonitor`` and ``VecNormalize``.
+
+    ``get_attr``/``env_method`` see each sub-env as a view with ``state``,
+    ``model_state``, ``elapsed_steps``, ``set_state`` and every attribute of this
+    VecEnv (``config``, ``model``, ``dt``, ...); ``set_attr`` sets an attribute shared
+    by all envs. No env is wrapped (``env_is_wrapped`` is all False).
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: Optional[ChainCartConfig | Mapping[str, Any]] = None,
+        *,
+        seed: Optional[int] = None,
+        **kwargs: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ChainCartError(f"num_envs = {num_envs!r}: expected an integer >= 1")
+        self.config = ChainCartConfig.coerce(config, **kwargs)
+        self.model: ChainCart = self.config.make_model()
+        self.render_mode: Optional[str] = None
+        self._batch = self.config.make_batch(int(num_envs), "same_step", entropy_seed())
+        self._diagnostics = self.config.diagnostics
+        self._actions: Optional[np.ndarray] = None
+        self._seeded = False
+        super().__init__(int(num_envs), observation_space(self.config), action_space(self.config))
+        if seed is not None:
+            self.seed(seed)
+
+    @property
+    def dt(self) -> float:
+        """Control period (s)."""
+        return self.config.dt
+
+    def seed(self, seed: Optional[int] = None) -> Sequence[Optional[int]]:
+        if seed is not None:
+            check_seed(seed)
+        return super().seed(seed)
+
+    def reset(self) -> VecEnvObs:
+        seeds: list[Optional[int]] = [None if s is None else check_seed(s) for s in self._seeds]
+        if not self._seeded and all(s is None for s in seeds):
+            base = entropy_seed()
+            seeds = [base + i for i in range(self.num_envs)]
+        self._seeded = True
+        obs = self._batch.reset(seeds, None)
+        self.reset_infos = [{} for _ in range(self.num_envs)]
+        self._reset_seeds()
+        self._reset_options()
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self) -> VecEnvStepReturn:
+        if self._actions is None:
+            raise ChainCartError("step_wait() without step_async(actions): expected actions first")
+        actions, self._actions = self._actions, None
+        obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
+        dones = terminated | truncated
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        if self._diagnostics:
+            diag, errors = self._batch.diagnostics(), self._batch.errors()
+            for k, info in enumerate(infos):
+                info.update(zip(_core.DIAGNOSTICS, map(float, diag[k])))
+                info.update(e_q=float(errors[k, 0]), e_w=float(errors[k, 1]))
+        if n_ended:
+            events, errors = self._batch.events(), self._batch.errors()
+            finals = self._batch.final_observations()
+            for i in np.flatnonzero(dones):
+                info = infos[i]
+                info.update(episode_info(int(events[i]), errors[i, 0], errors[i, 1]))
+                info["terminal_observation"] = finals[i]
+                info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        return obs, rewards.astype(np.float32), dones, infos
+
+    def close(self) -> None:
+        pass
+
+    def _indices(self, indices: VecEnvIndices) -> list[int]:
+        return list(self._get_indices(indices))
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(_EnvView(self, i), attr_name) for i in self._indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        if len(self._indices(indices)) not in (0, self.num_envs):
+            raise ChainCartError(
+                f"set_attr({attr_name!r}) on some envs only: attributes are shared by all envs of the batch"
+            )
+        setattr(self, attr_name, value)
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
+        return [
+            getattr(_EnvView(self, i), method_name)(*method_args, **method_kwargs) for i in self._indices(indices)
+        ]
+
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._indices(indices)]
+
+    def get_images(self) -> Sequence[Optional[np.ndarray]]:
+        return [None for _ in range(self.num_envs)]
+
+    def render(self, mode: Optional[str] = None) -> Optional[np.ndarray]:
+        return None
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_batch"] = self._batch.snapshot()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        snapshot = state.pop("_batch")
+        self.__dict__.update(state)
+        self._batch = self.config.make_batch(self.num_envs, "same_step")
+        self._batch.restore(snapshot)

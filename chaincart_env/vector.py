@@ -1,0 +1,237 @@
+"""``ChainCartVectorEnv``: N envs whose batch lives and steps in Rust.
+
+A vector step is one native call (GIL released, envs stepped in parallel in fixed
+chunks, so results do not depend on the thread count); Python only builds the info
+dict when an episode ended (or diagnostics are on).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Mapping, Optional, Union
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from chaincart_env import _core
+from chaincart_env._core import ChainCartError
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.env import action_space, check_seed, observation_space
+from chaincart_env.model import ChainCart
+
+__all__ = ["ChainCartVectorEnv", "autoreset_mode_of"]
+
+_NATIVE_MODE = {
+    AutoresetMode.NEXT_STEP: "next_step",
+    AutoresetMode.SAME_STEP: "same_step",
+    AutoresetMode.DISABLED: "disabled",
+}
+
+_EPISODE_KEYS = ("is_success", "numerical_failure", "out_of_track", "e_q", "e_w")
+
+
+def autoreset_mode_of(mode: Union[AutoresetMode, str]) -> AutoresetMode:
+    """An ``AutoresetMode`` from itself, its value (``"NextStep"``) or a snake-case
+    name (``"next_step"``)."""
+    if isinstance(mode, AutoresetMode):
+        return mode
+    if isinstance(mode, str):
+        for m, native in _NATIVE_MODE.items():
+            if mode in (m.value, native, m.name):
+                return m
+    raise ChainCartError(
+        f"autoreset_mode = {mode!r}: expected an AutoresetMode or one of 'next_step', 'same_step', 'disabled'"
+    )
+
+
+def entropy_seed() -> int:
+    """A fresh 63-bit seed from the OS entropy pool."""
+    return int(np.random.SeedSequence().generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+def episode_infos(batch: _core.EnvBatch) -> tuple[np.ndarray, dict[str, Any]]:
+    """The envs whose episode ended on the last step and their batched episode-end info
+    (Gymnasium's ``key`` / ``_key`` layout; the masks are one shared array)."""
+    ended, *values = batch.episode_arrays()
+    info: dict[str, Any] = {}
+    for key, value in zip(_EPISODE_KEYS, values):
+        info[key] = value
+        info["_" + key] = ended
+    return ended, info
+
+
+class ChainCartVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`chaincart_env.ChainCartEnv` stepped together in
+    Rust. Arguments as for the single env (a config and/or its keywords) plus
+    ``num_envs`` and ``autoreset_mode`` (an ``AutoresetMode`` or ``"next_step"``,
+    ``"same_step"``, ``"disabled"``).
+
+    * Next-step (default): the step after an episode ended resets that env (its
+      action is ignored), returning the first observation, reward 0 and both flags
+      false.
+    * Same-step: an ended env is reset in the same step; ``info["final_obs"]`` (object
+      array) and ``info["final_info"]`` hold the last observation and the episode-end
+      info, with the ``_final_obs`` / ``_final_info`` masks.
+    * Disabled: ended envs must be reset with ``reset(options={"reset_mask": mask})``
+      before they are stepped again.
+
+    Episode-end keys (``is_success``, ``numerical_failure``, ``out_of_track``, ``e_q``,
+    ``e_w``) come batched with ``_key`` masks, like Gymnasium's vector envs.
+    ``reset(seed=s)`` seeds env i with ``s + i`` (or a list of per-env seeds): env i
+    then reproduces the single env reset with ``seed=s + i`` bit for bit. A bad action
+    in any env (wrong shape, NaN, inf) raises before any env moves. Diagnostics, when
+    enabled, are top-level arrays for every env each step (of the state the step
+    reached, before a same-step reset).
+    """
+
+    metadata: dict[str, Any] = {
+        "render_modes": [],
+        "render_fps": 50,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: Optional[ChainCartConfig | Mapping[str, Any]] = None,
+        *,
+        autoreset_mode: Union[AutoresetMode, str] = AutoresetMode.NEXT_STEP,
+        render_mode: Optional[str] = None,
+        **kwargs: Any,
+    ) -> None:
+        if render_mode is not None:
+            raise ChainCartError(f"render_mode = {render_mode!r}: rendering is not available yet, expected None")
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ChainCartError(f"num_envs = {num_envs!r}: expected an integer >= 1")
+        self.render_mode = render_mode
+        self.config = ChainCartConfig.coerce(config, **kwargs)
+        self.model: ChainCart = self.config.make_model()
+        self.num_envs = int(num_envs)
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        self.metadata = {
+            **type(self).metadata,
+            "autoreset_mode": self.autoreset_mode,
+            "render_fps": max(1, round(1.0 / self.config.dt)),
+        }
+        self.single_observation_space = observation_space(self.config)
+        self.single_action_space = action_space(self.config)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._batch = self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode], entropy_seed())
+        self._diagnostics = self.config.diagnostics
+        self._same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
+        self._seeded = False
+
+    @property
+    def dt(self) -> float:
+        """Control period (s)."""
+        return self.config.dt
+
+    @property
+    def model_states(self) -> np.ndarray:
+        """Float64 states in the observed layout, shape ``(num_envs, state_dim)``."""
+        return self._batch.states()
+
+    @property
+    def states(self) -> np.ndarray:
+        """Full float64 spatial states, shape ``(num_envs, 4 + 6n)`` (planar embedded)."""
+        y = self._batch.states()
+        if not self.config.planar:
+            return y
+        return np.stack([self.model.to_spatial(row) for row in y])
+
+    @property
+    def elapsed_steps(self) -> np.ndarray:
+        """Steps taken in each env's current episode."""
+        return self._batch.step_counts()
+
+    def reset(
+        self,
+        *,
+        seed: Optional[Union[int, Sequence[Optional[int]]]] = None,
+        options: Optional[dict[str, Any]] = None,
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Resets all envs (or those in ``options["reset_mask"]``). ``seed``: an int
+        (env i gets ``seed + i``), a list of per-env seeds (``None`` entries continue
+        their stream), or ``None``."""
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            base = check_seed(seed)
+            super().reset(seed=base)
+            seeds: list[Optional[int]] = [(base + i) % 2**64 for i in range(self.num_envs)]
+        elif seed is None:
+            if self._seeded:
+                seeds = [None] * self.num_envs
+            else:
+                base = entropy_seed()
+                seeds = [base + i for i in range(self.num_envs)]
+        elif isinstance(seed, Sequence) and not isinstance(seed, str):
+            if len(seed) != self.num_envs:
+                raise ChainCartError(f"seed has {len(seed)} entries, expected num_envs = {self.num_envs}")
+            seeds = [None if s is None else check_seed(s) for s in seed]
+        else:
+            raise ChainCartError(f"seed = {seed!r}: expected an int, a list of num_envs ints (or None), or None")
+        mask = None
+        if options is not None and "reset_mask" in options:
+            mask = options["reset_mask"]
+            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,)):
+                raise ChainCartError(
+                    f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},)"
+                )
+            if not mask.any():
+                raise ChainCartError("options['reset_mask'] has no True entry: expected at least one env to reset")
+        self._seeded = True
+        return self._batch.reset(seeds, mask), {}
+
+    def step(
+        self, actions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Steps every env; ``actions`` of shape ``(num_envs, force_dim)``."""
+        obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
+        if n_ended == 0 and not self._diagnostics:
+            return obs, rewards, terminated, truncated, {}
+        return obs, rewards, terminated, truncated, self._infos(n_ended)
+
+    def _infos(self, n_ended: int) -> dict[str, Any]:
+        info: dict[str, Any] = {}
+        if self._diagnostics:
+            diag = self._batch.diagnostics()
+            everyone = np.ones(self.num_envs, dtype=np.bool_)
+            for k, key in enumerate(_core.DIAGNOSTICS):
+                info[key], info["_" + key] = diag[:, k], everyone
+            errors = self._batch.errors()
+            info["e_q"], info["_e_q"] = errors[:, 0], everyone
+            info["e_w"], info["_e_w"] = errors[:, 1], everyone
+        if n_ended == 0:
+            return info
+        ended, episode = episode_infos(self._batch)
+        if self._same_step:
+            finals = self._batch.final_observations()
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in np.flatnonzero(ended):
+                final_obs[i] = finals[i]
+            info["final_obs"], info["_final_obs"] = final_obs, ended
+            info["final_info"], info["_final_info"] = episode, ended
+        else:
+            if self._diagnostics:  # e_q, e_w are already there for every env
+                for key in ("e_q", "_e_q", "e_w", "_e_w"):
+                    del episode[key]
+            info.update(episode)
+        return info
+
+    def render(self) -> None:
+        return None
+
+    def close_extras(self, **kwargs: Any) -> None:
+        pass
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_batch"] = self._batch.snapshot()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        snapshot = state.pop("_batch")
+        self.__dict__.update(state)
+        self._batch = self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode])
+        self._batch.restore(snapshot)

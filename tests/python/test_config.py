@@ -1,0 +1,118 @@
+"""ChainCartConfig: scenes, overrides, normalisation and clear errors."""
+
+from __future__ import annotations
+
+import dataclasses
+import pickle
+
+import numpy as np
+import pytest
+
+from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartError, RewardWeights
+
+KEYWORDS = [
+    "n_links", "cart_mass", "link_masses", "link_lengths", "gravity", "planar", "target", "start",
+    "start_noise", "dt", "integrator", "substeps", "max_force", "track_limit", "max_episode_steps",
+    "reward_weights", "scene", "obs_dtype",
+]  # fmt: skip
+
+
+def test_the_config_has_the_agreed_keyword_names() -> None:
+    names = [f.name for f in dataclasses.fields(ChainCartConfig) if f.init]
+    assert names[: len(KEYWORDS)] == KEYWORDS
+    # The only extras: success tolerances and the diagnostics switch.
+    assert names[len(KEYWORDS) :] == ["success_tolerances", "diagnostics"]
+
+
+def test_default_scene_values() -> None:
+    c = ChainCartConfig()
+    assert c.scene == DEFAULT_SCENE == "inverted-2"
+    assert (c.n_links, c.planar, c.target_signs, c.start, c.dt, c.max_force) == (
+        2, True, (-1, -1), "target", 0.02, 20.0
+    )  # fmt: skip
+    assert (c.start_noise, c.track_limit, c.max_episode_steps, c.link_lengths) == (0.05, 2.4, 500, 0.5)
+    assert (c.state_dim, c.force_dim) == (8, 1)
+    assert c.reward_weights == RewardWeights(1.0, 0.1, 0.1, 0.1, 0.01)
+
+
+@pytest.mark.parametrize("scene", sorted(SCENES))
+def test_every_scene_resolves_and_validates(scene: str) -> None:
+    c = ChainCartConfig(scene=scene)
+    assert c.scene == scene
+    for key, value in SCENES[scene].items():
+        got = getattr(c, key)
+        assert got == value or (isinstance(value, str) and np.dtype(value).name == got)
+
+
+def test_paper_scenes() -> None:
+    fig1, fig2, fig3 = (ChainCartConfig(scene=f"paper-fig{k}") for k in (1, 2, 3))
+    for c in (fig1, fig2, fig3):
+        assert (c.n_links, c.cart_mass, c.link_masses, c.link_lengths, c.planar) == (5, 0.5, 0.1, 0.1, False)
+        assert (c.dt, c.start_noise, c.max_episode_steps) == (0.01, 0.0, 1000)
+    assert fig1.max_force == 0.0 and fig1.target_signs == (-1, 1, -1, 1, -1)
+    assert fig2.target_signs == (1,) * 5 and fig2.max_force == 100.0
+    assert fig3.target_signs == (-1, -1, -1, 1, 1)
+
+
+def test_explicit_keywords_override_the_scene() -> None:
+    c = ChainCartConfig(scene="paper-fig2", n_links=5, dt=0.005, target=(1, 1, -1, 1, 1), obs_dtype=np.float64)
+    assert (c.dt, c.target_signs, c.obs_dtype, c.max_force) == (0.005, (1, 1, -1, 1, 1), "float64", 100.0)
+    c = ChainCartConfig(n_links=2, link_lengths=[0.3, 0.4], reward_weights={"u": 0.5})
+    assert c.link_lengths == (0.3, 0.4) and c.state_dim == 8
+    assert c.reward_weights == RewardWeights(u=0.5)
+    assert c.replace(max_force=3.0).max_force == 3.0
+    assert ChainCartConfig(**c.to_dict()) == c
+    assert pickle.loads(pickle.dumps(c)) == c
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(scene="cartpole"), "unknown scene 'cartpole'"),
+        (dict(target="upright"), 'unknown equilibrium "upright"'),
+        (dict(start="sideways"), 'unknown start "sideways"'),
+        (dict(n_links=0), "n_links = 0: expected at least one link"),
+        (dict(n_links=-1), "n_links = -1"),
+        (dict(n_links=1.5), "n_links = 1.5: expected an integer"),
+        (dict(n_links=True), "n_links = True: expected an integer"),
+        (dict(cart_mass=-1.0), "cart_mass = -1: expected a finite number > 0"),
+        (dict(link_masses=-0.1), "link_masses[0] = -0.1"),
+        (dict(n_links=2, link_masses=[0.1]), "link_masses has length 1, expected 2"),
+        (dict(n_links=2, target=(-1, -1, -1)), "target has length 3, expected 2"),
+        (dict(target=(-1, 2)), "s[1] = 2: expected +1"),
+        (dict(start=(1, 1, 1)), "start has length 3"),
+        (dict(integrator="euler"), 'unknown integrator "euler"'),
+        (dict(substeps=0), "substeps = 0"),
+        (dict(dt=0.0), "dt = 0: expected a finite number > 0"),
+        (dict(max_force=-5.0), "max_force = -5"),
+        (dict(track_limit=float("inf")), "track_limit = inf"),
+        (dict(max_episode_steps=0), "max_episode_steps = 0"),
+        (dict(start_noise=-0.1), "start_noise = -0.1"),
+        (dict(obs_dtype="int8"), "obs_dtype = 'int8'"),
+        (dict(reward_weights={"tilt": 1.0}), "reward_weights has unknown keys ['tilt']"),
+        (dict(reward_weights={"q": -1.0}), "reward_weights.q = -1"),
+        (dict(success_tolerances=(0.1,)), "success_tolerances"),
+        (dict(planar="yes"), "planar = 'yes'"),
+        (dict(scene="paper-fig3", planar=True), 'start "paper-fig3"'),
+        (dict(start="paper-fig1"), "n_links = 2: expected 5 for the paper's Fig. 1"),
+        (dict(target="paper-fig3", n_links=2), "n_links = 2: expected 5 for the paper's Fig. 3"),
+    ],
+)
+def test_bad_config_raises_a_clear_error(kwargs: dict, message: str) -> None:
+    with pytest.raises(ChainCartError) as e:
+        ChainCartConfig(**kwargs)
+    assert message in str(e.value), str(e.value)
+
+
+def test_unknown_keywords_are_type_errors() -> None:
+    with pytest.raises(TypeError, match="n_link"):
+        ChainCartConfig(n_link=2)  # type: ignore[call-arg]
+
+
+def test_start_accepts_signs_and_full_states() -> None:
+    c = ChainCartConfig(n_links=2, start=(1, 1))
+    assert c.start == (1.0, 1.0)
+    y = [0.1, 0.0, 0.0, -1.0, 0.0, -1.0, 0.0, 0.0]
+    assert ChainCartConfig(n_links=2, start=y).start == tuple(y)
+    with pytest.raises(ChainCartError, match=r"\|q_i\|"):
+        ChainCartConfig(n_links=2, start=[0.1, 0.0, 0.0, -2.0, 0.0, -1.0, 0.0, 0.0])

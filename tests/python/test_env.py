@@ -1,0 +1,255 @@
+"""The single Gymnasium env: API conformance, spaces, episode logic, errors, copies."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.error import ResetNeeded
+from gymnasium.utils.env_checker import check_env as gym_check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+from chaincart_env import ChainCartConfig, ChainCartEnv, ChainCartError, LQRPolicy
+
+
+def rollout(env: gym.Env, actions: np.ndarray, seed: int) -> list:
+    """(obs, reward, terminated, truncated, info) of each step; resets after an episode end."""
+    out = [env.reset(seed=seed)]
+    for a in actions:
+        step = env.step(a)
+        out.append(step)
+        if step[2] or step[3]:
+            out.append(env.reset())
+    return out
+
+
+def same(a: list, b: list) -> bool:
+    if len(a) != len(b):
+        return False
+    for x, y in zip(a, b):
+        for u, v in zip(x, y):
+            if isinstance(u, np.ndarray):
+                if not np.array_equal(u, v):
+                    return False
+            elif u != v:
+                return False
+    return True
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [dict(), dict(scene="paper-fig3"), dict(scene="paper-fig1"), dict(n_links=3, planar=False, obs_dtype="float64")],
+)
+def test_gymnasium_and_sb3_env_checkers_pass(kwargs: dict) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the checkers' warnings count as failures
+        gym_check_env(ChainCartEnv(**kwargs), skip_render_check=True)
+        sb3_check_env(ChainCartEnv(**kwargs), warn=True, skip_render_check=True)
+        # And through gymnasium.make, with its wrappers.
+        gym_check_env(gym.make("ChainCart-v0", **kwargs).unwrapped, skip_render_check=True)
+
+
+def test_spaces_dtypes_and_python_types() -> None:
+    env = gym.make("ChainCart-v0", scene="inverted-1")
+    assert env.observation_space.shape == (5,) and env.observation_space.dtype == np.float32
+    assert env.action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+    obs, info = env.reset(seed=3)
+    assert obs.dtype == np.float32 and obs in env.observation_space and info == {}
+    obs, reward, terminated, truncated, info = env.step(np.array([0.2], np.float32))
+    assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
+    assert obs.dtype == np.float32 and obs in env.observation_space
+
+    spatial = gym.make("ChainCart-v0", n_links=3, planar=False, obs_dtype="float64")
+    assert spatial.observation_space.shape == (22,) and spatial.observation_space.dtype == np.float64
+    assert spatial.action_space.shape == (2,)
+    obs, _ = spatial.reset(seed=0)
+    assert obs.dtype == np.float64 and obs in spatial.observation_space
+    # q components are bounded by 1, everything else only by the dtype's finite range.
+    big = np.finfo(np.float64).max
+    expected = np.r_[np.full(4, big), np.ones(9), np.full(9, big)]
+    assert np.array_equal(spatial.observation_space.high, expected)
+    assert np.array_equal(spatial.observation_space.low, -expected)
+
+
+def test_observation_is_the_state_and_attributes() -> None:
+    env = ChainCartEnv(n_links=2, obs_dtype="float64")
+    obs, _ = env.reset(seed=1)
+    assert np.array_equal(obs, env.model_state)
+    assert env.state.shape == (16,) and np.array_equal(env.model.from_spatial(env.state), env.model_state)
+    assert env.dt == 0.02 and env.model.n_links == 2 and env.model.planar
+    obs32, _ = ChainCartEnv(n_links=2).reset(seed=1)
+    assert np.array_equal(obs32, obs.astype(np.float32))
+    env.step(np.array([0.5]))
+    assert env.elapsed_steps == 1
+
+
+def test_reset_seeds_reproduce_bit_for_bit() -> None:
+    env = ChainCartEnv(n_links=2, start_noise=0.2, max_episode_steps=30, track_limit=0.5)
+    actions = np.random.default_rng(0).uniform(-1, 1, (100, 1)).astype(np.float32)
+    first = rollout(env, actions, seed=11)
+    second = rollout(ChainCartEnv(n_links=2, start_noise=0.2, max_episode_steps=30, track_limit=0.5), actions, 11)
+    assert same(first, second)
+    assert sum(1 for s in first[1:] if len(s) == 5 and (s[2] or s[3])) >= 2  # several episodes ran
+    other = rollout(env, actions, seed=12)
+    assert not np.array_equal(first[0][0], other[0][0])
+    # reset() without a seed continues the stream: different starts, still reproducible.
+    a, b = env.reset(seed=5)[0], env.reset()[0]
+    c, d = env.reset(seed=5)[0], env.reset()[0]
+    assert np.array_equal(a, c) and np.array_equal(b, d) and not np.array_equal(a, b)
+
+
+def test_start_noise_is_uniform_within_its_half_width() -> None:
+    env = ChainCartEnv(n_links=1, planar=False, start_noise=0.1, obs_dtype="float64")
+    starts = np.array([env.reset(seed=k)[0] for k in range(300)])
+    cart = starts[:, :4]
+    assert np.abs(cart).max() <= 0.1 and np.abs(cart).max() > 0.09
+    assert abs(cart.mean()) < 0.01  # centred
+    tilt = np.arccos(np.clip(-starts[:, 6], -1, 1))  # angle from upright (q = -e3)
+    assert tilt.max() <= 0.1 * np.sqrt(2) + 1e-12 and tilt.max() > 0.08
+    assert np.allclose(np.linalg.norm(starts[:, 4:7], axis=1), 1.0, atol=1e-15)
+    assert np.abs(np.sum(starts[:, 4:7] * starts[:, 7:10], axis=1)).max() < 1e-15
+
+
+def test_actions_are_clipped_and_bad_actions_rejected() -> None:
+    def final_obs(action: np.ndarray) -> np.ndarray:
+        env = ChainCartEnv(n_links=1, planar=False)
+        env.reset(seed=0)
+        for _ in range(5):
+            obs = env.step(action)[0]
+        return obs
+
+    assert np.array_equal(final_obs(np.array([3.0, -7.0])), final_obs(np.array([1.0, -1.0])))
+    assert not np.array_equal(final_obs(np.array([0.5, -1.0])), final_obs(np.array([1.0, -1.0])))
+    env = ChainCartEnv()
+    env.reset(seed=0)
+    before = env.model_state
+    with pytest.raises(ChainCartError, match=r"actions\[0\] = NaN: expected a finite number"):
+        env.step(np.array([np.nan], np.float32))
+    with pytest.raises(ChainCartError, match=r"= inf"):
+        env.step(np.array([np.inf]))
+    with pytest.raises(ChainCartError, match=r"action has shape \(2,\), expected \(1,\)"):
+        env.step(np.zeros(2, np.float32))
+    with pytest.raises(ChainCartError, match=r"action has shape \(\), expected \(1,\)"):
+        env.step(0.5)
+    assert np.array_equal(env.model_state, before) and env.elapsed_steps == 0
+    env.step([0.25])  # array-likes of numbers are converted
+    assert env.elapsed_steps == 1
+
+
+def test_reward_is_one_at_the_target_and_the_default_scene_is_stabilised_by_lqr() -> None:
+    env = ChainCartEnv(start_noise=0.0)
+    env.reset(seed=0)
+    assert env.step(np.zeros(1, np.float32))[1] == 1.0
+    env = gym.make("ChainCart-v0")
+    policy = LQRPolicy.from_env(env)
+    obs, _ = env.reset(seed=123)
+    total, info, steps = 0.0, {}, 0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(policy.predict(obs)[0])
+        total += reward
+        steps += 1
+        if terminated or truncated:
+            break
+    assert truncated and not terminated and steps == 500
+    assert info["is_success"] is True and info["numerical_failure"] is False and info["out_of_track"] is False
+    assert info["e_q"] < 0.01 and info["e_w"] < 0.01
+    assert total > 490.0
+
+
+def test_truncation_success_and_reset_needed() -> None:
+    env = ChainCartEnv(start_noise=0.0, max_episode_steps=3)
+    env.reset(seed=0)
+    with pytest.raises(ResetNeeded):
+        ChainCartEnv().step(np.zeros(1))  # no reset yet
+    infos = [env.step(np.zeros(1, np.float32)) for _ in range(3)]
+    assert [s[3] for s in infos] == [False, False, True] and not any(s[2] for s in infos)
+    assert infos[0][4] == {} and infos[2][4] == dict(
+        is_success=True, numerical_failure=False, out_of_track=False, e_q=0.0, e_w=0.0
+    )
+    with pytest.raises(ResetNeeded):
+        env.step(np.zeros(1))
+    env.reset()
+    env.step(np.zeros(1))
+
+
+def test_leaving_the_track_terminates() -> None:
+    env = ChainCartEnv(track_limit=0.2, start_noise=0.0)
+    env.reset(seed=0)
+    for k in range(200):
+        obs, reward, terminated, truncated, info = env.step(np.ones(1, np.float32))
+        if terminated:
+            break
+    assert terminated and info["out_of_track"] and not info["is_success"] and not info["numerical_failure"]
+    assert abs(obs[0]) > 0.2 and 0.0 < reward < 1.0
+
+
+def test_a_numerical_failure_ends_the_episode_with_finite_observations() -> None:
+    env = ChainCartEnv(
+        n_links=2, planar=False, integrator="lie_euler", dt=5.0, max_force=1e6, track_limit=1e300, start_noise=0.3
+    )
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for k in range(100):
+        obs, reward, terminated, truncated, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+        assert np.all(np.isfinite(obs))
+        if terminated:
+            break
+    assert terminated and info["numerical_failure"] is True and info["is_success"] is False
+    assert reward == 0.0
+    assert np.all(np.isfinite(env.state)) and max(env.model.residuals(env.model_state)) < 1e-6
+
+
+def test_diagnostics_only_when_asked() -> None:
+    env = ChainCartEnv(n_links=2, planar=False, diagnostics=True, obs_dtype="float64")
+    env.reset(seed=2)
+    _, _, _, _, info = env.step(np.array([0.3, -0.2], np.float32))
+    y = env.model_state
+    assert info["energy"] == pytest.approx(env.model.energy(y), rel=1e-14)
+    assert info["kinetic_energy"] == pytest.approx(env.model.kinetic_energy(y), rel=1e-14)
+    assert info["potential_energy"] == pytest.approx(env.model.potential_energy(y), rel=1e-14)
+    assert (info["residual_unit_length"], info["residual_tangency"]) == pytest.approx(env.model.residuals(y))
+    assert (info["e_q"], info["e_w"]) == pytest.approx(env.model.errors(y, "inverted"))
+    plain = ChainCartEnv(n_links=2, planar=False)
+    plain.reset(seed=2)
+    assert plain.step(np.array([0.3, -0.2], np.float32))[4] == {}
+
+
+def test_render_mode_must_be_none_for_now() -> None:
+    with pytest.raises(ChainCartError, match="render_mode"):
+        ChainCartEnv(render_mode="rgb_array")
+    assert ChainCartEnv(render_mode=None).render() is None
+
+
+def test_gym_make_passes_the_config_keywords() -> None:
+    env = gym.make("ChainCart-v0", scene="paper-fig2", substeps=2, reward_weights={"x": 0.0})
+    config = env.unwrapped.config
+    assert (config.n_links, config.substeps, config.reward_weights.x, config.target_signs) == (5, 2, 0.0, (1,) * 5)
+    env = gym.make("ChainCart-v0", config=ChainCartConfig(max_episode_steps=7))
+    assert env.unwrapped.config.max_episode_steps == 7
+
+
+@pytest.mark.parametrize("clone", [copy.deepcopy, lambda e: pickle.loads(pickle.dumps(e))])
+def test_copies_mid_episode_continue_identically(clone) -> None:
+    env = ChainCartEnv(n_links=2, start_noise=0.2, max_episode_steps=25)
+    env.reset(seed=4)
+    rng = np.random.default_rng(1)
+    for _ in range(10):
+        env.step(rng.uniform(-1, 1, 1).astype(np.float32))
+    twin = clone(env)
+    assert twin is not env and twin.elapsed_steps == 10
+    actions = rng.uniform(-1, 1, (60, 1)).astype(np.float32)
+    a, b = [], []
+    for e, out in ((env, a), (twin, b)):
+        for act in actions:
+            step = e.step(act)
+            out.append(step)
+            if step[2] or step[3]:
+                out.append(e.reset())  # continues the copied RNG stream
+    assert same(a, b)
+    # The copies are independent: stepping one does not move the other.
+    twin.step(actions[0])
+    assert twin.elapsed_steps != env.elapsed_steps or not np.array_equal(twin.model_state, env.model_state)
