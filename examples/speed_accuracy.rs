@@ -7,7 +7,7 @@
 //! method at tolerance 1e-13; largest energy error over 10 s and 1000 s relative to
 //! the largest kinetic energy seen; wall time per simulated second (from the 1 s run).
 
-use chaincart::batch::{guarded_step, StepStatus};
+use chaincart::batch::{Guard, GuardedStepper, StepStatus};
 use chaincart::geometry::{Layout, Vector};
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
 use nalgebra::{Vector2, Vector3};
@@ -46,20 +46,10 @@ fn run(
     mut each: impl FnMut(&[f64]),
 ) -> Result<Vec<f64>, (f64, StepStatus)> {
     let mut y = paper_ic1();
-    let mut stepper = Stepper::new(chain);
-    let mut backup = y.clone();
+    let mut stepper = GuardedStepper::new(chain);
     let steps = (t_end / dt).round() as usize;
     for k in 0..steps {
-        let status = guarded_step(
-            chain,
-            &mut stepper,
-            &mut backup,
-            &mut y,
-            Vector2::zeros(),
-            dt,
-            opts,
-            1e-6,
-        );
+        let status = stepper.step(chain, &mut y, Vector2::zeros(), dt, opts, &Guard::default());
         if status.is_failure() {
             return Err((k as f64 * dt, status));
         }

@@ -2,10 +2,10 @@
 //! (the Python bindings, command-line tools) call. Every method validates its
 //! inputs and returns errors; nothing here panics on bad input.
 
-use crate::batch::{guarded_step, Batch, StepStatus};
+use crate::batch::{Batch, Guard, GuardedStepper, StepStatus};
 use crate::error::{check_finite, check_len, ChainError, Result};
-use crate::geometry::{planar_to_spatial, spatial_to_planar, Geometry, Planar, Spatial, Vector};
-use crate::integrate::{StepOptions, Stepper};
+use crate::geometry::{planar_to_spatial, spatial_to_planar, Planar, Spatial, Vector};
+use crate::integrate::StepOptions;
 use crate::invariants::{Energy, Residuals};
 use crate::model::Chain;
 use crate::params::ChainParams;
@@ -92,13 +92,24 @@ impl AnyChain {
             let f = c.force_dim();
             check_len("forces", forces, steps * f)?;
             check_finite("forces", forces)?;
-            let mut runner = Runner::new(c);
+            let mut stepper = GuardedStepper::new(c);
+            let guard = Guard::default();
             let d = c.state_dim();
             let mut traj = Vec::with_capacity((steps + 1) * d);
             traj.extend_from_slice(state);
             let mut y = state.to_vec();
             for k in 0..steps {
-                runner.step(c, &mut y, &forces[k * f..(k + 1) * f], dt, opts, k)?;
+                let status = stepper.step(
+                    c,
+                    &mut y,
+                    Vector::load(&forces[k * f..(k + 1) * f]),
+                    dt,
+                    opts,
+                    &guard,
+                );
+                if status.is_failure() {
+                    return Err(step_failure(status, k, opts, dt));
+                }
                 traj.extend_from_slice(&y);
             }
             Ok(traj)
@@ -177,49 +188,14 @@ fn check_dt(dt: f64) -> Result<()> {
     }
 }
 
-/// Stepper plus backup buffer for stepping one state repeatedly.
-struct Runner<G: Geometry> {
-    stepper: Stepper<G>,
-    backup: Vec<f64>,
-}
-
-impl<G: Geometry> Runner<G> {
-    fn new(chain: &Chain<G>) -> Self {
-        Self {
-            stepper: Stepper::new(chain),
-            backup: vec![0.0; chain.state_dim()],
-        }
-    }
-
-    fn step(
-        &mut self,
-        chain: &Chain<G>,
-        y: &mut [f64],
-        force: &[f64],
-        dt: f64,
-        opts: &StepOptions,
-        k: usize,
-    ) -> Result<()> {
-        let tol = 1e-6;
-        match guarded_step(
-            chain,
-            &mut self.stepper,
-            &mut self.backup,
-            y,
-            G::Cart::load(force),
-            dt,
-            opts,
-            tol,
-        ) {
-            StepStatus::Ok => Ok(()),
-            status => Err(ChainError::NumericalFailure {
-                reason: format!(
-                    "{} at step {k} ({} integrator, dt = {dt})",
-                    status.describe(),
-                    opts.method.name()
-                ),
-            }),
-        }
+/// The error for a step that failed the guard.
+fn step_failure(status: StepStatus, k: usize, opts: &StepOptions, dt: f64) -> ChainError {
+    ChainError::NumericalFailure {
+        reason: format!(
+            "{} at step {k} ({} integrator, dt = {dt})",
+            status.describe(),
+            opts.method.name()
+        ),
     }
 }
 

@@ -29,13 +29,13 @@ pub enum StepStatus {
     ConstraintViolation = 2,
     /// An implicit solve or step-size control gave up; the env keeps its last good state.
     SolverFailure = 3,
-    /// A link turned more than [`MAX_TURN_PER_STEP`] in one integrator step: the motion
+    /// A link turned more than [`Guard::max_turn_per_step`] in one integrator step: the motion
     /// is too fast for the step size and the result would be finite but wrong.
     Unresolved = 4,
 }
 
-/// Largest angle (rad) a link may turn in one integrator step before the step is
-/// flagged [`StepStatus::Unresolved`]. At this angle a 4th-order step already errs
+/// Default largest angle (rad) a link may turn in one integrator step before the
+/// step is flagged [`StepStatus::Unresolved`]. At this angle a 4th-order step already errs
 /// by about a percent; beyond it explicit methods return finite garbage.
 pub const MAX_TURN_PER_STEP: f64 = 0.5;
 
@@ -56,33 +56,86 @@ impl StepStatus {
     }
 }
 
-/// Steps one env, keeping its old state on failure. Shared by batches and single envs.
-pub fn guarded_step<G: Geometry>(
-    chain: &Chain<G>,
-    stepper: &mut Stepper<G>,
-    backup: &mut [f64],
-    y: &mut [f64],
-    force: G::Cart,
-    dt: f64,
-    opts: &StepOptions,
-    failure_tolerance: f64,
-) -> StepStatus {
-    backup.copy_from_slice(y);
-    let status = match stepper.step(chain, y, force, dt, opts) {
-        Err(_) => StepStatus::SolverFailure,
-        Ok(()) if !y.iter().all(|v| v.is_finite()) => StepStatus::NonFinite,
-        Ok(()) if chain.residuals(y).unit_length > failure_tolerance => {
-            StepStatus::ConstraintViolation
+/// When a step counts as failed (see [`StepStatus`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Guard {
+    /// Largest tolerated `| |q_i| - 1 |` after a step.
+    pub unit_length_tolerance: f64,
+    /// Largest angle (rad) a link may turn in one integrator step.
+    pub max_turn_per_step: f64,
+}
+
+impl Default for Guard {
+    fn default() -> Self {
+        Self {
+            unit_length_tolerance: 1e-6,
+            max_turn_per_step: MAX_TURN_PER_STEP,
         }
-        Ok(()) if turn_per_step(chain, backup, y, dt, opts) > MAX_TURN_PER_STEP => {
-            StepStatus::Unresolved
-        }
-        Ok(()) => StepStatus::Ok,
-    };
-    if status.is_failure() {
-        y.copy_from_slice(backup);
     }
-    status
+}
+
+impl Guard {
+    pub fn validate(&self) -> Result<()> {
+        for (name, value) in [
+            ("unit_length_tolerance", self.unit_length_tolerance),
+            ("max_turn_per_step", self.max_turn_per_step),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ChainError::InvalidParameter {
+                    name,
+                    value,
+                    expected: "a finite number > 0",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A [`Stepper`] plus a backup of the state, so that a failed step can be undone.
+/// Shared by batches, env batches and single-state simulations.
+#[derive(Debug, Clone)]
+pub struct GuardedStepper<G: Geometry> {
+    stepper: Stepper<G>,
+    backup: Vec<f64>,
+}
+
+impl<G: Geometry> GuardedStepper<G> {
+    pub fn new(chain: &Chain<G>) -> Self {
+        Self {
+            stepper: Stepper::new(chain),
+            backup: vec![0.0; chain.state_dim()],
+        }
+    }
+
+    /// Steps `y` by one control period; on failure `y` keeps its old value and the
+    /// status says why.
+    pub fn step(
+        &mut self,
+        chain: &Chain<G>,
+        y: &mut [f64],
+        force: G::Cart,
+        dt: f64,
+        opts: &StepOptions,
+        guard: &Guard,
+    ) -> StepStatus {
+        self.backup.copy_from_slice(y);
+        let status = match self.stepper.step(chain, y, force, dt, opts) {
+            Err(_) => StepStatus::SolverFailure,
+            Ok(()) if !y.iter().all(|v| v.is_finite()) => StepStatus::NonFinite,
+            Ok(()) if chain.residuals(y).unit_length > guard.unit_length_tolerance => {
+                StepStatus::ConstraintViolation
+            }
+            Ok(()) if turn_per_step(chain, &self.backup, y, dt, opts) > guard.max_turn_per_step => {
+                StepStatus::Unresolved
+            }
+            Ok(()) => StepStatus::Ok,
+        };
+        if status.is_failure() {
+            y.copy_from_slice(&self.backup);
+        }
+        status
+    }
 }
 
 /// Estimated largest angle a link turned in one integrator step: the larger of the
@@ -111,24 +164,19 @@ fn turn_per_step<G: Geometry>(
 /// One parallel work item: a chunk's states, forces and statuses, and its worker.
 type ChunkItem<'a, G> = (
     ((&'a mut [f64], &'a [f64]), &'a mut [StepStatus]),
-    &'a mut Worker<G>,
+    &'a mut GuardedStepper<G>,
 );
-
-struct Worker<G: Geometry> {
-    stepper: Stepper<G>,
-    backup: Vec<f64>,
-}
 
 /// N states of one chain with one integrator setting.
 pub struct Batch<G: Geometry> {
     chain: Chain<G>,
     opts: StepOptions,
     dt: f64,
-    failure_tolerance: f64,
+    guard: Guard,
     n_envs: usize,
     states: Vec<f64>,
     status: Vec<StepStatus>,
-    workers: Vec<Worker<G>>,
+    workers: Vec<GuardedStepper<G>>,
 }
 
 impl<G: Geometry> Batch<G> {
@@ -153,16 +201,13 @@ impl<G: Geometry> Batch<G> {
         let hanging = chain.equilibrium(&vec![1.0; chain.n_links()])?;
         let states = hanging.iter().copied().cycle().take(n_envs * dim).collect();
         let workers = (0..n_envs.div_ceil(CHUNK))
-            .map(|_| Worker {
-                stepper: Stepper::new(&chain),
-                backup: vec![0.0; dim],
-            })
+            .map(|_| GuardedStepper::new(&chain))
             .collect();
         Ok(Self {
             chain,
             opts,
             dt,
-            failure_tolerance: 1e-6,
+            guard: Guard::default(),
             n_envs,
             states,
             status: vec![StepStatus::Ok; n_envs],
@@ -200,16 +245,10 @@ impl<G: Geometry> Batch<G> {
     pub fn status(&self) -> &[StepStatus] {
         &self.status
     }
-    /// Largest tolerated `| |q_i| - 1 |` after a step before the env is flagged.
-    pub fn set_failure_tolerance(&mut self, tolerance: f64) -> Result<()> {
-        if !(tolerance.is_finite() && tolerance > 0.0) {
-            return Err(ChainError::InvalidParameter {
-                name: "failure_tolerance",
-                value: tolerance,
-                expected: "a finite number > 0",
-            });
-        }
-        self.failure_tolerance = tolerance;
+    /// When a step counts as failed (default: [`Guard::default`]).
+    pub fn set_guard(&mut self, guard: Guard) -> Result<()> {
+        guard.validate()?;
+        self.guard = guard;
         Ok(())
     }
 
@@ -244,23 +283,14 @@ impl<G: Geometry> Batch<G> {
         self.check_forces(forces)?;
         let d = self.state_dim();
         let f = self.chain.force_dim();
-        let (chain, opts, dt, tol) = (&self.chain, &self.opts, self.dt, self.failure_tolerance);
+        let (chain, opts, dt, guard) = (&self.chain, &self.opts, self.dt, &self.guard);
         let work = |(((states, forces), status), worker): ChunkItem<'_, G>| {
             for ((y, u), st) in states
                 .chunks_exact_mut(d)
                 .zip(forces.chunks_exact(f))
                 .zip(status.iter_mut())
             {
-                *st = guarded_step(
-                    chain,
-                    &mut worker.stepper,
-                    &mut worker.backup,
-                    y,
-                    G::Cart::load(u),
-                    dt,
-                    opts,
-                    tol,
-                );
+                *st = worker.step(chain, y, G::Cart::load(u), dt, opts, guard);
             }
         };
         if self.n_envs <= CHUNK {

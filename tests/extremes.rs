@@ -6,7 +6,7 @@
 
 mod common;
 
-use chaincart::batch::{guarded_step, StepStatus};
+use chaincart::batch::{Guard, GuardedStepper, StepStatus};
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
 use common::*;
 use nalgebra::Vector2;
@@ -31,20 +31,10 @@ fn guarded_run(
         method,
         ..StepOptions::default()
     };
-    let mut stepper = Stepper::new(chain);
-    let mut backup = vec![0.0; y0.len()];
+    let mut stepper = GuardedStepper::new(chain);
     let mut y = y0.to_vec();
     for k in 0..steps {
-        let status = guarded_step(
-            chain,
-            &mut stepper,
-            &mut backup,
-            &mut y,
-            force,
-            dt,
-            &opts,
-            1e-6,
-        );
+        let status = stepper.step(chain, &mut y, force, dt, &opts, &Guard::default());
         assert!(
             y.iter().all(|v| v.is_finite()),
             "{}: non-finite state escaped the guard at step {k}",

@@ -3,8 +3,8 @@
 
 mod common;
 
-use chaincart::batch::{guarded_step, Batch, CHUNK};
-use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
+use chaincart::batch::{Batch, Guard, GuardedStepper, CHUNK};
+use chaincart::{ChainParams, Method, SpatialChain, StepOptions};
 use common::*;
 use nalgebra::Vector2;
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -97,20 +97,10 @@ fn stepping_allocates_nothing() {
     }
     // And a single guarded step.
     let chain = SpatialChain::new(ChainParams::paper());
-    let mut stepper = Stepper::new(&chain);
+    let mut stepper = GuardedStepper::new(&chain);
     let mut y = chain.equilibrium(&[1.0, -1.0, 1.0, -1.0, 1.0]).unwrap();
-    let mut backup = y.clone();
-    let opts = StepOptions::default();
+    let (opts, guard) = (StepOptions::default(), Guard::default());
     let before = THIS_THREAD.with(|c| c.get());
-    guarded_step(
-        &chain,
-        &mut stepper,
-        &mut backup,
-        &mut y,
-        Vector2::new(1.0, 0.0),
-        1e-3,
-        &opts,
-        1e-6,
-    );
+    stepper.step(&chain, &mut y, Vector2::new(1.0, 0.0), 1e-3, &opts, &guard);
     assert_eq!(THIS_THREAD.with(|c| c.get()) - before, 0);
 }

@@ -7,13 +7,12 @@
 //! makes results independent of the thread count. Nothing is allocated in
 //! [`EnvBatch::step`] or [`EnvBatch::reset`].
 
-use super::config::{AutoresetMode, TaskConfig, FAILURE_TOLERANCE};
+use super::config::{AutoresetMode, TaskConfig};
 use super::start::{base_state, perturb};
 use crate::any::AnyChain;
-use crate::batch::{guarded_step, CHUNK};
+use crate::batch::{GuardedStepper, CHUNK};
 use crate::error::{ChainError, Result};
 use crate::geometry::{Geometry, Layout, Planar, Spatial, Vector};
-use crate::integrate::Stepper;
 use crate::model::Chain;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -90,11 +89,6 @@ struct Slot {
     ended: bool,
 }
 
-struct Worker<G: Geometry> {
-    stepper: Stepper<G>,
-    backup: Vec<f64>,
-}
-
 /// Everything a step reads (shared by all chunks).
 struct Ctx<'a, G: Geometry> {
     chain: &'a Chain<G>,
@@ -108,7 +102,7 @@ struct Ctx<'a, G: Geometry> {
 struct Chunk<'a, G: Geometry, T: Real, A: Real> {
     states: &'a mut [f64],
     slots: &'a mut [Slot],
-    worker: &'a mut Worker<G>,
+    worker: &'a mut GuardedStepper<G>,
     actions: &'a [A],
     obs: &'a mut [T],
     rewards: &'a mut [f64],
@@ -166,7 +160,7 @@ pub struct EnvBatch<G: Geometry> {
     n_envs: usize,
     states: Vec<f64>,
     slots: Vec<Slot>,
-    workers: Vec<Worker<G>>,
+    workers: Vec<GuardedStepper<G>>,
     events: Vec<u8>,
     /// `(e_q, e_w)` per env after the last step (before any same-step reset).
     errors: Vec<f64>,
@@ -203,10 +197,7 @@ impl<G: Geometry> EnvBatch<G> {
             })
             .collect();
         let workers = (0..n_envs.div_ceil(CHUNK))
-            .map(|_| Worker {
-                stepper: Stepper::new(&chain),
-                backup: vec![0.0; d],
-            })
+            .map(|_| GuardedStepper::new(&chain))
             .collect();
         let mut batch = Self {
             task,
@@ -605,7 +596,7 @@ fn write_diagnostics<G: Geometry>(chain: &Chain<G>, y: &[f64], diag: &mut [f64])
 
 fn step_env<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
-    worker: &mut Worker<G>,
+    worker: &mut GuardedStepper<G>,
     slot: &mut Slot,
     y: &mut [f64],
     action: &[A],
@@ -644,15 +635,13 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         a2 += a * a;
         *fk = a * task.max_force;
     }
-    let status = guarded_step(
+    let status = worker.step(
         chain,
-        &mut worker.stepper,
-        &mut worker.backup,
         y,
         G::Cart::load(&force),
         task.dt,
         &task.step_options,
-        FAILURE_TOLERANCE,
+        &task.guard,
     );
     slot.steps += 1;
     let failed = status.is_failure();

@@ -2,6 +2,7 @@
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
 use crate::analysis::equilibria::{check_signs, named_signs};
+use crate::batch::Guard;
 use crate::error::{check_finite, ChainError, Result};
 use crate::integrate::StepOptions;
 
@@ -11,9 +12,6 @@ pub const TARGET_NAMES: &str =
 
 /// Names accepted for a start (besides a sign tuple or a full state).
 pub const START_NAMES: &str = "\"target\", \"hanging\", \"inverted\", \"folded\", \"folded_up\", \"paper-fig1\", \"paper-fig2\", \"paper-fig3\"";
-
-/// `| |q_i| - 1 |` above which a step counts as a numerical failure (as in [`crate::batch`]).
-pub const FAILURE_TOLERANCE: f64 = 1e-6;
 
 /// The paper's numerical examples (Sec. V). Figs. 1 and 2 share the initial
 /// condition IC1; Fig. 3 has its own. All three are defined for n = 5 links.
@@ -248,6 +246,8 @@ pub struct TaskConfig {
     pub max_episode_steps: u64,
     pub reward: RewardWeights,
     pub success: SuccessTolerances,
+    /// When a step counts as a numerical failure.
+    pub guard: Guard,
 }
 
 impl TaskConfig {
@@ -263,6 +263,7 @@ impl TaskConfig {
             track_limit: 2.4,
             max_episode_steps: 500,
             reward: RewardWeights::default(),
+            guard: Guard::default(),
             success: SuccessTolerances::default(),
         }
     }
@@ -298,6 +299,7 @@ impl TaskConfig {
         check_non_negative("start_noise", self.start_noise)?;
         check_positive("dt", self.dt)?;
         self.step_options.validate()?;
+        self.guard.validate()?;
         check_non_negative("max_force", self.max_force)?;
         check_positive("track_limit", self.track_limit)?;
         if self.max_episode_steps == 0 {
