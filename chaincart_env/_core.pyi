@@ -17,6 +17,7 @@ __all__ = [
     "ChainCart",
     "EnvBatch",
     "num_threads",
+    "render_frame",
     "target_signs",
     "paper_initial_condition",
     "INTEGRATORS",
@@ -146,6 +147,17 @@ class ChainCart:
         """LQR gain ``K``, shape ``(2, 4 + 4n)``, of the spatial linearisation at ``s`` in
         the paper's ordering ``z = [x, C^T xi_i, xdot, C^T w_i]`` (``u = -K z``); default
         weights are the paper's."""
+    def linearize(self, s: _Signs, second_order: bool = False) -> tuple[npt.NDArray[np.float64], ...]:
+        """Linearisation at equilibrium ``s`` (paper Prop. 2): ``(A, B)`` of the first-order
+        system in ``z = [x, C^T xi_1..n, xdot, C^T w_1..n]``, or with ``second_order=True``
+        the paper's ``(M, G, B)`` in ``[x, C^T xi_1..n]``."""
+    def eigenvalues(self, s: _Signs) -> npt.NDArray[np.complex128]:
+        """Eigenvalues of the linearisation at ``s`` (roots of ``det(lambda^2 M + G) = 0``)."""
+    def controllability(self, s: _Signs) -> tuple[bool, float]:
+        """``(controllable, margin)`` of the linearisation at ``s`` by the PBH eigenvector
+        test (paper Prop. 3); the margin is in [0, 1], controllable means > 1e-8."""
+    def equilibria(self) -> list[list[int]]:
+        """All 2^n sign tuples, hanging first, in binary order; refused for n > 20."""
     def __reduce__(self) -> tuple[Any, ...]: ...
 
 @final
@@ -251,6 +263,21 @@ class EnvBatch:
         """Everything that evolves (states, RNG streams, step counts, ended flags)."""
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Continues from a ``snapshot`` of a batch of the same shape."""
+
+def render_frame(
+    link_lengths: Sequence[float],
+    state: npt.ArrayLike,
+    force: Sequence[float],
+    *,
+    target: Optional[Sequence[float]] = None,
+    max_force: float = 1.0,
+    track_limit: float = ...,
+    width: int = 480,
+    height: int = 240,
+    top_view: bool = True,
+) -> npt.NDArray[np.uint8]:
+    """One ``(height, width, 3)`` uint8 frame of a spatial state: side view (gravity
+    down) and optionally a top view, the target faintly, the force as an arrow."""
 
 def num_threads() -> int:
     """The core's number of worker threads (set ``RAYON_NUM_THREADS`` before the first parallel step)."""

@@ -126,13 +126,20 @@ SCENES: dict[str, dict[str, Any]] = {
     "inverted-2": dict(_DEFAULTS, n_links=2, max_force=20.0),
     # Swing-up of the planar single pendulum from hanging.
     "swingup-1": dict(_DEFAULTS, start="hanging", max_force=10.0, track_limit=3.0),
-    # Fig. 1: uncontrolled (max_force 0: every action is ignored) motion from IC1 near
-    # the folded equilibrium s = (-1, 1, -1, 1, -1); scored against that equilibrium.
-    "paper-fig1": dict(_PAPER, target="paper-fig1", start="paper-fig1", max_force=0.0),
-    # Fig. 2: stabilise the hanging equilibrium from IC1.
-    "paper-fig2": dict(_PAPER, target="hanging", start="paper-fig2"),
-    # Fig. 3: stabilise s = (-1, -1, -1, 1, 1) from the Fig. 3 initial condition.
-    "paper-fig3": dict(_PAPER, target="paper-fig3", start="paper-fig3"),
+    # The paper's figures are continuous-time results: their scenes hold the force for
+    # at most 1 ms. Fig. 1: uncontrolled (max_force 0: every action is ignored) motion
+    # from IC1 near the folded equilibrium s = (-1, 1, -1, 1, -1), scored against it;
+    # RK4 at 1 ms is accurate to about a millimetre over 1 s (README speed/accuracy table).
+    "paper-fig1": dict(_PAPER, target="paper-fig1", start="paper-fig1", max_force=0.0, dt=1e-3, substeps=1, max_episode_steps=10_000),
+    # Fig. 2: stabilise the hanging equilibrium from IC1. The chain falls from the folded
+    # start far outside the linear region; the LQR catches it when the force is held
+    # for 0.3 ms or less (a 1 ms hold pumps energy into the fast modes), so 0.1 ms.
+    # e_q and e_w stay below 1e-3 from 9.2 s.
+    "paper-fig2": dict(_PAPER, target="hanging", start="paper-fig2", dt=1e-4, substeps=1, max_episode_steps=100_000),
+    # Fig. 3: stabilise s = (-1, -1, -1, 1, 1) from the Fig. 3 initial condition. With
+    # the paper's weights the slowest closed-loop poles are -0.77 +- 0.56i: e_q and e_w
+    # fall below 1e-3 at 11.3 s, so the episode lasts 12 s.
+    "paper-fig3": dict(_PAPER, target="paper-fig3", start="paper-fig3", dt=1e-3, substeps=1, max_episode_steps=12_000),
 }
 
 DEFAULT_SCENE = "inverted-2"

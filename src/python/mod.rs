@@ -6,6 +6,7 @@
 mod convert;
 mod env;
 mod model;
+mod render;
 
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
@@ -31,6 +32,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::ChainCart>()?;
     m.add_class::<env::EnvBatch>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render_frame, m)?)?;
     m.add_function(wrap_pyfunction!(model::target_signs, m)?)?;
     m.add_function(wrap_pyfunction!(model::paper_initial_condition, m)?)?;
     m.add(

@@ -1,7 +1,7 @@
 //! `ChainCart`: the physics model from Python (float64 NumPy in and out).
 
 use super::convert::{contiguous, error, per_link, signs, vector, Floats};
-use crate::analysis::{LqrController, LqrWeights};
+use crate::analysis::{Linearization, LqrController, LqrWeights};
 use crate::any::AnyChain;
 use crate::env::PaperFigure;
 use crate::error::ChainError;
@@ -25,7 +25,26 @@ fn array<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
     PyArray1::from_vec(py, v)
 }
 
+/// A matrix as a 2-D float64 array (row-major copy).
+fn matrix_to_numpy<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyAny> {
+    let rows: Vec<f64> = (0..m.nrows())
+        .flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)]))
+        .collect();
+    PyArray1::from_vec(py, rows)
+        .reshape([m.nrows(), m.ncols()])
+        .expect("size matches")
+        .into_any()
+}
+
 impl ChainCart {
+    /// A validated sign tuple (or equilibrium name) for this chain.
+    fn signs(&self, s: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+        let n = self.chain.n_links();
+        let s = signs(s, n)?;
+        crate::analysis::check_signs(&s, n)?;
+        Ok(s)
+    }
+
     pub fn from_params(
         n_links: i64,
         cart_mass: f64,
@@ -251,9 +270,7 @@ impl ChainCart {
         Q: Option<Floats<'py>>,
         R: Option<Floats<'py>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.chain.n_links();
-        let s = signs(s, n)?;
-        crate::analysis::check_signs(&s, n)?;
+        let s = self.signs(s)?;
         let matrix = |name: &str, a: &Floats<'py>| -> PyResult<DMatrix<f64>> {
             match a.shape() {
                 [r, c] => Ok(DMatrix::from_row_slice(*r, *c, &contiguous(a))),
@@ -272,11 +289,67 @@ impl ChainCart {
         }
         let params = self.chain.params().clone();
         let controller = py.detach(|| LqrController::new(&params, &s, &weights))?;
-        let k = controller.gain();
-        let rows: Vec<f64> = (0..k.nrows())
-            .flat_map(|i| (0..k.ncols()).map(move |j| k[(i, j)]))
+        Ok(matrix_to_numpy(py, controller.gain()))
+    }
+
+    /// Linearisation at equilibrium `s` (paper Prop. 2). By default the first-order
+    /// `(A, B)` in `z = [x, C^T xi_1..n, xdot, C^T w_1..n]` (`A`: (4+4n) square, `B`:
+    /// (4+4n) x 2); with `second_order=True` the paper's `(M, G, B)` in
+    /// `[x, C^T xi_1..n]` ((2n+2) square, (2n+2) x 2).
+    #[pyo3(signature = (s, second_order=false))]
+    fn linearize<'py>(
+        &self,
+        py: Python<'py>,
+        s: &Bound<'py, PyAny>,
+        second_order: bool,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let lin = Linearization::new(self.chain.params(), &self.signs(s)?)?;
+        if second_order {
+            let parts = [
+                lin.mass_matrix(),
+                lin.stiffness_matrix(),
+                lin.input_matrix(),
+            ];
+            PyTuple::new(py, parts.map(|m| matrix_to_numpy(py, m)))
+        } else {
+            let ss = lin.state_space()?;
+            PyTuple::new(py, [matrix_to_numpy(py, &ss.a), matrix_to_numpy(py, &ss.b)])
+        }
+    }
+
+    /// Eigenvalues `lambda` of the linearisation at `s` (roots of
+    /// `det(lambda^2 M + G) = 0`, each with its sign pair), as complex numbers.
+    fn eigenvalues<'py>(
+        &self,
+        py: Python<'py>,
+        s: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<numpy::Complex64>>> {
+        let lin = Linearization::new(self.chain.params(), &self.signs(s)?)?;
+        let values: Vec<numpy::Complex64> = lin
+            .eigenvalues()?
+            .into_iter()
+            .map(|z| numpy::Complex64::new(z.re, z.im))
             .collect();
-        Ok(array(py, rows).reshape([k.nrows(), k.ncols()])?.into_any())
+        Ok(PyArray1::from_vec(py, values))
+    }
+
+    /// Controllability of the linearisation at `s` (paper Prop. 3) by the PBH
+    /// eigenvector test: `(controllable, margin)`, the margin being the smallest
+    /// `sigma_min(V^T M_qx) / ||M_qx||` over the eigenspaces `V` of the chain
+    /// (0: a mode the cart cannot move; controllable means margin > 1e-8).
+    fn controllability(&self, s: &Bound<'_, PyAny>) -> PyResult<(bool, f64)> {
+        let c = crate::analysis::controllability(self.chain.params(), &self.signs(s)?)?;
+        Ok((c.controllable, c.margin))
+    }
+
+    /// All 2^n equilibria as sign tuples, hanging (all +1) first, in binary order
+    /// (bit i-1 of the index set means link i is upright). Refused for n > 20.
+    fn equilibria(&self) -> PyResult<Vec<Vec<i64>>> {
+        let all = crate::analysis::equilibria::all_signs(self.chain.n_links())?;
+        Ok(all
+            .into_iter()
+            .map(|s| s.into_iter().map(|v| v as i64).collect())
+            .collect())
     }
 
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyTuple>> {

@@ -11,13 +11,7 @@ use crate::error::{check_finite, check_len, ChainError, Result};
 /// Renders one `height x width x 3` frame into `pixels`, validating sizes. Wild
 /// (huge or off-screen) states draw without error; NaN coordinates are skipped.
 pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) -> Result<()> {
-    if width < 16 || height < 16 || width > 8192 || height > 8192 {
-        return Err(ChainError::InvalidParameter {
-            name: "frame size",
-            value: width.min(height) as f64,
-            expected: "width and height between 16 and 8192 pixels",
-        });
-    }
+    check_frame_size(width, height)?;
     check_len("state", spec.state, 4 + 6 * spec.lengths.len())?;
     check_finite("force", &spec.force)?;
     if let Some(s) = spec.target {
@@ -31,6 +25,20 @@ pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) 
         });
     }
     draw_frame(&mut Canvas::new(width, height, pixels), spec);
+    Ok(())
+}
+
+/// Frame sizes the renderer accepts: 16 to 8192 pixels each way.
+pub fn check_frame_size(width: usize, height: usize) -> Result<()> {
+    for (name, value) in [("width", width), ("height", height)] {
+        if !(16..=8192).contains(&value) {
+            return Err(ChainError::InvalidParameter {
+                name,
+                value: value as f64,
+                expected: "a frame size between 16 and 8192 pixels",
+            });
+        }
+    }
     Ok(())
 }
 
