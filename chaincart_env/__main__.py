@@ -23,7 +23,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         "--sizes", default="1,16,256,4096", help="comma-separated vector sizes N (default: 1,16,256,4096)"
     )
 
+    soak = commands.add_parser("soak", help="millions of random vector-env steps; RSS at start and end")
+    soak.add_argument("--steps", type=int, default=10_000_000, help="env-steps in total (default: 10 million)")
+    soak.add_argument("--num-envs", type=int, default=1024)
+    soak.add_argument("--seed", type=int, default=0)
+    soak.add_argument("--scene", default=None, help="scene name (default: the default scene)")
+
     args = parser.parse_args(argv)
+    if args.command == "soak":
+        from chaincart_env.soak import main as soak_main
+
+        return soak_main(args.steps, args.num_envs, args.seed, args.scene)
     if args.command == "demo":
         from chaincart_env.demo import run_demo
 

@@ -57,6 +57,25 @@ def check_seed(seed: Any) -> int:
     return int(seed)
 
 
+#: Keys ``ChainCartEnv.reset`` accepts in ``options``.
+RESET_OPTIONS = ("state",)
+
+
+def start_state_option(options: Optional[dict[str, Any]]) -> Optional[np.ndarray]:
+    """The ``state`` reset option (a full state in this scene's layout), checking that
+    ``options`` is a dict with known keys only."""
+    if options is None:
+        return None
+    if not isinstance(options, dict):
+        raise ChainCartError(f"options = {options!r}: expected a dict (or None)")
+    unknown = sorted(set(options) - set(RESET_OPTIONS))
+    if unknown:
+        raise ChainCartError(f"options has unknown keys {unknown}: expected some of {list(RESET_OPTIONS)}")
+    if "state" not in options:
+        return None
+    return np.asarray(options["state"], dtype=np.float64)
+
+
 class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
     """The chain pendulum on a cart (Lee, Leok & McClamroch, CDC 2012): stabilise an
     equilibrium of ``n`` links on a cart by pushing the cart.
@@ -219,6 +238,7 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: Optional[int] = None, options: Optional[dict[str, Any]] = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        start = start_state_option(options)
         native_seed = None if seed is None else check_seed(seed)
         super().reset(seed=native_seed)
         if native_seed is None and not self._seeded:
@@ -226,7 +246,12 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
         # native_seed None: continue this env's stream
         self._seeded = True
         self._needs_reset = False
-        return self._batch.reset_one(native_seed), {}
+        obs = self._batch.reset_one(native_seed)
+        if start is not None:
+            # Validated by the core: length, finiteness, |q_i| = 1 and w_i . q_i = 0.
+            self._batch.set_state(0, start)
+            obs = self._batch.states()[0].astype(obs.dtype)
+        return obs, {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         if self._needs_reset:

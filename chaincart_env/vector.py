@@ -172,6 +172,11 @@ class ChainCartVectorEnv(VectorEnv):
         else:
             raise ChainCartError(f"seed = {seed!r}: expected an int, a list of num_envs ints (or None), or None")
         mask = None
+        if options is not None and not isinstance(options, dict):
+            raise ChainCartError(f"options = {options!r}: expected a dict (or None)")
+        unknown = sorted(set(options or {}) - {"reset_mask"})
+        if unknown:
+            raise ChainCartError(f"options has unknown keys {unknown}: expected some of ['reset_mask']")
         if options is not None and "reset_mask" in options:
             mask = options["reset_mask"]
             if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,)):
