@@ -138,12 +138,15 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
     which keeps ``|q_i| = 1``), then per link a horizontal spin added to ``w_i`` and
     projected onto the tangent plane of the tilted link (so ``w_i . q_i = 0``).
     ``reset(seed=s)`` is reproducible bit for bit (ChaCha8 stream seeded with ``s``).
+    ``reset(options={"state": y})`` starts from the given state instead (this scene's
+    layout; checked: finite, ``|q_i| = 1``, ``w_i . q_i = 0``); other keys are errors.
 
     ## Episode End
 
     * Termination: the cart leaves the track, ``max_k |x_k| > track_limit``
       (``info["out_of_track"]``), or the integration fails numerically (non-finite
-      state, ``| |q_i| - 1 | > 1e-6``, or an implicit solver gives up;
+      state, ``| |q_i| - 1 | > 1e-6``, an implicit solver gives up, or a link turns
+      more than 0.5 rad in one integrator step, where the result would be finite but wrong;
       ``info["numerical_failure"]``): the observation is then the last good state,
       never NaN.
     * Truncation: ``max_episode_steps`` steps (500 = 10 s in the default scene).
