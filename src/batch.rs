@@ -50,7 +50,7 @@ impl StepStatus {
             StepStatus::ConstraintViolation => "constraint violation (|q_i| drifted from 1)",
             StepStatus::SolverFailure => "integrator failed (Newton or step-size control)",
             StepStatus::Unresolved => {
-                "motion too fast for the step size (a link turned > 0.5 rad in one step)"
+                "motion too fast for the step size (a link turned further than Guard::max_turn_per_step in one integrator step)"
             }
         }
     }
