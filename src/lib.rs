@@ -1,6 +1,6 @@
 //! chaincart: the chain pendulum on a cart (Lee, Leok, McClamroch, CDC 2012).
 //!
-//! Pure Rust physics and batch engine; the Python bindings live in [`python`]
+//! Pure Rust physics and batch engine; the Python bindings live in `src/python/`
 //! behind the `python` feature.
 //!
 //! * [`params`]: validated physical parameters.
@@ -11,7 +11,7 @@
 //! * [`batch`]: struct-of-arrays batches stepped in parallel.
 //! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati, LQR.
 //! * [`render`]: software rendering of chain states into RGB frames.
-//! * [`env`]: the RL task (target, start, reward, termination, autoreset) over a batch.
+//! * [`env`](mod@env): the RL task (target, start, reward, termination, autoreset) over a batch.
 
 pub mod analysis;
 pub mod any;

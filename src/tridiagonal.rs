@@ -4,7 +4,7 @@
 //! weakly diagonally dominant, so elimination without pivoting is stable.
 
 /// Solves `A t = b` in place for a tridiagonal `A` with diagonal `diag`, sub-diagonal
-/// `lower` (`lower[i]` = A[i+1][i]) and super-diagonal `upper` (`upper[i]` = A[i][i+1]).
+/// `lower` (`lower[i]` = `A[i+1][i]`) and super-diagonal `upper` (`upper[i]` = `A[i][i+1]`).
 /// `rhs` is overwritten with the solution; `scratch` (length n) is clobbered.
 #[inline]
 pub fn solve(diag: &[f64], lower: &[f64], upper: &[f64], rhs: &mut [f64], scratch: &mut [f64]) {
