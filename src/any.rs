@@ -3,7 +3,7 @@
 //! inputs and returns errors; nothing here panics on bad input.
 
 use crate::batch::{Batch, Guard, GuardedStepper, StepStatus};
-use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::error::{check_finite, check_len, check_positive, ChainError, Result};
 use crate::geometry::{planar_to_spatial, spatial_to_planar, Planar, Spatial, Vector};
 use crate::integrate::StepOptions;
 use crate::invariants::{Energy, Residuals};
@@ -85,7 +85,7 @@ impl AnyChain {
         dt: f64,
         opts: &StepOptions,
     ) -> Result<Vec<f64>> {
-        check_dt(dt)?;
+        check_positive("dt", dt)?;
         opts.validate()?;
         self.check_state(state)?;
         dispatch!(self, c, {
@@ -173,18 +173,6 @@ impl AnyChain {
     pub fn check_state(&self, state: &[f64]) -> Result<()> {
         check_len("state", state, self.state_dim())?;
         check_finite("state", state)
-    }
-}
-
-fn check_dt(dt: f64) -> Result<()> {
-    if dt.is_finite() && dt > 0.0 {
-        Ok(())
-    } else {
-        Err(ChainError::InvalidParameter {
-            name: "dt",
-            value: dt,
-            expected: "a finite number > 0",
-        })
     }
 }
 

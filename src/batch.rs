@@ -7,7 +7,7 @@
 //! its own data, so results are bit-identical whatever the thread count. Nothing
 //! is allocated in [`Batch::step`].
 
-use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::error::{check_finite, check_len, check_positive, ChainError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::{Method, StepOptions, Stepper};
 use crate::model::Chain;
@@ -76,19 +76,8 @@ impl Default for Guard {
 
 impl Guard {
     pub fn validate(&self) -> Result<()> {
-        for (name, value) in [
-            ("unit_length_tolerance", self.unit_length_tolerance),
-            ("max_turn_per_step", self.max_turn_per_step),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(ChainError::InvalidParameter {
-                    name,
-                    value,
-                    expected: "a finite number > 0",
-                });
-            }
-        }
-        Ok(())
+        check_positive("unit_length_tolerance", self.unit_length_tolerance)?;
+        check_positive("max_turn_per_step", self.max_turn_per_step)
     }
 }
 
@@ -189,13 +178,7 @@ impl<G: Geometry> Batch<G> {
                 expected: "an integer >= 1",
             });
         }
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(ChainError::InvalidParameter {
-                name: "dt",
-                value: dt,
-                expected: "a finite number > 0",
-            });
-        }
+        check_positive("dt", dt)?;
         opts.validate()?;
         let dim = chain.state_dim();
         let hanging = chain.equilibrium(&vec![1.0; chain.n_links()])?;

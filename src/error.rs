@@ -103,6 +103,19 @@ pub fn check_finite(name: &'static str, values: &[f64]) -> Result<()> {
     }
 }
 
+/// Rejects a value that is not a finite number > 0, naming it.
+pub fn check_positive(name: &'static str, value: f64) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ChainError::InvalidParameter {
+            name,
+            value,
+            expected: "a finite number > 0",
+        })
+    }
+}
+
 /// Rejects a slice whose length is not the expected one.
 pub fn check_len(name: &'static str, values: &[f64], expected: usize) -> Result<()> {
     if values.len() == expected {

@@ -4,7 +4,7 @@
 //! the mass carried below each joint, gravity torques), so the step loop only
 //! reads.
 
-use crate::error::{ChainError, Result};
+use crate::error::{check_positive, ChainError, Result};
 
 /// Validated parameters: cart mass `m`, link masses `m_i`, lengths `l_i`, gravity `g`.
 #[derive(Debug, Clone, PartialEq)]
@@ -17,18 +17,6 @@ pub struct ChainParams {
     inv_masses: Vec<f64>,
     /// `sum_{a>=i} m_a`: the mass carried at and beyond link i.
     outboard_mass: Vec<f64>,
-}
-
-fn check_positive(name: &'static str, value: f64) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(ChainError::InvalidParameter {
-            name,
-            value,
-            expected: "a finite number > 0",
-        })
-    }
 }
 
 fn check_positive_links(name: &'static str, values: &[f64]) -> Result<()> {

@@ -3,7 +3,7 @@
 
 use crate::analysis::equilibria::{check_signs, named_signs};
 use crate::batch::Guard;
-use crate::error::{check_finite, ChainError, Result};
+use crate::error::{check_finite, check_positive, ChainError, Result};
 use crate::integrate::StepOptions;
 
 /// Names accepted for a target equilibrium (besides a sign tuple).
@@ -312,18 +312,6 @@ impl TaskConfig {
         self.reward.validate()?;
         check_positive("success_tolerances.e_q", self.success.e_q)?;
         check_positive("success_tolerances.e_w", self.success.e_w)
-    }
-}
-
-fn check_positive(name: &'static str, value: f64) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(ChainError::InvalidParameter {
-            name,
-            value,
-            expected: "a finite number > 0",
-        })
     }
 }
 

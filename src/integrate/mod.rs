@@ -16,7 +16,7 @@ mod rk4;
 mod rkmk4;
 mod variational;
 
-use crate::error::{ChainError, Result};
+use crate::error::{check_positive, ChainError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::model::{Chain, Workspace};
 
@@ -112,19 +112,8 @@ impl StepOptions {
                 expected: "an integer >= 1",
             });
         }
-        for (name, value) in [
-            ("tolerance", self.tolerance),
-            ("newton_tolerance", self.newton_tolerance),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(ChainError::InvalidParameter {
-                    name,
-                    value,
-                    expected: "a finite number > 0",
-                });
-            }
-        }
-        Ok(())
+        check_positive("tolerance", self.tolerance)?;
+        check_positive("newton_tolerance", self.newton_tolerance)
     }
 }
 

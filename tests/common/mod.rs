@@ -1,6 +1,7 @@
 //! Shared helpers for the integration tests: random parameters and states.
 #![allow(dead_code)]
 
+pub mod batches;
 pub mod scenes;
 
 use chaincart::geometry::{Geometry, Layout, Vector};

@@ -4,35 +4,13 @@
 use chaincart::batch::CHUNK;
 use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs, TaskConfig};
 use chaincart::{ChainParams, SpatialChain, StepOptions};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+#[path = "../common/alloc_counter.rs"]
+mod alloc_counter;
 
-struct CountingAllocator;
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-thread_local! {
-    static THIS_THREAD: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        THIS_THREAD.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
+use alloc_counter::{counts, CountingAllocator};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
-
-fn counts() -> (usize, usize) {
-    (
-        ALLOCATIONS.load(Ordering::SeqCst),
-        THIS_THREAD.with(|c| c.get()),
-    )
-}
 
 #[test]
 fn env_steps_and_resets_allocate_nothing() {
