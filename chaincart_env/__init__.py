@@ -24,6 +24,7 @@ from chaincart_env.vector import ChainCartVectorEnv
 
 if TYPE_CHECKING:
     from chaincart_env.lqr import LQRPolicy
+    from chaincart_env.roa import region_of_attraction
     from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "RewardWeights",
     "SCENES",
     "__version__",
+    "region_of_attraction",
 ]
 
 try:
@@ -67,4 +69,8 @@ def __getattr__(name: str) -> Any:
         from chaincart_env.lqr import LQRPolicy
 
         return LQRPolicy
+    if name == "region_of_attraction":
+        from chaincart_env.roa import region_of_attraction
+
+        return region_of_attraction
     raise AttributeError(f"module 'chaincart_env' has no attribute {name!r}")
