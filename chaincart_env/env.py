@@ -14,6 +14,7 @@ from chaincart_env import _core
 from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.model import ChainCart
+from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering
 
 __all__ = ["ChainCartEnv", "observation_space", "action_space", "episode_info"]
 
@@ -161,7 +162,8 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Arguments
 
-    ``ChainCartEnv(config=None, *, render_mode=None, **keywords)`` or
+    ``ChainCartEnv(config=None, *, render_mode=None, render_width=480, render_height=240,
+    **keywords)`` or
     ``gymnasium.make("ChainCart-v0", **keywords)``, keywords of
     :class:`ChainCartConfig` (explicit keywords override the scene's values):
 
@@ -184,30 +186,37 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
     Gymnasium (a ``TimeLimit`` wrapper) and never reaches the env; set the env's
     episode length with ``config=ChainCartConfig(max_episode_steps=...)``.
 
-    ``render_mode`` must be ``None`` for now.
+    ``render_mode``: ``None``, ``"rgb_array"`` (``render()`` returns a uint8 frame of
+    ``render_height x render_width x 3`` pixels) or ``"human"`` (a live window in real
+    time; :class:`~chaincart_env.rendering.RenderUnavailable` where no display exists).
+    ``metadata["render_fps"]`` is ``round(1 / dt)`` capped at 50; with shorter control
+    periods (the paper's scenes) the window shows every ``round(1 / (dt * 50))``-th
+    step. The frame shows the state with the force of the last step; see
+    :class:`~chaincart_env.rendering.ChainRenderer`.
 
     The unwrapped env exposes ``state`` (the full float64 spatial state, planar states
     embedded), ``model_state`` (the float64 state in the observed layout), ``dt``,
     ``model`` (its :class:`ChainCart`) and ``config``.
     """
 
-    metadata: dict[str, Any] = {"render_modes": [], "render_fps": 50}
+    metadata: dict[str, Any] = {"render_modes": list(RENDER_MODES), "render_fps": 50}
 
     def __init__(
         self,
         config: Optional[ChainCartConfig | Mapping[str, Any]] = None,
         *,
         render_mode: Optional[str] = None,
+        render_width: int = DEFAULT_FRAME_SIZE[0],
+        render_height: int = DEFAULT_FRAME_SIZE[1],
         **kwargs: Any,
     ) -> None:
-        if render_mode is not None:
-            raise ChainCartError(f"render_mode = {render_mode!r}: rendering is not available yet, expected None")
-        self.render_mode = render_mode
         self.config = ChainCartConfig.coerce(config, **kwargs)
+        self._rendering = EnvRendering(render_mode, self.config, render_width, render_height)
+        self.render_mode = self._rendering.mode
         self.model: ChainCart = self.config.make_model()
         self.observation_space = observation_space(self.config)
         self.action_space = action_space(self.config)
-        self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.config.dt))}
+        self.metadata = {**type(self).metadata, "render_fps": self._rendering.fps}
         self._batch = self.config.make_batch(1, "disabled")
         self._diagnostics = self.config.diagnostics
         self._needs_reset = True
@@ -254,12 +263,20 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
             # Validated by the core: length, finiteness, |q_i| = 1 and w_i . q_i = 0.
             self._batch.set_state(0, start)
             obs = self._batch.states()[0].astype(obs.dtype)
+        if self.render_mode is not None:
+            self._rendering.clear_forces()
+            if self._rendering.human_frame_due(reset=True):
+                self.render()
         return obs, {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         if self._needs_reset:
             raise ResetNeeded("ChainCartEnv: call reset() before step() (and after an episode ends)")
         obs, reward, terminated, truncated, events = self._batch.step_one(action)
+        if self.render_mode is not None:
+            self._rendering.record_forces(action)
+            if self._rendering.human_frame_due():
+                self.render()
         if not (events & _ENDED or self._diagnostics):
             return obs, reward, terminated, truncated, {}
         return obs, reward, terminated, truncated, self._info(events)
@@ -275,8 +292,17 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
             info.update(episode_info(events, e_q, e_w))
         return info
 
-    def render(self) -> None:
-        return None
+    def render(self) -> Optional[np.ndarray]:  # type: ignore[override]
+        """``rgb_array``: the frame of the current state and the last step's force,
+        uint8 ``(render_height, render_width, 3)``. ``human``: shows it (also done by
+        every ``reset`` and ``step``) and returns ``None``. No render mode: ``None``."""
+        if self.render_mode is None:
+            gym.logger.warn("ChainCartEnv.render() without a render_mode: pass render_mode='rgb_array' or 'human'")
+            return None
+        return self._rendering.render([self._batch.states()[0]])
+
+    def close(self) -> None:
+        self._rendering.close()
 
     # Pickling / deepcopy: the native batch is rebuilt from the config and restored
     # from a snapshot of everything that evolves, so a copy continues identically.

@@ -16,6 +16,7 @@ from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, episode_info, observation_space
 from chaincart_env.model import ChainCart
+from chaincart_env.rendering import DEFAULT_FRAME_SIZE, EnvRendering, check_shown_envs
 from chaincart_env.vector import entropy_seed
 
 __all__ = ["ChainCartVecEnv"]
@@ -47,8 +48,12 @@ class _EnvView:
     def get_wrapper_attr(self, name: str) -> Any:
         return getattr(self, name)
 
-    def render(self) -> None:
-        return None
+    def render(self) -> Optional[np.ndarray]:
+        """This env's frame (``None`` without a render mode)."""
+        vec = self._vec
+        if vec.render_mode is None:
+            return None
+        return vec._rendering.frames([vec._batch.states()[self._index]], first=self._index)[0]
 
     def __getattr__(self, name: str) -> Any:
         # Everything else is shared by all envs of the batch.
@@ -70,6 +75,13 @@ class ChainCartVecEnv(VecEnv):
     ``model_state``, ``elapsed_steps``, ``set_state`` and every attribute of this
     VecEnv (``config``, ``model``, ``dt``, ...); ``set_attr`` sets an attribute shared
     by all envs. No env is wrapped (``env_is_wrapped`` is all False).
+
+    Rendering: ``render_mode`` ``"rgb_array"`` or ``"human"``, frames of
+    ``render_width x render_height`` with each env's last force; ``render()`` tiles the
+    first ``render_envs`` envs (default ``min(num_envs, 4)``) like
+    :class:`chaincart_env.ChainCartVectorEnv` (``human``: in a window), and
+    ``get_images()`` returns every env's frame (with ``metadata["render_fps"]`` as for
+    the single env, what SB3's ``VecVideoRecorder`` reads).
     """
 
     def __init__(
@@ -78,18 +90,32 @@ class ChainCartVecEnv(VecEnv):
         config: Optional[ChainCartConfig | Mapping[str, Any]] = None,
         *,
         seed: Optional[int] = None,
+        render_mode: Optional[str] = None,
+        render_width: int = DEFAULT_FRAME_SIZE[0],
+        render_height: int = DEFAULT_FRAME_SIZE[1],
+        render_envs: Optional[int] = None,
         **kwargs: Any,
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ChainCartError(f"num_envs = {num_envs!r}: expected an integer >= 1")
         self.config = ChainCartConfig.coerce(config, **kwargs)
         self.model: ChainCart = self.config.make_model()
-        self.render_mode: Optional[str] = None
+        self._rendering = EnvRendering(
+            render_mode,
+            self.config,
+            render_width,
+            render_height,
+            shown=check_shown_envs(render_envs, int(num_envs)),
+            tiled=True,
+            tracked=int(num_envs),
+        )
+        self.render_mode: Optional[str] = self._rendering.mode
         self._batch = self.config.make_batch(int(num_envs), "same_step", entropy_seed())
         self._diagnostics = self.config.diagnostics
         self._actions: Optional[np.ndarray] = None
         self._seeded = False
         super().__init__(int(num_envs), observation_space(self.config), action_space(self.config))
+        self.metadata["render_fps"] = self._rendering.fps  # type: ignore[assignment]  # SB3 types it as lists
         if seed is not None:
             self.seed(seed)
 
@@ -110,6 +136,10 @@ class ChainCartVecEnv(VecEnv):
             seeds = [base + i for i in range(self.num_envs)]
         self._seeded = True
         obs = self._batch.reset(seeds, None)
+        if self.render_mode is not None:
+            self._rendering.clear_forces()
+            if self._rendering.human_frame_due(reset=True):
+                self.render()
         self.reset_infos = [{} for _ in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
@@ -124,6 +154,10 @@ class ChainCartVecEnv(VecEnv):
         actions, self._actions = self._actions, None
         obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
         dones = terminated | truncated
+        if self.render_mode is not None:
+            self._rendering.record_forces(actions, fresh=dones)  # done envs show their new start
+            if self._rendering.human_frame_due():
+                self.render()
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         if self._diagnostics:
             diag, errors = self._batch.diagnostics(), self._batch.errors()
@@ -139,9 +173,6 @@ class ChainCartVecEnv(VecEnv):
                 info["terminal_observation"] = finals[i]
                 info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
         return obs, rewards.astype(np.float32), dones, infos
-
-    def close(self) -> None:
-        pass
 
     def _indices(self, indices: VecEnvIndices) -> list[int]:
         return list(self._get_indices(indices))
@@ -167,10 +198,20 @@ class ChainCartVecEnv(VecEnv):
         return [False for _ in self._indices(indices)]
 
     def get_images(self) -> Sequence[Optional[np.ndarray]]:
-        return [None for _ in range(self.num_envs)]
+        """Every env's frame (``None`` each without a render mode)."""
+        if self.render_mode is None:
+            return [None for _ in range(self.num_envs)]
+        return self._rendering.frames(self._batch.states())
 
     def render(self, mode: Optional[str] = None) -> Optional[np.ndarray]:
-        return None
+        """The first ``render_envs`` envs tiled (``rgb_array``) or shown (``human``);
+        another ``mode`` than the constructor's goes to SB3's ``VecEnv.render``."""
+        if self.render_mode is None or (mode is not None and mode != self.render_mode):
+            return super().render(mode)
+        return self._rendering.render(self._batch.states()[: self._rendering.shown])
+
+    def close(self) -> None:
+        self._rendering.close()
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()

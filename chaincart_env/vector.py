@@ -19,6 +19,7 @@ from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.model import ChainCart
+from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering, check_shown_envs
 
 __all__ = ["ChainCartVectorEnv", "autoreset_mode_of"]
 
@@ -83,10 +84,15 @@ class ChainCartVectorEnv(VectorEnv):
     in any env (wrong shape, NaN, inf) raises before any env moves. Diagnostics, when
     enabled, are top-level arrays for every env each step (of the state the step
     reached, before a same-step reset).
+
+    Rendering (``render_mode="rgb_array"`` or ``"human"``): the first ``render_envs``
+    envs (default ``min(num_envs, 4)``), each drawn at ``render_width x render_height``
+    with the force of its last step, tiled row by row in the most nearly square grid
+    (:func:`chaincart_env.rendering.tile_frames`, 2 grey pixels between tiles).
     """
 
     metadata: dict[str, Any] = {
-        "render_modes": [],
+        "render_modes": list(RENDER_MODES),
         "render_fps": 50,
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
@@ -98,21 +104,30 @@ class ChainCartVectorEnv(VectorEnv):
         *,
         autoreset_mode: Union[AutoresetMode, str] = AutoresetMode.NEXT_STEP,
         render_mode: Optional[str] = None,
+        render_width: int = DEFAULT_FRAME_SIZE[0],
+        render_height: int = DEFAULT_FRAME_SIZE[1],
+        render_envs: Optional[int] = None,
         **kwargs: Any,
     ) -> None:
-        if render_mode is not None:
-            raise ChainCartError(f"render_mode = {render_mode!r}: rendering is not available yet, expected None")
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ChainCartError(f"num_envs = {num_envs!r}: expected an integer >= 1")
-        self.render_mode = render_mode
         self.config = ChainCartConfig.coerce(config, **kwargs)
         self.model: ChainCart = self.config.make_model()
         self.num_envs = int(num_envs)
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        self._rendering = EnvRendering(
+            render_mode,
+            self.config,
+            render_width,
+            render_height,
+            shown=check_shown_envs(render_envs, self.num_envs),
+            tiled=True,
+        )
+        self.render_mode = self._rendering.mode
         self.metadata = {
             **type(self).metadata,
             "autoreset_mode": self.autoreset_mode,
-            "render_fps": max(1, round(1.0 / self.config.dt)),
+            "render_fps": self._rendering.fps,
         }
         self.single_observation_space = observation_space(self.config)
         self.single_action_space = action_space(self.config)
@@ -186,16 +201,34 @@ class ChainCartVectorEnv(VectorEnv):
             if not mask.any():
                 raise ChainCartError("options['reset_mask'] has no True entry: expected at least one env to reset")
         self._seeded = True
-        return self._batch.reset(seeds, mask), {}
+        obs = self._batch.reset(seeds, mask)
+        if self.render_mode is not None:
+            self._rendering.clear_forces(mask)
+            if self._rendering.human_frame_due(reset=True):
+                self.render()
+        return obs, {}
 
     def step(
         self, actions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Steps every env; ``actions`` of shape ``(num_envs, force_dim)``."""
         obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
+        if self.render_mode is not None:
+            self._record_forces(actions)
         if n_ended == 0 and not self._diagnostics:
             return obs, rewards, terminated, truncated, {}
         return obs, rewards, terminated, truncated, self._infos(n_ended)
+
+    def _record_forces(self, actions: np.ndarray) -> None:
+        # An env reset by this step (next-step autoreset: its action was ignored;
+        # same-step: it shows its new start) is drawn without a force.
+        events = self._batch.events()
+        fresh = (events & _core.EVENT_RESET) != 0
+        if self._same_step:
+            fresh |= (events & _core.EVENT_ENDED) != 0
+        self._rendering.record_forces(actions, fresh)
+        if self._rendering.human_frame_due():
+            self.render()
 
     def _infos(self, n_ended: int) -> dict[str, Any]:
         info: dict[str, Any] = {}
@@ -224,11 +257,16 @@ class ChainCartVectorEnv(VectorEnv):
             info.update(episode)
         return info
 
-    def render(self) -> None:
-        return None
+    def render(self) -> Optional[np.ndarray]:  # type: ignore[override]
+        """``rgb_array``: the tiled frames of the first ``render_envs`` envs (uint8);
+        ``human``: shows them (also done by every ``reset`` and ``step``) and returns
+        ``None``. No render mode: ``None``."""
+        if self.render_mode is None:
+            return None
+        return self._rendering.render(self._batch.states()[: self._rendering.shown])
 
     def close_extras(self, **kwargs: Any) -> None:
-        pass
+        self._rendering.close()
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()

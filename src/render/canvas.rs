@@ -11,6 +11,8 @@ pub struct Canvas<'a> {
     width: usize,
     height: usize,
     pixels: &'a mut [u8],
+    /// Columns `[clip.0, clip.1)` that drawing may touch (a panel of the frame).
+    clip: (usize, usize),
 }
 
 impl<'a> Canvas<'a> {
@@ -21,7 +23,15 @@ impl<'a> Canvas<'a> {
             width,
             height,
             pixels,
+            clip: (0, width),
         }
+    }
+
+    /// Restricts later drawing to the columns `[from, to)` (clamped to the canvas), so
+    /// that one panel's shapes never spill into its neighbour.
+    pub fn clip_columns(&mut self, from: usize, to: usize) {
+        let to = to.min(self.width);
+        self.clip = (from.min(to), to);
     }
 
     pub fn width(&self) -> usize {
@@ -46,12 +56,13 @@ impl<'a> Canvas<'a> {
         }
     }
 
-    /// Pixel range covering `[lo, hi]`, clipped; empty when off-canvas or non-finite.
-    fn span(lo: f64, hi: f64, size: usize) -> std::ops::Range<usize> {
-        if !(lo.is_finite() && hi.is_finite()) || hi < 0.0 || lo >= size as f64 {
+    /// Pixel range covering `[lo, hi]`, clipped to `[min, max)`; empty when outside
+    /// or non-finite.
+    fn span(lo: f64, hi: f64, (min, max): (usize, usize)) -> std::ops::Range<usize> {
+        if !(lo.is_finite() && hi.is_finite()) || hi < min as f64 || lo >= max as f64 {
             return 0..0;
         }
-        (lo.max(0.0).floor() as usize)..((hi.ceil() as usize).min(size))
+        (lo.max(min as f64).floor() as usize)..((hi.ceil() as usize).min(max))
     }
 
     /// A segment of the given radius with round ends (radius alone: a disc), blended
@@ -61,8 +72,12 @@ impl<'a> Canvas<'a> {
             return;
         }
         let reach = radius + 1.0;
-        let xs = Self::span(a[0].min(b[0]) - reach, a[0].max(b[0]) + reach, self.width);
-        let ys = Self::span(a[1].min(b[1]) - reach, a[1].max(b[1]) + reach, self.height);
+        let xs = Self::span(a[0].min(b[0]) - reach, a[0].max(b[0]) + reach, self.clip);
+        let ys = Self::span(
+            a[1].min(b[1]) - reach,
+            a[1].max(b[1]) + reach,
+            (0, self.height),
+        );
         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
         let len2 = dx * dx + dy * dy;
         for py in ys {
@@ -84,8 +99,8 @@ impl<'a> Canvas<'a> {
 
     /// An axis-aligned filled box from corner `a` to corner `b`.
     pub fn rect(&mut self, a: [f64; 2], b: [f64; 2], color: Rgb, alpha: f64) {
-        let xs = Self::span(a[0].min(b[0]), a[0].max(b[0]), self.width);
-        let ys = Self::span(a[1].min(b[1]), a[1].max(b[1]), self.height);
+        let xs = Self::span(a[0].min(b[0]), a[0].max(b[0]), self.clip);
+        let ys = Self::span(a[1].min(b[1]), a[1].max(b[1]), (0, self.height));
         for py in ys {
             for px in xs.clone() {
                 self.blend(px, py, color, alpha);
@@ -111,5 +126,20 @@ mod tests {
         assert_eq!(px(10, 5), &[0, 0, 0]);
         assert_eq!(px(10, 0), &[255, 255, 255]);
         assert_eq!(px(19, 1), &[255, 0, 0]);
+    }
+
+    #[test]
+    fn clipped_columns_stay_untouched() {
+        let mut buf = vec![0u8; 20 * 10 * 3];
+        let mut c = Canvas::new(20, 10, &mut buf);
+        c.fill([255, 255, 255]);
+        c.clip_columns(0, 12);
+        c.capsule([-5.0, 5.0], [50.0, 5.0], 2.0, [0, 0, 0], 1.0);
+        c.rect([0.0, 0.0], [20.0, 1.0], [255, 0, 0], 1.0);
+        let px = |x: usize, y: usize| &buf[3 * (y * 20 + x)..3 * (y * 20 + x) + 3];
+        assert_eq!(px(11, 5), &[0, 0, 0]);
+        assert_eq!(px(12, 5), &[255, 255, 255]);
+        assert_eq!(px(11, 0), &[255, 0, 0]);
+        assert_eq!(px(19, 0), &[255, 255, 255]);
     }
 }

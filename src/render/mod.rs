@@ -73,6 +73,59 @@ mod tests {
     }
 
     #[test]
+    fn the_side_view_stays_in_its_panel() {
+        // The track runs across the whole side view; the top view beside it shows a
+        // hanging chain as a dot in its middle, so its right edge is background.
+        let chain = SpatialChain::new(ChainParams::paper());
+        let hanging = chain.equilibrium(&[1.0; 5]).unwrap();
+        let spec = FrameSpec {
+            lengths: &[0.1; 5],
+            state: &hanging,
+            target: None,
+            force: [0.0; 2],
+            max_force: 10.0,
+            track_limit: f64::INFINITY,
+            top_view: true,
+        };
+        let mut px = vec![0u8; 120 * 80 * 3];
+        render(120, 80, &spec, &mut px).unwrap();
+        let at = |x: usize, y: usize| &px[3 * (y * 120 + x)..3 * (y * 120 + x) + 3];
+        assert_ne!(at(2, 40), &[250, 250, 250], "track drawn in the side view");
+        assert_eq!(
+            at(119, 40),
+            &[250, 250, 250],
+            "track spilled into the top view"
+        );
+    }
+
+    #[test]
+    fn a_scrolling_track_shows_the_carts_motion() {
+        let chain = SpatialChain::new(ChainParams::paper());
+        let mut y = chain.equilibrium(&[1.0; 5]).unwrap();
+        let draw = |y: &[f64]| {
+            let spec = FrameSpec {
+                lengths: &[0.1; 5],
+                state: y,
+                target: None,
+                force: [0.0; 2],
+                max_force: 10.0,
+                track_limit: 10.0,
+                top_view: false,
+            };
+            let mut px = vec![0u8; 120 * 80 * 3];
+            render(120, 80, &spec, &mut px).unwrap();
+            px
+        };
+        let before = draw(&y);
+        y[0] += 0.07;
+        assert_ne!(before, draw(&y));
+        for x in [1e12, -1e300, 9.99] {
+            y[0] = x;
+            draw(&y);
+        }
+    }
+
+    #[test]
     fn wild_states_draw_without_panicking() {
         let chain = SpatialChain::new(ChainParams::paper());
         let mut y = chain.equilibrium(&[1.0; 5]).unwrap();

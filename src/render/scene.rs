@@ -1,6 +1,7 @@
 //! Draws one frame of the chain: a side view (e1 right, e3 = gravity down) and a
-//! top view (e1 right, e2 up), the cart on its track, the target equilibrium drawn
-//! faintly from the cart, and the applied force as an arrow.
+//! top view (e1 right, e2 up), the cart on its track (with distance marks when the
+//! track scrolls with the cart), the target equilibrium drawn faintly from the cart,
+//! and the applied force as an arrow.
 
 use super::canvas::{Canvas, Rgb};
 
@@ -118,6 +119,53 @@ fn draw_arrow(canvas: &mut Canvas, from: [f64; 2], to: [f64; 2], width: f64) {
     }
 }
 
+/// The largest of 1, 2, 5 times a power of ten not above `x` (> 0).
+fn nice_step(x: f64) -> f64 {
+    let power = 10f64.powf(x.log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|&step| step <= x)
+        .unwrap_or(power)
+}
+
+/// Short marks along a track that scrolls with the cart (every 1, 2 or 5 times a
+/// power of ten metres, a taller one at the origin), so that the cart's motion shows.
+fn draw_track_ticks(
+    canvas: &mut Canvas,
+    side: &View,
+    center_x: f64,
+    visible: f64,
+    track: f64,
+    link_width: f64,
+) {
+    if !(center_x.is_finite() && visible.is_finite() && visible > 0.0) {
+        return;
+    }
+    let step = nice_step(0.5 * visible);
+    // Far out, neighbouring multiples of the step are no longer distinct numbers.
+    if center_x.abs() / step > 1e12 {
+        return;
+    }
+    let first = ((center_x - visible) / step).ceil();
+    let count = (((center_x + visible) / step).floor() - first).max(-1.0) as i64 + 1;
+    for i in 0..count.min(64) {
+        let x = (first + i as f64) * step;
+        if x.abs() > track {
+            continue;
+        }
+        let half = if x == 0.0 { 3.0 } else { 1.5 } * link_width;
+        let p = side.px([x, 0.0]);
+        canvas.capsule(
+            [p[0], p[1] - half],
+            [p[0], p[1] + half],
+            0.35 * link_width,
+            TRACK,
+            1.0,
+        );
+    }
+}
+
 /// Draws the frame into the whole canvas.
 pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
     canvas.fill(BACKGROUND);
@@ -149,6 +197,10 @@ pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
     let scale = (0.5 * panel_w / half_width).min(0.5 * h / half_height);
     let center_x = if follow { cart[0] } else { 0.0 };
     let link_width = (0.006 * h).max(0.8);
+    // Each view draws only inside its panel (the track line or a far-off cart would
+    // otherwise run on into the top view).
+    let panel_columns = panel_w.round() as usize;
+    canvas.clip_columns(0, panel_columns);
 
     // Side view: e1 to the right, e3 (gravity) down the screen.
     let side = View {
@@ -169,6 +221,10 @@ pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
         TRACK,
         1.0,
     );
+    if follow {
+        let visible = 0.5 * panel_w / scale;
+        draw_track_ticks(canvas, &side, center_x, visible, track, link_width);
+    }
     if track.is_finite() {
         for end in track_ends {
             let p = side.px([end, 0.0]);
@@ -218,6 +274,7 @@ pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
         return;
     }
     // Top view: e1 to the right, e2 up; the chain seen from above, centred on the cart.
+    canvas.clip_columns(panel_columns, canvas.width());
     canvas.rect([panel_w - 0.5, 0.0], [panel_w + 0.5, h], SEPARATOR, 1.0);
     let top = View {
         origin: [panel_w + 0.5 * top_w, 0.5 * h],

@@ -218,10 +218,15 @@ def test_diagnostics_only_when_asked() -> None:
     assert plain.step(np.array([0.3, -0.2], np.float32))[4] == {}
 
 
-def test_render_mode_must_be_none_for_now() -> None:
-    with pytest.raises(ChainCartError, match="render_mode"):
-        ChainCartEnv(render_mode="rgb_array")
-    assert ChainCartEnv(render_mode=None).render() is None
+def test_render_modes() -> None:
+    # More in test_render.py.
+    assert ChainCartEnv.metadata["render_modes"] == ["rgb_array", "human"]
+    env = ChainCartEnv(render_mode="rgb_array", render_width=64, render_height=32)
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.shape == (32, 64, 3)
+    with pytest.raises(ChainCartError, match="render_mode = 'video'"):
+        ChainCartEnv(render_mode="video")
 
 
 def test_gym_make_passes_the_config_keywords() -> None:

@@ -1,0 +1,118 @@
+"""The rendering part of an env: render mode, frame size, the forces last applied
+(each frame shows them) and, in human mode, the window. Shared by the single env, the
+native vector env and the SB3 VecEnv."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Optional
+
+import numpy as np
+import numpy.typing as npt
+
+from chaincart_env._core import ChainCartError
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.rendering.frames import ChainRenderer, check_render_mode, render_fps, steps_per_frame, tile_frames
+from chaincart_env.rendering.window import HumanWindow
+
+__all__ = ["EnvRendering", "check_shown_envs"]
+
+
+def check_shown_envs(render_envs: Any, num_envs: int) -> int:
+    """How many envs a vector env draws: ``render_envs`` (an integer in [1,
+    num_envs]) or, for ``None``, ``min(num_envs, 4)``."""
+    if render_envs is None:
+        return min(num_envs, 4)
+    if isinstance(render_envs, bool) or not isinstance(render_envs, (int, np.integer)) or not (
+        1 <= render_envs <= num_envs
+    ):
+        raise ChainCartError(f"render_envs = {render_envs!r}: expected an integer in [1, num_envs = {num_envs}]")
+    return int(render_envs)
+
+
+class EnvRendering:
+    """Frames of the first ``shown`` envs of a batch, each with the force its env last
+    applied (remembered for the first ``tracked`` envs, default ``shown``).
+    ``render(states)`` returns the frame (``tiled=False``, one env) or the grid of
+    frames (:func:`tile_frames`) in ``rgb_array`` mode, shows it in ``human`` mode, and
+    does nothing without a render mode. ``fps`` is the config's :func:`render_fps`;
+    human mode shows every :func:`steps_per_frame`-th step (real time)."""
+
+    def __init__(
+        self,
+        render_mode: Optional[str],
+        config: ChainCartConfig,
+        width: int,
+        height: int,
+        *,
+        shown: int = 1,
+        tiled: bool = False,
+        tracked: Optional[int] = None,
+    ) -> None:
+        self.mode = check_render_mode(render_mode)
+        self.renderer = ChainRenderer(config, width, height)  # validates the size in every mode
+        self.shown = shown
+        self.tiled = tiled
+        self.forces = np.zeros((shown if tracked is None else max(tracked, shown), config.force_dim))
+        self._max_force = float(config.max_force)
+        self.fps = render_fps(config.dt)
+        self._stride = steps_per_frame(config.dt)
+        self._steps = 0
+        title = f"chaincart: {config.scene}" + (f" ({shown} envs)" if tiled else "")
+        self.window = HumanWindow(self.fps, title) if self.mode == "human" else None
+
+    @property
+    def frame_shape(self) -> tuple[int, int, int]:
+        """Shape of one env's frame, ``(height, width, 3)``."""
+        return (self.renderer.height, self.renderer.width, 3)
+
+    def record_forces(self, actions: npt.ArrayLike, fresh: Optional[np.ndarray] = None) -> None:
+        """Remembers the forces (N) of normalised ``actions`` (one row per env, already
+        accepted by the core), clipped as the core clips them; envs flagged ``fresh``
+        (reset by this step, so their action was not applied) show none."""
+        if self.mode is None:
+            return
+        tracked = len(self.forces)
+        a = np.asarray(actions, dtype=np.float64).reshape(-1, self.forces.shape[1])[:tracked]
+        self.forces[:] = np.clip(a, -1.0, 1.0) * self._max_force
+        if fresh is not None:
+            self.forces[np.asarray(fresh[:tracked], dtype=bool)] = 0.0
+
+    def human_frame_due(self, reset: bool = False) -> bool:
+        """Whether human mode shows a frame now: after every reset and every
+        ``steps_per_frame``-th step since."""
+        if self.mode != "human":
+            return False
+        self._steps = 0 if reset else self._steps + 1
+        return self._steps % self._stride == 0
+
+    def clear_forces(self, mask: Optional[np.ndarray] = None) -> None:
+        """No force shown for the envs in ``mask`` (all envs: ``None``), after a reset."""
+        if mask is None:
+            self.forces[:] = 0.0
+        else:
+            self.forces[np.asarray(mask[: len(self.forces)], dtype=bool)] = 0.0
+
+    def frames(self, states: Sequence[np.ndarray] | np.ndarray, first: int = 0) -> list[np.ndarray]:
+        """Frames of the states (model layout) of envs ``first, first + 1, ...``, each
+        with its env's last force."""
+        if first + len(states) > len(self.forces):
+            raise ChainCartError(
+                f"states of envs {first}..{first + len(states) - 1} to draw: forces are tracked for "
+                f"envs 0..{len(self.forces) - 1} only"
+            )
+        return [self.renderer.frame(y, f) for y, f in zip(states, self.forces[first:])]
+
+    def render(self, states: Sequence[np.ndarray] | np.ndarray) -> Optional[np.ndarray]:
+        if self.mode is None:
+            return None
+        frames = self.frames(states[: self.shown])
+        image = tile_frames(frames) if self.tiled else frames[0]
+        if self.window is not None:
+            self.window.show(image)
+            return None
+        return image
+
+    def close(self) -> None:
+        if self.window is not None:
+            self.window.close()

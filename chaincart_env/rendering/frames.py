@@ -1,0 +1,163 @@
+"""RGB frames of chain states: one env's picture (:class:`ChainRenderer`, drawn by the
+Rust rasteriser ``chaincart_env._core.render_frame``) and a grid of several
+(:func:`tile_frames`)."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Sequence
+from typing import Any, Optional
+
+import numpy as np
+import numpy.typing as npt
+
+from chaincart_env import _core
+from chaincart_env._core import ChainCartError
+from chaincart_env.config import ChainCartConfig
+
+__all__ = [
+    "RENDER_MODES",
+    "DEFAULT_FRAME_SIZE",
+    "MIN_FRAME_SIZE",
+    "MAX_FRAME_SIZE",
+    "ChainRenderer",
+    "MAX_RENDER_FPS",
+    "check_render_mode",
+    "render_fps",
+    "steps_per_frame",
+    "check_frame_size",
+    "tile_frames",
+    "tile_grid",
+]
+
+#: The render modes every chaincart env accepts (besides ``None``).
+RENDER_MODES = ("rgb_array", "human")
+#: ``(width, height)`` of one env's frame unless configured.
+DEFAULT_FRAME_SIZE = (480, 240)
+#: Bounds on either side of a frame, as the Rust renderer enforces them.
+MIN_FRAME_SIZE, MAX_FRAME_SIZE = 16, 8192
+#: Grey level of the lines between tiles (the frames' background is 250).
+TILE_GAP_GREY = 120
+#: Highest ``render_fps``: scenes whose control period is shorter (the paper's
+#: scenes step at 1 ms or 0.1 ms) show one frame per several steps in human mode.
+MAX_RENDER_FPS = 50
+
+
+def render_fps(dt: float) -> int:
+    """``metadata["render_fps"]`` of a scene with control period ``dt``: real time,
+    ``round(1 / dt)``, capped at :data:`MAX_RENDER_FPS`."""
+    return max(1, min(MAX_RENDER_FPS, round(1.0 / dt)))
+
+
+def steps_per_frame(dt: float) -> int:
+    """Env steps per frame at :func:`render_fps` for real-time playback (1 unless
+    ``dt`` is shorter than ``1 / MAX_RENDER_FPS``)."""
+    return max(1, round(1.0 / (dt * render_fps(dt))))
+
+
+def check_render_mode(render_mode: Any) -> Optional[str]:
+    """``render_mode`` itself if it is ``None`` or one of :data:`RENDER_MODES`."""
+    if render_mode is None or (isinstance(render_mode, str) and render_mode in RENDER_MODES):
+        return render_mode
+    raise ChainCartError(f"render_mode = {render_mode!r}: expected None or one of {list(RENDER_MODES)}")
+
+
+def check_frame_size(width: Any, height: Any) -> tuple[int, int]:
+    """``(width, height)`` as ints, each an integer in [16, 8192] pixels."""
+    for name, value in (("render_width", width), ("render_height", height)):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, numbers.Integral)
+            or not MIN_FRAME_SIZE <= int(value) <= MAX_FRAME_SIZE
+        ):
+            raise ChainCartError(
+                f"{name} = {value!r}: expected an integer number of pixels in [{MIN_FRAME_SIZE}, {MAX_FRAME_SIZE}]"
+            )
+    return int(width), int(height)
+
+
+def _per_link(value: float | tuple[float, ...], n_links: int) -> list[float]:
+    if isinstance(value, tuple):
+        return [float(v) for v in value]
+    return [float(value)] * n_links
+
+
+class ChainRenderer:
+    """Frames of one config's chain, ``(height, width, 3)`` uint8 arrays.
+
+    The picture: on the left (the whole frame in planar scenes) a side view, e1 to the
+    right and gravity down, with the cart (blue) on its track (grey, with end stops at
+    ``+-track_limit``; a track much longer than the chain scrolls with the cart), the
+    links (black) and their point masses (orange), the target equilibrium drawn
+    faintly from the cart, and the force on the cart as a red arrow (``max_force`` is
+    60% of the chain's length). Spatial scenes add a top view on the right (e1 right,
+    e2 up, centred on the cart), where the horizontal force shows in both components.
+    """
+
+    def __init__(
+        self, config: ChainCartConfig, width: int = DEFAULT_FRAME_SIZE[0], height: int = DEFAULT_FRAME_SIZE[1]
+    ) -> None:
+        self.width, self.height = check_frame_size(width, height)
+        self.planar = config.planar
+        self.force_dim = config.force_dim
+        self._model = config.make_model()
+        self._lengths = _per_link(config.link_lengths, config.n_links)
+        self._target = [float(s) for s in config.target_signs]
+        self._max_force = float(config.max_force)
+        self._track_limit = float(config.track_limit)
+
+    def frame(self, state: npt.ArrayLike, force: Optional[npt.ArrayLike] = None) -> np.ndarray:
+        """The frame of ``state`` (the model's layout: planar states are planar) with
+        ``force`` (N, ``force_dim`` numbers; ``None``: no force) as an arrow. Any
+        state draws, however far off-screen, huge or NaN its entries."""
+        y = np.asarray(state, dtype=np.float64)
+        spatial = self._model.to_spatial(y) if self.planar else y
+        return _core.render_frame(
+            self._lengths,
+            spatial,
+            self._force_2d(force),
+            target=self._target,
+            max_force=self._max_force,
+            track_limit=self._track_limit,
+            width=self.width,
+            height=self.height,
+            top_view=not self.planar,
+        )
+
+    def _force_2d(self, force: Optional[npt.ArrayLike]) -> list[float]:
+        if force is None:
+            return [0.0, 0.0]
+        f = np.asarray(force, dtype=np.float64).reshape(-1)
+        if f.shape != (self.force_dim,):
+            raise ChainCartError(f"force has shape {f.shape}: expected ({self.force_dim},)")
+        if not np.all(np.isfinite(f)):
+            raise ChainCartError(f"force = {f.tolist()}: expected finite numbers")
+        return [float(f[0]), float(f[1]) if self.force_dim == 2 else 0.0]
+
+
+def tile_grid(count: int) -> tuple[int, int]:
+    """``(rows, columns)`` of the most nearly square grid holding ``count`` tiles,
+    filled row by row (columns >= rows)."""
+    if count < 1:
+        raise ChainCartError(f"count = {count}: expected at least one tile")
+    columns = math.ceil(math.sqrt(count))
+    return math.ceil(count / columns), columns
+
+
+def tile_frames(frames: Sequence[np.ndarray], gap: int = 2) -> np.ndarray:
+    """Frames of equal size in a grid (:func:`tile_grid`), row by row, with ``gap``
+    grey pixels between tiles; empty cells stay grey. Shape ``(rows * h + (rows - 1) *
+    gap, columns * w + (columns - 1) * gap, 3)``."""
+    if len(frames) == 0:
+        raise ChainCartError("tile_frames got no frames: expected at least one")
+    h, w, _ = frames[0].shape
+    for k, f in enumerate(frames):
+        if f.shape != (h, w, 3):
+            raise ChainCartError(f"frame {k} has shape {f.shape}: expected {(h, w, 3)} like frame 0")
+    rows, columns = tile_grid(len(frames))
+    out = np.full((rows * h + (rows - 1) * gap, columns * w + (columns - 1) * gap, 3), TILE_GAP_GREY, dtype=np.uint8)
+    for k, f in enumerate(frames):
+        r, c = divmod(k, columns)
+        out[r * (h + gap) : r * (h + gap) + h, c * (w + gap) : c * (w + gap) + w] = f
+    return out
