@@ -148,3 +148,50 @@ def point_accelerations(n_links: int, qpos: np.ndarray, qvel: np.ndarray, qacc: 
         omega = new_omega
         qdd[i] = np.cross(alpha, q[i]) + np.cross(omega, np.cross(omega, q[i]))
     return qacc[:2].copy(), qdd
+
+
+def chain_point_accelerations(derivative: np.ndarray, state: np.ndarray, n_links: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cart acceleration and qdd_i from one of our state derivatives:
+    ``qdd_i = wdot_i x q_i + w_i x qdot_i``."""
+    q = state[4 : 4 + 3 * n_links].reshape(n_links, 3)
+    w = state[4 + 3 * n_links :].reshape(n_links, 3)
+    qdot = derivative[4 : 4 + 3 * n_links].reshape(n_links, 3)
+    wdot = derivative[4 + 3 * n_links :].reshape(n_links, 3)
+    return derivative[2:4].copy(), np.cross(wdot, q) + np.cross(w, qdot)
+
+
+def random_spatial_state(n_links: int, rng: np.random.Generator) -> np.ndarray:
+    """A random spatial state on the constraints: unit q_i, w_i tangent to q_i."""
+    q = rng.normal(size=(n_links, 3))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    w = rng.normal(size=(n_links, 3))
+    w -= np.sum(w * q, axis=1, keepdims=True) * q
+    return np.concatenate([rng.normal(size=2), rng.normal(size=2), q.reshape(-1), w.reshape(-1)])
+
+
+def mujoco_accelerations(mj_model: object, data: object, n_links: int, state: np.ndarray, force: np.ndarray) -> np.ndarray:
+    """MuJoCo's cart and link-point accelerations ``[xdd(2), qdd_1..qdd_n]`` at ``state``."""
+    import mujoco
+
+    data.qpos[:], data.qvel[:] = state_to_mujoco(n_links, state)  # type: ignore[attr-defined]
+    data.ctrl[:] = force  # type: ignore[attr-defined]
+    mujoco.mj_forward(mj_model, data)
+    xdd, qdd = point_accelerations(n_links, data.qpos, data.qvel, data.qacc)  # type: ignore[attr-defined]
+    return np.concatenate([xdd, qdd.reshape(-1)])
+
+
+def acceleration_mismatch(chain: object, mj_model: object, states: np.ndarray, forces: np.ndarray) -> float:
+    """Largest relative difference ``|a_mujoco - a_ours| / |a_ours|`` over ``states``
+    (``a`` the stacked cart and link-point accelerations); ``chain`` is a spatial
+    :class:`chaincart_env.ChainCart` with the parameters ``mj_model`` was built from."""
+    import mujoco
+
+    n = chain.n_links  # type: ignore[attr-defined]
+    data = mujoco.MjData(mj_model)
+    worst = 0.0
+    for state, force in zip(states, forces):
+        xdd, qdd = chain_point_accelerations(chain.derivative(state, force), state, n)  # type: ignore[attr-defined]
+        ours = np.concatenate([xdd, qdd.reshape(-1)])
+        theirs = mujoco_accelerations(mj_model, data, n, state, force)
+        worst = max(worst, float(np.linalg.norm(theirs - ours) / np.linalg.norm(ours)))
+    return worst

@@ -1,0 +1,62 @@
+"""Targets section: the speed goals of issues 2 (Rust core) and 3 (Python package),
+each with the measured number and whether it is met, from the sections that ran."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from chaincart_env.bench.report import fmt_rate
+from chaincart_env.bench.suite import BenchContext
+
+__all__ = ["targets_section"]
+
+
+def _verdict(ok: Optional[bool]) -> str:
+    return "not measured" if ok is None else ("met" if ok else "NOT met")
+
+
+def _core_targets(ctx: BenchContext) -> list[list[str]]:
+    crit = ctx.results.get("criterion", {})
+    step = crit.get("step/rk4/5", {}).get("median")
+    batch = crit.get("batch/4096", {}).get("median")
+    rate = 4096 / batch if batch else None
+    return [
+        ["5-link rk4 step, 1 substep, one core (criterion step/rk4/5)", "<= 0.5 us",
+         f"{step * 1e6:.3f} us" if step else "n/a", _verdict(step <= 0.5e-6 if step else None)],
+        ["4096-state batch, 2 cores (criterion batch/4096)", ">= 4 M env-steps/s",
+         fmt_rate(rate), _verdict(rate >= 4e6 if rate else None)],
+    ]  # fmt: skip
+
+
+def _package_targets(ctx: BenchContext) -> list[list[str]]:
+    rows = []
+    single = ctx.results.get("single", {})
+    base = single.get("CartPole-v1")
+    for label in ("default", "ChainCart-v0 paper 5-link, substeps 1"):
+        r = single.get(label)
+        ok = (r >= base) if r and base else None
+        name = "default scene" if label == "default" else "paper 5-link, 1 substep"
+        rows.append([f"gym.make single env, {name}", ">= CartPole-v1",
+                     f"{fmt_rate(r)} vs {fmt_rate(base)} steps/s", _verdict(ok)])  # fmt: skip
+    vector = ctx.results.get("vector", {}).get("chaincart", {})
+    for n_envs, bound, what in ((4096, 0.10, "< 10% of a step"), (1, 5e-6, "< 5 us per call")):
+        cells = [(k, m) for (k, n), m in vector.items() if n == n_envs]
+        if not cells:
+            rows.append([f"vector env Python overhead, N = {n_envs}", what, "n/a", _verdict(None)])
+            continue
+        overhead = {k: m["vector_call"] - m["native_call"] for k, m in cells}
+        value = {k: (o / m["vector_call"] if n_envs > 1 else o) for (k, m), o in zip(cells, overhead.values())}
+        worst = max(value.values())
+        shown = ", ".join(f"n={k}: " + (f"{v:.1%}" if n_envs > 1 else f"{v * 1e6:.1f} us") for k, v in value.items())
+        rows.append([f"vector env Python overhead, N = {n_envs}", what, shown, _verdict(worst < bound)])
+    return rows
+
+
+def targets_section(ctx: BenchContext) -> None:
+    ctx.report.heading("Speed targets (issues 2 and 3)")
+    rows = _core_targets(ctx) + _package_targets(ctx)
+    ctx.report.table(["target", "goal", "measured", "verdict"], rows, 4)
+    ctx.report.paragraph(
+        "A target reads 'not measured' when the section it needs did not run in this invocation "
+        "(criterion results come from the last `cargo bench --bench dynamics`)."
+    )
