@@ -1,4 +1,4 @@
-"""Command line: ``python -m chaincart_env {demo,bench} [options]``."""
+"""Command line: ``python -m chaincart_env COMMAND [options]`` (``--help`` lists the commands)."""
 
 from __future__ import annotations
 
@@ -17,11 +17,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--steps", type=int, default=None, help="at most this many steps (default: one episode)")
 
-    bench = commands.add_parser("bench", help="env-steps/s against Gymnasium's CartPole (Markdown tables)")
-    bench.add_argument("--quick", action="store_true", help="short timings (a smoke run, noisy numbers)")
-    bench.add_argument(
-        "--sizes", default="1,16,256,4096", help="comma-separated vector sizes N (default: 1,16,256,4096)"
+    bench = commands.add_parser(
+        "bench", help="benchmark suite: throughput vs CartPole, MuJoCo, speed/accuracy, scaling, render (Markdown)"
     )
+    from chaincart_env.bench.cli import add_bench_arguments
+
+    add_bench_arguments(bench)
 
     soak = commands.add_parser("soak", help="millions of random vector-env steps; RSS at start and end")
     soak.add_argument("--steps", type=int, default=10_000_000, help="env-steps in total (default: 10 million)")
@@ -29,7 +30,21 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     soak.add_argument("--seed", type=int, default=0)
     soak.add_argument("--scene", default=None, help="scene name (default: the default scene)")
 
+    from chaincart_env.analysis_cli import add_commands as add_analysis_commands
+
+    add_analysis_commands(commands)  # figures, roa: each sets args.handler
+
+    from chaincart_env.compare.cli import add_commands as add_compare_commands
+
+    add_compare_commands(commands)  # compare, evaluate: each sets args.handler
+
+    from chaincart_env.animate import add_animate_command
+
+    add_animate_command(commands)  # animate: sets args.handler
+
     args = parser.parse_args(argv)
+    if getattr(args, "handler", None) is not None:
+        return int(args.handler(args, parser))
     if args.command == "soak":
         from chaincart_env.soak import main as soak_main
 
@@ -38,10 +53,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         from chaincart_env.demo import run_demo
 
         return run_demo(scene=args.scene, policy=args.policy, seed=args.seed, max_steps=args.steps)
-    from chaincart_env.bench.envs import run_bench
+    from chaincart_env.bench.cli import run_from_args
 
-    sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
-    return run_bench(quick=args.quick, sizes=sizes)
+    return run_from_args(args, bench)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,137 @@
+"""Command line of the main job: ``compare`` (train, evaluate against LQR, report) and
+``evaluate`` (re-run the comparison of a saved model). Registered as subcommands of
+``python -m chaincart_env`` and as the console script ``chaincart-compare``.
+
+Nothing heavy is imported here: stable-baselines3 and torch load when a command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+from chaincart_env._core import ChainCartError
+from chaincart_env.compare.scene_options import add_scene_options, config_from_options, parse_value
+
+__all__ = ["DEFAULT_TIMESTEPS", "add_commands", "compare_main"]
+
+#: Training budget of the default run (see the README's results): PPO solves the
+#: default scene well within it on two shared cores.
+DEFAULT_TIMESTEPS = 400_000
+DEFAULT_OUT = Path("runs/compare")
+ALGORITHM_NAMES = ("ppo", "sac", "td3")
+
+
+def _integer(minimum: int, what: str) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} = {text!r}: expected an integer >= {minimum}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{what} = {value}: expected an integer >= {minimum}")
+        return value
+
+    return parse
+
+
+def _add_evaluation_options(parser: argparse.ArgumentParser, defaults: bool) -> None:
+    parser.add_argument("--eval-episodes", type=_integer(1, "eval-episodes"), default=50 if defaults else None,
+                        help="seeded evaluation starts per policy" + (" (default: 50)" if defaults else
+                                                                      " (default: the run's)"))
+    parser.add_argument("--eval-seed", type=_integer(0, "eval-seed"), default=1_000_000 if defaults else None,
+                        help="seed of the first evaluation start; start i uses eval-seed + i"
+                        + (" (default: 1000000)" if defaults else " (default: the run's)"))
+    parser.add_argument("--torch-threads", type=_integer(1, "torch-threads"), default=1,
+                        help="torch threads (default 1: fastest for these small networks on a shared machine)")
+
+
+def _configure_compare(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--timesteps", type=_integer(1, "timesteps"), default=DEFAULT_TIMESTEPS,
+                        help=f"training budget in env steps (default: {DEFAULT_TIMESTEPS})")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument("--algo", type=str.lower, choices=ALGORITHM_NAMES, default="ppo",
+                        help="stable-baselines3 algorithm (default: ppo)")
+    parser.add_argument("--seed", type=_integer(0, "seed"), default=0,
+                        help="training seed: agent and env i seeded seed + i (default: 0)")
+    parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=8,
+                        help="training envs in the native VecEnv (default: 8)")
+    parser.add_argument("--algo-kwarg", dest="algo_kwargs", action="append", default=[], metavar="KEY=VALUE",
+                        help="constructor keyword of the algorithm on top of the defaults (repeatable), "
+                        "e.g. --algo-kwarg n_steps=256")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_evaluation_options(parser, defaults=True)
+    add_scene_options(parser)
+    # Errors are reported by this (sub)parser, whatever parser dispatched.
+    parser.set_defaults(handler=lambda args, _dispatcher=None: _run_compare_command(args, parser))
+
+
+def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", type=Path, help="a run folder written by compare, or its model.zip")
+    parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
+    _add_evaluation_options(parser, defaults=False)
+    parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
+
+
+def _algo_kwarg(text: str) -> tuple[str, Any]:
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip().isidentifier():
+        raise ChainCartError(f"--algo-kwarg {text!r}: expected KEY=VALUE, e.g. --algo-kwarg n_steps=256")
+    return key.strip(), parse_value(value)
+
+
+def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from chaincart_env.compare.job import run_compare
+
+    try:
+        config = config_from_options(args)
+        hyperparameters = dict(_algo_kwarg(text) for text in args.algo_kwargs)
+    except (ChainCartError, TypeError) as error:
+        parser.error(str(error))
+    try:
+        run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps, seed=args.seed,
+                    num_envs=args.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
+                    progress_bar=not args.no_progress, torch_threads=args.torch_threads,
+                    hyperparameters=hyperparameters)
+    except ChainCartError as error:
+        parser.error(str(error))
+    return 0
+
+
+def _run_evaluate_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from chaincart_env.compare.job import run_evaluate
+
+    try:
+        run_evaluate(args.model, out=args.out, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
+                     torch_threads=args.torch_threads)
+    except ChainCartError as error:
+        parser.error(str(error))
+    return 0
+
+
+def add_commands(commands: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    """Adds ``compare`` and ``evaluate`` to a subcommand set; each parser's ``handler``
+    default runs it as ``args.handler(args, dispatching_parser)``."""
+    _configure_compare(commands.add_parser(
+        "compare", help="train an SB3 agent and compare it with the LQR baseline (the main job)",
+        description="Train a stable-baselines3 agent on a scene, evaluate it and the LQR baseline on the "
+        "same seeded starts, and write tables, a learning curve, error plots, a filmstrip and the model.",
+    ))
+    _configure_evaluate(commands.add_parser(
+        "evaluate", help="re-run the comparison of a model saved by compare",
+        description="Load a model saved by compare and re-run its comparison with the LQR baseline.",
+    ))
+
+
+def compare_main(argv: Optional[Sequence[str]] = None) -> int:
+    """The console script ``chaincart-compare``: ``compare`` with its options."""
+    parser = argparse.ArgumentParser(prog="chaincart-compare", description="Train a stable-baselines3 agent and compare it with the LQR baseline.")
+    _configure_compare(parser)
+    args = parser.parse_args(argv)
+    return int(args.handler(args, parser))
+
+
+if __name__ == "__main__":
+    sys.exit(compare_main())

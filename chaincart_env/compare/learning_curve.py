@@ -1,0 +1,43 @@
+"""The learning curve: training episodes (``training_episodes.csv``) binned by
+timesteps into mean return and success rate (of the stochastic training policy)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["LEARNING_CURVE_COLUMNS", "learning_curve", "read_training_episodes"]
+
+#: Columns of ``learning_curve.csv``.
+LEARNING_CURVE_COLUMNS = ("timesteps", "episodes", "return_mean", "return_std", "success_rate")
+
+
+def read_training_episodes(path: Path) -> dict[str, np.ndarray]:
+    """The columns of a ``training_episodes.csv`` as float arrays."""
+    with Path(path).open(newline="") as file:
+        rows = list(csv.DictReader(file))
+    keys = ("timesteps", "return", "is_success")
+    return {key: np.array([float(row[key]) for row in rows], dtype=np.float64) for key in keys}
+
+
+def learning_curve(episodes: dict[str, np.ndarray], total_timesteps: int, bins: int = 40) -> list[dict[str, Any]]:
+    """One row per non-empty bin of ``total_timesteps / bins`` steps, labelled by the
+    bin's last timestep: the episodes that ended in it, their mean and std return and
+    their success rate."""
+    edges = np.linspace(0, max(total_timesteps, 1), bins + 1)
+    which = np.clip(np.searchsorted(edges, episodes["timesteps"], side="left") - 1, 0, bins - 1)
+    rows = []
+    for b in range(bins):
+        members = which == b
+        if not members.any():
+            continue
+        returns = episodes["return"][members]
+        rows.append(dict(
+            timesteps=int(round(edges[b + 1])), episodes=int(members.sum()),
+            return_mean=float(returns.mean()), return_std=float(returns.std()),
+            success_rate=float(episodes["is_success"][members].mean()),
+        ))
+    return rows

@@ -1,0 +1,63 @@
+"""The files that make a trained run re-evaluable: ``model.zip`` (SB3), ``config.json``
+(the env config's keywords) and ``run.json`` (algorithm, budget, seeds, evaluation
+settings, hyperparameters, timings)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.base_class import BaseAlgorithm
+
+from chaincart_env._core import ChainCartError
+from chaincart_env.compare.training import algorithm_class
+from chaincart_env.config import ChainCartConfig
+
+__all__ = ["MODEL_FILE", "CONFIG_FILE", "RUN_FILE", "SavedRun", "load_run", "save_run"]
+
+MODEL_FILE = "model.zip"
+CONFIG_FILE = "config.json"
+RUN_FILE = "run.json"
+
+
+@dataclass(frozen=True)
+class SavedRun:
+    model: BaseAlgorithm
+    config: ChainCartConfig
+    info: dict[str, Any]
+    directory: Path
+
+
+def save_run(directory: Path, model: BaseAlgorithm, config: ChainCartConfig, info: dict[str, Any]) -> None:
+    directory = Path(directory)
+    model.save(directory / MODEL_FILE)
+    (directory / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2) + "\n")
+    (directory / RUN_FILE).write_text(json.dumps(info, indent=2, default=repr) + "\n")
+
+
+def _json(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise ChainCartError(f"{path} does not exist: expected the {path.name} that compare writes beside the model")
+    data = json.loads(path.read_text())
+    if not isinstance(data, dict):
+        raise ChainCartError(f"{path} holds {type(data).__name__}: expected a JSON object")
+    return data
+
+
+def load_run(path: Path) -> SavedRun:
+    """A run directory written by ``compare``, or the ``model.zip`` inside one."""
+    path = Path(path)
+    if path.is_dir():
+        directory, model_path = path, path / MODEL_FILE
+    elif path.suffix == ".zip":
+        directory, model_path = path.parent, path
+    else:
+        raise ChainCartError(f"model {str(path)!r}: expected a run directory or a .zip model file that exists")
+    if not model_path.is_file():
+        raise ChainCartError(f"{model_path} does not exist: expected an SB3 model saved by compare")
+    info = _json(directory / RUN_FILE)
+    config = ChainCartConfig(**_json(directory / CONFIG_FILE))
+    model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
+    return SavedRun(model=model, config=config, info=info, directory=directory)

@@ -1,0 +1,254 @@
+"""The main job (``python -m chaincart_env compare`` / ``evaluate``): the whole
+pipeline on a tiny budget, the evaluation against an independent single-env loop,
+the LQR baseline on the default scene, save/reload reproducibility and CLI errors."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from chaincart_env import ChainCartConfig, ChainCartEnv, LQRPolicy
+from chaincart_env.__main__ import main
+from chaincart_env.compare.cli import compare_main
+from chaincart_env.compare.evaluation import (
+    EPISODE_COLUMNS,
+    METRIC_COLUMNS,
+    Rollouts,
+    evaluate_policies,
+    evaluation_seeds,
+    rollout,
+    settle_times,
+)
+from chaincart_env.compare.filmstrip import filmstrip_size
+from chaincart_env.compare.job import EVALUATION_FILES, OUTPUT_FILES
+from chaincart_env.compare.learning_curve import LEARNING_CURVE_COLUMNS
+from chaincart_env.compare.plots import FIGURE_SIZE_PX
+from chaincart_env.compare.scene_options import parse_value
+from chaincart_env.compare.training import TRAINING_EPISODE_COLUMNS
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+EPISODE_STEPS = 40
+MAX_FORCE = 20.0
+# A budget of seconds: 2 envs, PPO rollouts of 64 steps, 40-step episodes, 3 starts.
+TINY = [
+    "--timesteps", "256", "--num-envs", "2", "--eval-episodes", "3", "--eval-seed", "7",
+    "--set", f"max_episode_steps={EPISODE_STEPS}", "--algo-kwarg", "n_steps=64", "--algo-kwarg", "batch_size=64",
+    "--no-progress",
+]  # fmt: skip
+
+
+def read_csv(path: pathlib.Path) -> tuple[list[str], list[dict[str, str]]]:
+    with path.open(newline="") as file:
+        reader = csv.DictReader(file)
+        return list(reader.fieldnames or []), list(reader)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    out = tmp_path_factory.mktemp("compare")
+    assert main(["compare", *TINY, "--out", str(out)]) == 0
+    return out
+
+
+def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) -> None:
+    for name in OUTPUT_FILES:
+        assert (tiny_run / name).is_file() and (tiny_run / name).stat().st_size > 0, name
+
+    columns, rows = read_csv(tiny_run / "comparison.csv")
+    assert columns == list(METRIC_COLUMNS)
+    assert [row["policy"] for row in rows] == ["PPO", "LQR"]
+    for row in rows:
+        assert int(row["episodes"]) == 3
+        assert 0.0 <= float(row["success_rate"]) <= 1.0
+        for key in ("return_mean", "return_std", "final_e_q_mean", "final_e_w_mean", "peak_force_mean",
+                    "rms_force_mean"):  # fmt: skip
+            assert math.isfinite(float(row[key])) and float(row[key]) >= 0.0, (key, row[key])
+        assert float(row["return_mean"]) <= EPISODE_STEPS  # rewards are in (0, 1]
+        assert float(row["rms_force_mean"]) <= float(row["peak_force_mean"]) <= MAX_FORCE + 1e-9
+        settled = int(row["settled"])
+        assert math.isnan(float(row["settle_time_mean"])) == (settled == 0)
+        # Settling (as defined) happens exactly in the successful episodes.
+        assert settled == round(float(row["success_rate"]) * 3)
+
+    columns, episodes = read_csv(tiny_run / "episodes.csv")
+    assert columns == list(EPISODE_COLUMNS) and len(episodes) == 6
+    assert sorted({int(e["seed"]) for e in episodes}) == [7, 8, 9]
+    for e in episodes:
+        length = int(e["length"])
+        assert 1 <= length <= EPISODE_STEPS
+        assert 0.0 < float(e["return"]) <= length
+        assert int(e["terminated"]) == (length < EPISODE_STEPS)
+        if int(e["is_success"]):
+            assert float(e["final_e_q"]) <= 0.1 and float(e["final_e_w"]) <= 0.5
+            assert 0.0 <= float(e["settle_time"]) <= length * 0.02
+
+    columns, train = read_csv(tiny_run / "training_episodes.csv")
+    assert columns == list(TRAINING_EPISODE_COLUMNS) and train
+    steps = [int(r["timesteps"]) for r in train]
+    assert steps == sorted(steps) and steps[-1] <= 256 + 64 * 2
+    assert all(1 <= int(r["length"]) <= EPISODE_STEPS and int(r["is_success"]) in (0, 1) for r in train)
+    columns, curve = read_csv(tiny_run / "learning_curve.csv")
+    assert columns == list(LEARNING_CURVE_COLUMNS) and curve
+    assert sum(int(r["episodes"]) for r in curve) == len(train)
+    assert all(0.0 <= float(r["success_rate"]) <= 1.0 and math.isfinite(float(r["return_mean"])) for r in curve)
+
+    sizes = {"learning_curve.png": FIGURE_SIZE_PX, "errors.png": FIGURE_SIZE_PX,
+             "filmstrip.png": filmstrip_size(2, 8)}  # fmt: skip
+    for name, size in sizes.items():
+        with Image.open(tiny_run / name) as image:
+            image.load()
+            assert image.format == "PNG" and image.size == size, name
+            # Something is drawn: not a blank canvas.
+            assert np.asarray(image.convert("L")).std() > 1.0, name
+
+    config = json.loads((tiny_run / "config.json").read_text())
+    assert ChainCartConfig(**config) == ChainCartConfig(max_episode_steps=EPISODE_STEPS)
+    run = json.loads((tiny_run / "run.json").read_text())
+    assert run["algo"] == "ppo" and run["eval_seed"] == 7 and run["hyperparameters"]["n_steps"] == 64
+    table = (tiny_run / "comparison.md").read_text()
+    assert "| PPO | 3 |" in table and "| LQR | 3 |" in table
+
+
+def test_evaluate_reproduces_the_comparison_from_the_saved_model(
+    tiny_run: pathlib.Path, tmp_path: pathlib.Path
+) -> None:
+    assert main(["evaluate", str(tiny_run), "--out", str(tmp_path / "dir")]) == 0
+    assert main(["evaluate", str(tiny_run / "model.zip"), "--out", str(tmp_path / "zip")]) == 0
+    for out in (tmp_path / "dir", tmp_path / "zip"):
+        for name in EVALUATION_FILES:
+            assert (out / name).is_file(), name
+        for name in ("comparison.csv", "episodes.csv"):
+            assert (out / name).read_text() == (tiny_run / name).read_text(), name
+
+
+def test_a_reloaded_model_gives_identical_rollouts(tiny_run: pathlib.Path) -> None:
+    from chaincart_env.compare.run_files import load_run
+
+    first, second = load_run(tiny_run), load_run(tiny_run / "model.zip")
+    seeds = evaluation_seeds(100, 4)
+    a = rollout(first.model, "PPO", first.config, seeds)
+    b = rollout(second.model, "PPO", second.config, seeds)
+    for key in ("returns", "lengths", "success", "e_q", "e_w", "force", "first_states"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
+
+
+def test_batched_evaluation_matches_a_plain_single_env_loop() -> None:
+    # Oracle: the Gymnasium env stepped one episode at a time with the same policy.
+    config = ChainCartConfig(start_noise=0.3, max_episode_steps=150)
+    env = ChainCartEnv(config)
+    lqr = LQRPolicy.from_env(env)
+    seeds = [3, 4, 5, 6, 7, 8]
+    run = rollout(lqr, "LQR", config, seeds)
+    for i, seed in enumerate(seeds):
+        obs, _ = env.reset(seed=seed)
+        total, e_q, forces = 0.0, [env.model.errors(env.model_state, config.target_signs)[0]], []
+        info: dict = {}
+        for k in range(config.max_episode_steps):
+            action = lqr.predict(obs)[0]
+            forces.append(abs(float(np.clip(action[0], -1, 1))) * config.max_force)
+            obs, reward, terminated, truncated, info = env.step(action)
+            total += float(reward)
+            e_q.append(env.model.errors(env.model_state, config.target_signs)[0])
+            if terminated or truncated:
+                break
+        assert run.lengths[i] == k + 1
+        assert run.terminated[i] == terminated and run.success[i] == info["is_success"]
+        assert run.returns[i] == pytest.approx(total, rel=1e-9)
+        np.testing.assert_allclose(run.e_q[i, : k + 2], e_q, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(run.force[i, : k + 1], forces, rtol=1e-9)
+        assert np.isnan(run.e_q[i, k + 2 :]).all()
+    assert run.terminated.any() and run.success.any()  # noise 0.3 gives both kinds of episode
+
+
+def test_lqr_baseline_succeeds_on_the_default_scene_from_its_default_perturbations() -> None:
+    config = ChainCartConfig()
+    assert config.scene == "inverted-2" and config.start_noise > 0
+    lqr = LQRPolicy.from_env(ChainCartEnv(config))
+    _, episodes, (summary,) = evaluate_policies([("LQR", lqr)], config, evaluation_seeds(1_000_000, 20))
+    assert summary["success_rate"] >= 0.9
+    assert summary["settled"] >= 18 and 0.0 < summary["settle_time_mean"] < config.max_episode_steps * config.dt
+    assert len({e["return"] for e in episodes}) == 20  # 20 different starts
+
+
+def _rollouts(e_q: list[float], e_w: list[float], success: bool) -> Rollouts:
+    steps = len(e_q) - 1
+    return Rollouts(
+        policy="p", dt=0.5, seeds=np.array([0]), returns=np.array([1.0]), lengths=np.array([steps]),
+        success=np.array([success]), terminated=np.array([False]), e_q=np.array([e_q]), e_w=np.array([e_w]),
+        force=np.zeros((1, steps)), first_states=np.zeros((steps + 1, 10)), first_forces=np.zeros((steps, 2)),
+    )  # fmt: skip
+
+
+def test_time_to_settle_is_the_first_time_after_which_both_errors_stay_inside() -> None:
+    tol = (0.1, 0.5)
+    # Outside at steps 0-1 (e_q), back inside at 2, out again at 3 (e_w), inside from step 4 on.
+    run = _rollouts([0.3, 0.2, 0.05, 0.05, 0.01, 0.0], [0.1, 0.1, 0.1, 0.6, 0.4, 0.1], True)
+    assert settle_times(run, tol)[0] == 4 * 0.5
+    assert settle_times(_rollouts([0.05, 0.01], [0.1, 0.1], True), tol)[0] == 0.0
+    assert np.isnan(settle_times(_rollouts([0.05, 0.01], [0.1, 0.1], False), tol)[0])
+
+
+def test_cli_values_parse_to_config_values() -> None:
+    assert parse_value("3") == 3 and parse_value("0.5") == 0.5
+    assert parse_value("false") is False and parse_value("True") is True
+    assert parse_value("-1,1") == (-1, 1) and parse_value("[0.5, 0.4]") == (0.5, 0.4)
+    assert parse_value("inverted") == "inverted" and parse_value('{"q": 2}') == {"q": 2}
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--algo", "a2c"], "invalid choice: 'a2c'"),
+        (["--timesteps", "-5"], "timesteps = -5: expected an integer >= 1"),
+        (["--timesteps", "lots"], "timesteps = 'lots': expected an integer >= 1"),
+        (["--num-envs", "0"], "num-envs = 0: expected an integer >= 1"),
+        (["--set", "bogus=1"], "unknown scene key 'bogus'"),
+        (["--set", "n_links"], "expected key=value"),
+        (["--scene", "nope"], "unknown scene 'nope'"),
+        (["--n-links", "two"], "n_links = 'two': expected an integer"),
+        (["--start-noise=-1"], "start_noise"),
+        (["--algo-kwarg", "n_stepz=64"], "n_stepz"),
+        (["--scene", "paper-fig1"], "no LQR baseline for scene 'paper-fig1'"),
+    ],
+)
+def test_bad_compare_input_is_a_clear_error(
+    args: list[str], message: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["compare", "--out", str(tmp_path), "--timesteps", "64", "--no-progress", *args])
+    assert exit_info.value.code == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "model.zip").exists()
+
+
+def test_evaluate_of_a_missing_model_is_a_clear_error(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["evaluate", str(tmp_path / "nothing")])
+    assert exit_info.value.code == 2
+    assert "nothing" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_off_policy_algorithms_run_through_the_console_entry(algo: str, tmp_path: pathlib.Path) -> None:
+    budget = ["--timesteps", "150", "--algo-kwarg", "learning_starts=50", "--algo-kwarg", "batch_size=32"]
+    args = [*TINY[:TINY.index("--algo-kwarg")], *budget, "--no-progress", "--algo", algo.upper()]
+    assert compare_main([*args, "--out", str(tmp_path)]) == 0
+    _, rows = read_csv(tmp_path / "comparison.csv")
+    assert [row["policy"] for row in rows] == [algo.upper(), "LQR"]
+    assert json.loads((tmp_path / "run.json").read_text())["algo"] == algo
+
+
+def test_console_scripts_point_at_the_commands() -> None:
+    import tomllib  # Python >= 3.11, as set-up uses
+
+    scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts["chaincart-compare"] == "chaincart_env.compare.cli:compare_main"
+    assert scripts["chaincart"] == "chaincart_env.__main__:main"
