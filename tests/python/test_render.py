@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 import pickle
+import sys
 import warnings
 from pathlib import Path
 
@@ -446,7 +447,22 @@ def test_animate_a_saved_sb3_model(tmp_path: Path) -> None:
               "--out", str(tmp_path / "x.gif")])
 
 
-def test_animate_bad_input_is_a_usage_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_animate_writes_an_mp4(tmp_path: Path) -> None:
+    import imageio.v3 as iio
+
+    out = tmp_path / "a.mp4"
+    assert main(["animate", "--steps", "20", "--fps", "25", "--out", str(out), "--width", "64", "--height", "32"]) == 0
+    frames = iio.imread(out)
+    # One frame per 2 steps (dt 20 ms at 25 fps) plus the reset frame.
+    assert frames.shape == (11, 32, 64, 3) and frames.dtype == np.uint8
+    assert frames.std() > 0
+
+
+def test_animate_bad_input_is_a_usage_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Without imageio-ffmpeg, an MP4 is a usage error that says what to install.
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
     cases = [
         (["--out", str(tmp_path / "a.mp4")], "imageio-ffmpeg"),
         (["--out", str(tmp_path / "a.png")], "expected a file name ending in .gif or .mp4"),
