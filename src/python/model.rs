@@ -267,13 +267,16 @@ impl ChainCart {
         &self,
         py: Python<'py>,
         s: &Bound<'py, PyAny>,
-        Q: Option<Floats<'py>>,
-        R: Option<Floats<'py>>,
+        Q: Option<&Bound<'py, PyAny>>,
+        R: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let s = self.signs(s)?;
-        let matrix = |name: &str, a: &Floats<'py>| -> PyResult<DMatrix<f64>> {
+        let matrix = |name: &str, obj: &Bound<'py, PyAny>| -> PyResult<DMatrix<f64>> {
+            let a: Floats<'py> = obj
+                .extract()
+                .map_err(|_| error(format!("{name} = {obj}: expected a 2-D matrix of numbers")))?;
             match a.shape() {
-                [r, c] => Ok(DMatrix::from_row_slice(*r, *c, &contiguous(a))),
+                [r, c] => Ok(DMatrix::from_row_slice(*r, *c, &contiguous(&a))),
                 shape => Err(error(format!(
                     "{name} has shape {}, expected a 2-D matrix",
                     super::convert::shape_text(shape)
@@ -281,10 +284,10 @@ impl ChainCart {
             }
         };
         let mut weights = LqrWeights::paper_default(&s);
-        if let Some(q) = &Q {
+        if let Some(q) = Q {
             weights.q = matrix("Q", q)?;
         }
-        if let Some(r) = &R {
+        if let Some(r) = R {
             weights.r = matrix("R", r)?;
         }
         let params = self.chain.params().clone();

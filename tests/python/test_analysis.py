@@ -139,8 +139,11 @@ def _nan_q() -> np.ndarray:
         (None, np.zeros((2, 2)), r"R has eigenvalue 0.*positive definite"),
         (None, np.array([[1.0, 2.0], [0.0, 1.0]]), r"R is not symmetric"),
         (None, np.array([[1.0, np.inf], [np.inf, 1.0]]), r"R\[\d, \d\] = inf: expected a finite number"),
+        ("abc", None, r"Q = abc: expected a 2-D matrix of numbers"),
+        (None, [[1.0], [2.0, 3.0]], r"R = .*: expected a 2-D matrix of numbers"),
     ],
-    ids=["Q-shape", "Q-1d", "Q-asymmetric", "Q-not-psd", "Q-nan", "R-shape", "R-singular", "R-asymmetric", "R-inf"],
+    ids=["Q-shape", "Q-1d", "Q-asymmetric", "Q-not-psd", "Q-nan", "R-shape", "R-singular", "R-asymmetric", "R-inf",
+         "Q-text", "R-ragged"],
 )
 def test_bad_weights_are_refused_with_a_clear_message(Q: object, R: object, message: str) -> None:
     with pytest.raises(ChainCartError, match=message):
