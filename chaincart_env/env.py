@@ -14,6 +14,7 @@ from chaincart_env import _core
 from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.model import ChainCart
+from chaincart_env.native import NativeBatchCopies
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering
 
 __all__ = ["ChainCartEnv", "observation_space", "action_space", "episode_info"]
@@ -77,7 +78,7 @@ def start_state_option(options: Optional[dict[str, Any]]) -> Optional[np.ndarray
     return np.asarray(options["state"], dtype=np.float64)
 
 
-class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
+class ChainCartEnv(NativeBatchCopies, gym.Env[np.ndarray, np.ndarray]):
     """The chain pendulum on a cart (Lee, Leok & McClamroch, CDC 2012): stabilise an
     equilibrium of ``n`` links on a cart by pushing the cart.
 
@@ -304,15 +305,5 @@ class ChainCartEnv(gym.Env[np.ndarray, np.ndarray]):
     def close(self) -> None:
         self._rendering.close()
 
-    # Pickling / deepcopy: the native batch is rebuilt from the config and restored
-    # from a snapshot of everything that evolves, so a copy continues identically.
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_batch"] = self._batch.snapshot()
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        snapshot = state.pop("_batch")
-        self.__dict__.update(state)
-        self._batch = self.config.make_batch(1, "disabled")
-        self._batch.restore(snapshot)
+    def _rebuild_batch(self) -> Any:
+        return self.config.make_batch(1, "disabled")

@@ -16,6 +16,7 @@ from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, episode_info, observation_space
 from chaincart_env.model import ChainCart
+from chaincart_env.native import NativeBatchCopies, check_num_envs
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE, EnvRendering, check_shown_envs
 from chaincart_env.vector import entropy_seed
 
@@ -60,7 +61,7 @@ class _EnvView:
         return getattr(self._vec, name)
 
 
-class ChainCartVecEnv(VecEnv):
+class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     """``num_envs`` chaincart envs as one stable-baselines3 ``VecEnv``.
 
     Arguments as for :class:`chaincart_env.ChainCartEnv` (a config and/or its keywords)
@@ -96,8 +97,7 @@ class ChainCartVecEnv(VecEnv):
         render_envs: Optional[int] = None,
         **kwargs: Any,
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ChainCartError(f"num_envs = {num_envs!r}: expected an integer >= 1")
+        num_envs = check_num_envs(num_envs)
         self.config = ChainCartConfig.coerce(config, **kwargs)
         self.model: ChainCart = self.config.make_model()
         self._rendering = EnvRendering(
@@ -105,16 +105,16 @@ class ChainCartVecEnv(VecEnv):
             self.config,
             render_width,
             render_height,
-            shown=check_shown_envs(render_envs, int(num_envs)),
+            shown=check_shown_envs(render_envs, num_envs),
             tiled=True,
-            tracked=int(num_envs),
+            tracked=num_envs,
         )
         self.render_mode: Optional[str] = self._rendering.mode
-        self._batch = self.config.make_batch(int(num_envs), "same_step", entropy_seed())
+        self._batch = self.config.make_batch(num_envs, "same_step", entropy_seed())
         self._diagnostics = self.config.diagnostics
         self._actions: Optional[np.ndarray] = None
         self._seeded = False
-        super().__init__(int(num_envs), observation_space(self.config), action_space(self.config))
+        super().__init__(num_envs, observation_space(self.config), action_space(self.config))
         self.metadata["render_fps"] = self._rendering.fps  # type: ignore[assignment]  # SB3 types it as lists
         if seed is not None:
             self.seed(seed)
@@ -213,13 +213,5 @@ class ChainCartVecEnv(VecEnv):
     def close(self) -> None:
         self._rendering.close()
 
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_batch"] = self._batch.snapshot()
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        snapshot = state.pop("_batch")
-        self.__dict__.update(state)
-        self._batch = self.config.make_batch(self.num_envs, "same_step")
-        self._batch.restore(snapshot)
+    def _rebuild_batch(self) -> Any:
+        return self.config.make_batch(self.num_envs, "same_step")

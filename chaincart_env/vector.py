@@ -19,6 +19,7 @@ from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.model import ChainCart
+from chaincart_env.native import NativeBatchCopies, check_num_envs
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering, check_shown_envs
 
 __all__ = ["ChainCartVectorEnv", "autoreset_mode_of"]
@@ -62,7 +63,7 @@ def episode_infos(batch: _core.EnvBatch) -> tuple[np.ndarray, dict[str, Any]]:
     return ended, info
 
 
-class ChainCartVectorEnv(VectorEnv):
+class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
     """``num_envs`` copies of :class:`chaincart_env.ChainCartEnv` stepped together in
     Rust. Arguments as for the single env (a config and/or its keywords) plus
     ``num_envs`` and ``autoreset_mode`` (an ``AutoresetMode`` or ``"next_step"``,
@@ -109,11 +110,9 @@ class ChainCartVectorEnv(VectorEnv):
         render_envs: Optional[int] = None,
         **kwargs: Any,
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ChainCartError(f"num_envs = {num_envs!r}: expected an integer >= 1")
+        self.num_envs = check_num_envs(num_envs)
         self.config = ChainCartConfig.coerce(config, **kwargs)
         self.model: ChainCart = self.config.make_model()
-        self.num_envs = int(num_envs)
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
         self._rendering = EnvRendering(
             render_mode,
@@ -268,13 +267,5 @@ class ChainCartVectorEnv(VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         self._rendering.close()
 
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_batch"] = self._batch.snapshot()
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        snapshot = state.pop("_batch")
-        self.__dict__.update(state)
-        self._batch = self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode])
-        self._batch.restore(snapshot)
+    def _rebuild_batch(self) -> Any:
+        return self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode])
