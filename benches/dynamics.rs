@@ -15,9 +15,8 @@ use std::hint::black_box;
 
 const SIZES: [usize; 6] = [1, 2, 5, 10, 50, 200];
 
-/// A moving, non-degenerate state: links tilted from hanging, spinning.
-fn moving_state(chain: &SpatialChain) -> Vec<f64> {
-    let n = chain.n_links();
+/// A moving planar state of n links: tilted from hanging by growing angles, spinning.
+fn moving_planar_state(n: usize) -> Vec<f64> {
     let mut planar = vec![0.0; 2 + 3 * n];
     for i in 0..n {
         let a = 0.3 + 0.2 * i as f64;
@@ -25,6 +24,13 @@ fn moving_state(chain: &SpatialChain) -> Vec<f64> {
         planar[3 + 2 * i] = a.cos();
         planar[2 + 2 * n + i] = 0.5;
     }
+    planar
+}
+
+/// A moving, non-degenerate spatial state: the planar one, nudged out of the plane.
+fn moving_state(chain: &SpatialChain) -> Vec<f64> {
+    let n = chain.n_links();
+    let planar = moving_planar_state(n);
     let mut y = vec![0.0; chain.state_dim()];
     planar_to_spatial(n, &planar, &mut y);
     // Leave the plane a little so the spatial code does real 3-D work.
@@ -91,13 +97,7 @@ fn planar_vs_spatial(c: &mut Criterion) {
         let params = ChainParams::uniform(n, 0.5, 0.1, 0.1, 9.81).unwrap();
         let planar = PlanarChain::new(params.clone());
         let spatial = SpatialChain::new(params);
-        let mut yp0 = vec![0.0; planar.state_dim()];
-        for i in 0..n {
-            let a = 0.3 + 0.2 * i as f64;
-            yp0[2 + 2 * i] = a.sin();
-            yp0[3 + 2 * i] = a.cos();
-            yp0[2 + 2 * n + i] = 0.5;
-        }
+        let yp0 = moving_planar_state(n);
         let mut ys0 = vec![0.0; spatial.state_dim()];
         planar_to_spatial(n, &yp0, &mut ys0);
         let opts = StepOptions::default();
