@@ -60,7 +60,7 @@ class ChainCart:
     gravity ``gravity`` along e3. ``planar=True`` is the planar special case. Defaults
     are the paper's system (0.5 kg cart, 0.1 kg and 0.1 m links).
 
-    State layout (DESIGN.md): ``[x(2), xdot(2), q_1..q_n (3 each), w_1..w_n (3 each)]``
+    State layout (docs/physics.md): ``[x(2), xdot(2), q_1..q_n (3 each), w_1..w_n (3 each)]``
     (length ``4 + 6n``); planar ``[x, xdot, (q_i . e1, q_i . e3)_i, (w_i . e2)_i]``
     (length ``2 + 3n``).
     """

@@ -110,7 +110,7 @@ _PAPER: dict[str, Any] = dict(
     planar=False,
     start_noise=0.0,
     dt=0.01,
-    # RK4 needs ~1 ms steps for millimetre accuracy on the paper's system (DESIGN.md).
+    # RK4 needs ~1 ms steps for millimetre accuracy on the paper's system (docs/performance.md).
     substeps=10,
     max_force=100.0,
     track_limit=10.0,
@@ -132,7 +132,7 @@ SCENES: dict[str, dict[str, Any]] = {
     # The paper's figures are continuous-time results: their scenes hold the force for
     # at most 1 ms. Fig. 1: uncontrolled (max_force 0: every action is ignored) motion
     # from IC1 near the folded equilibrium s = (-1, 1, -1, 1, -1), scored against it;
-    # RK4 at 1 ms is accurate to about a millimetre over 1 s (README speed/accuracy table).
+    # RK4 at 1 ms is accurate to about a millimetre over 1 s (docs/performance.md, speed vs accuracy).
     "paper-fig1": dict(_PAPER, target="paper-fig1", start="paper-fig1", max_force=0.0, dt=1e-3, substeps=1, max_episode_steps=10_000),
     # Fig. 2: stabilise the hanging equilibrium from IC1. The chain falls from the folded
     # start far outside the linear region; the LQR catches it when the force is held

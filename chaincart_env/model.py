@@ -23,7 +23,7 @@ class ChainCart(_core.ChainCart):
     cart of ``cart_mass``, gravity ``gravity`` along e3; ``planar=True`` for the planar
     special case (cart on e1, links in the e1-e3 plane).
 
-    States follow DESIGN.md: ``[x, xdot, q_1..q_n, w_1..w_n]``, length ``4 + 6n``
+    States follow docs/physics.md: ``[x, xdot, q_1..q_n, w_1..w_n]``, length ``4 + 6n``
     (planar: ``[x, xdot, (q_i . e1, q_i . e3)_i, w_i . e2]``, length ``2 + 3n``).
     Everything is float64 NumPy in and out; bad input raises :class:`ChainCartError`.
     """

@@ -3,7 +3,7 @@
 //! Links are massless rods between point masses; the cart is a mass on a
 //! horizontal rail. Newton's law for each mass plus the twice-differentiated
 //! rod constraint `q_i . qdd_i = -|qdot_i|^2` give a symmetric positive-definite
-//! tridiagonal system for the rod tensions `T_i` (DESIGN.md, fact 1):
+//! tridiagonal system for the rod tensions `T_i` (docs/physics.md):
 //!
 //! ```text
 //! (1/m_1 + |C^T q_1|^2/m) T_1 - (q_1.q_2/m_1) T_2          = l_1|qdot_1|^2 + g e3.q_1 - q_1.Cu/m

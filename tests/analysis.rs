@@ -199,7 +199,7 @@ fn all_32_paper_equilibria_are_controllable() {
     assert!(lo > 1e-3);
 }
 
-/// The Kalman matrix of the paper's system, for the record of DESIGN.md fact 5.
+/// The Kalman matrix of the paper's system is too badly scaled for a numerical rank test (why the PBH test is used).
 #[test]
 fn kalman_rank_is_not_used_and_here_is_why() {
     let params = ChainParams::paper();

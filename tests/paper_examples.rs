@@ -57,7 +57,7 @@ fn ic1() -> Vec<f64> {
 }
 
 /// Fig. 3's initial condition, with the paper's four-entry `q_2 = q_3` read as
-/// `-[0; sin 4; cos 4]` (DESIGN.md, known slips).
+/// `-[0; sin 4; cos 4]` (docs/physics.md, the paper's slips).
 fn fig3_ic() -> Vec<f64> {
     let (s4, c4) = deg(4.0).sin_cos();
     let (s5, c5) = deg(5.0).sin_cos();

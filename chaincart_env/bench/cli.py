@@ -31,7 +31,7 @@ def add_bench_arguments(bench: argparse.ArgumentParser) -> None:
     bench.add_argument("--links", default="1,2,5,10", type=lambda s: _int_list("--links", s),
                        help="numbers of links n for the throughput section (default: 1,2,5,10)")  # fmt: skip
     bench.add_argument("--out", type=Path, default=None, help="directory for the PNG plots (default: no plots)")
-    bench.add_argument("--markdown", type=Path, default=None, help="also write the report as README.md's Performance section to this file")
+    bench.add_argument("--markdown", type=Path, default=None, help="also write the report as the docs' performance page (docs/performance.md) to this file")
     bench.add_argument("--note", default="", help="free text added to the machine line (e.g. what else was running)")
 
 

@@ -1,4 +1,4 @@
-"""Targets section: the speed goals of issues 2 (Rust core) and 3 (Python package),
+"""Targets section: the speed goals of the Rust core and of the Python package,
 each with the measured number and whether it is met, from the sections that ran."""
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ def _package_targets(ctx: BenchContext) -> list[list[str]]:
 
 
 def targets_section(ctx: BenchContext) -> None:
-    ctx.report.heading("Speed targets (issues 2 and 3)")
+    ctx.report.heading("Speed targets")
     rows = _core_targets(ctx) + _package_targets(ctx)
     ctx.report.table(["target", "goal", "measured", "verdict"], rows, 4)
     ctx.report.paragraph(

@@ -5,7 +5,7 @@
 //! (a mode that exerts no force on the cart cannot be driven through it). This is the
 //! test used here, never the rank of the Kalman matrix `[B, AB, ..., A^(N-1) B]`: for
 //! the paper's 5-link system that matrix spans so many orders of magnitude that a
-//! numerical rank calls every equilibrium uncontrollable (DESIGN.md, fact 5).
+//! numerical rank calls every equilibrium uncontrollable (`tests/analysis.rs` records it).
 //!
 //! **Repeated eigenvalues.** For an eigenvalue of multiplicity `k` the eigenvectors
 //! form a subspace and the test must hold on all of it: with `V` an orthonormal basis

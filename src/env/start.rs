@@ -28,7 +28,7 @@ pub const START_STATE_TOLERANCE: f64 = 1e-9;
 /// IC1 (Figs. 1 and 2) `x = (0.2, 0.1)`, `xdot = (0, -0.1)`, `q_i = (-1)^i e3` for
 /// i = 1..4, `q_5 = (sin 1deg, 0, -cos 1deg)`, `w_i = 0`; Fig. 3 the same `x`, `xdot`,
 /// `w` with `q_1 = -(sin 6deg, 0, cos 6deg)`, `q_2 = q_3 = -(0, sin 4deg, cos 4deg)`
-/// (DESIGN.md: the paper's four-entry vector read as three), `q_4 = (sin 5deg cos 4deg,
+/// (the paper's four-entry vector read as three, see docs/physics.md), `q_4 = (sin 5deg cos 4deg,
 /// -sin 5deg sin 4deg, cos 5deg)`, `q_5 = (-sin 35deg, 0, cos 35deg)`.
 pub fn paper_initial_condition(fig: PaperFigure) -> Vec<f64> {
     let n = 5;

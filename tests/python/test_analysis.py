@@ -19,7 +19,7 @@ RIDDLE_TOLERANCE = 1e-8
 
 
 def paper_weights(s: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """DESIGN.md: hanging Q = diag[8 I2, I_2n, 8 I2, I_2n]; others Q = diag[I2, 8 I_2n, I2, 8 I_2n]; R = I2."""
+    """The paper's weights: hanging Q = diag[8 I2, I_2n, 8 I2, I_2n]; others Q = diag[I2, 8 I_2n, I2, 8 I_2n]; R = I2."""
     n = len(s)
     cart, links = (8.0, 1.0) if all(v == 1 for v in s) else (1.0, 8.0)
     block = [cart] * 2 + [links] * (2 * n)

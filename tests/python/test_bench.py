@@ -146,7 +146,7 @@ def test_bench_quick_prints_tables_and_writes_plots(tmp_path: Path) -> None:
     assert "| chaincart | rk4 | 0.001 |" in out.stdout and "| mujoco | rk4 | 0.001 |" in out.stdout
     assert (tmp_path / "speed_accuracy.png").stat().st_size > 10_000
     section = markdown.read_text()
-    assert section.startswith("## Performance\n") and "### Speed vs accuracy" in section
+    assert section.startswith("# Performance\n") and "\n## Speed vs accuracy" in section
     assert "| chaincart | rk4 | 0.001 |" in section
 
 

@@ -1,0 +1,26 @@
+"""Every Python block of README.md and docs/*.md runs, and the outputs it documents
+(``#>`` lines after a ``print``) are what it prints."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from pytest_examples import CodeExample, EvalExample, find_examples
+
+ROOT = Path(__file__).resolve().parents[2]
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+EXAMPLES = list(find_examples(*PAGES))
+
+
+def test_the_docs_have_python_examples() -> None:
+    pages = {Path(ex.path).name for ex in EXAMPLES}
+    assert {"README.md", "control.md", "rendering.md"} <= pages
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=str)
+def test_python_block_runs_and_prints_what_it_documents(
+    example: CodeExample, eval_example: EvalExample, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)  # blocks that write files write them here
+    eval_example.run_print_check(example)
