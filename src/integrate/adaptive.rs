@@ -61,7 +61,7 @@ const B4: [f64; 7] = [
 ];
 const MAX_STEPS: usize = 1_000_000;
 
-/// Tries one step of size h from `y`; leaves the 5th-order result in `s.trial` and
+/// Tries one step of size h from `y`; leaves the 5th-order result in `s.rk.trial` and
 /// returns the scaled error norm.
 fn try_step<G: Geometry>(
     chain: &Chain<G>,
@@ -72,27 +72,27 @@ fn try_step<G: Geometry>(
     tol: f64,
 ) -> f64 {
     let dim = y.len();
-    chain.derivative(y, u, &mut s.ws, &mut s.stages[0]);
+    chain.derivative(y, u, &mut s.ws, &mut s.rk.stages[0]);
     for (stage, row) in A.iter().enumerate().skip(1) {
-        let (done, rest) = s.stages.split_at_mut(stage);
-        let tmp = &mut s.base;
+        let (done, rest) = s.rk.stages.split_at_mut(stage);
+        let tmp = &mut s.rk.base;
         for (j, t) in tmp.iter_mut().enumerate() {
             *t = y[j] + h * done.iter().zip(row).map(|(k, a)| a * k[j]).sum::<f64>();
         }
         chain.derivative(tmp, u, &mut s.ws, &mut rest[0]);
     }
     s.stats.evaluations += 7;
-    // The 7th stage was evaluated at the 5th-order solution (FSAL row), kept in s.base.
-    s.trial.copy_from_slice(&s.base);
+    // The 7th stage was evaluated at the 5th-order solution (FSAL row), kept in s.rk.base.
+    s.rk.trial.copy_from_slice(&s.rk.base);
     let mut sum = 0.0;
-    for (j, (y0, y1)) in y.iter().zip(&s.trial).enumerate() {
-        let err: f64 = s
-            .stages
-            .iter()
-            .zip(B5.iter().zip(&B4))
-            .map(|(k, (b5, b4))| (b5 - b4) * k[j])
-            .sum::<f64>()
-            * h;
+    for (j, (y0, y1)) in y.iter().zip(&s.rk.trial).enumerate() {
+        let err: f64 =
+            s.rk.stages
+                .iter()
+                .zip(B5.iter().zip(&B4))
+                .map(|(k, (b5, b4))| (b5 - b4) * k[j])
+                .sum::<f64>()
+                * h;
         let scale = tol * (1.0 + y0.abs().max(y1.abs()));
         sum += (err / scale).powi(2);
     }
@@ -134,7 +134,7 @@ pub(super) fn integrate<G: Geometry>(
             continue;
         }
         if err <= 1.0 {
-            y.copy_from_slice(&s.trial);
+            y.copy_from_slice(&s.rk.trial);
             chain.project(y);
             t = if last { dt } else { t + h };
             s.stats.accepted_steps += 1;

@@ -16,7 +16,7 @@ pub(super) fn step<G: Geometry>(
     h: f64,
 ) {
     let lay = chain.layout();
-    let k = &mut s.stages[0];
+    let k = &mut s.rk.stages[0];
     chain.derivative(y, u, &mut s.ws, k);
     let xdot = lay.load_xdot(y) + lay.load_xdot(k) * h;
     lay.store_xdot(y, xdot);

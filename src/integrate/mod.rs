@@ -17,7 +17,7 @@ mod rkmk4;
 mod variational;
 
 use crate::error::{check_positive, ChainError, Result};
-use crate::geometry::{Geometry, Vector};
+use crate::geometry::Geometry;
 use crate::model::{Chain, Workspace};
 
 /// Which integrator; see the module table.
@@ -130,17 +130,31 @@ impl Default for StepOptions {
 }
 
 /// Everything an integrator needs besides the state; one per thread, reused every step.
+/// Each method's buffers are named in its own workspace.
 #[derive(Debug, Clone)]
 pub struct Stepper<G: Geometry> {
+    /// The dynamics' own buffers (tension solve).
     pub(crate) ws: Workspace<G>,
-    pub(crate) stages: [Vec<f64>; 7],
-    pub(crate) base: Vec<f64>,
-    pub(crate) trial: Vec<f64>,
-    pub(crate) spins: [Vec<G::Spin>; 3],
-    pub(crate) links: [Vec<G::Link>; 5],
-    pub(crate) scalars: [Vec<f64>; 6],
+    /// Stage derivatives and intermediate states of the Runge-Kutta methods
+    /// (`rk4`, `rkmk4`, `lie_euler`, `adaptive`).
+    pub(crate) rk: RungeKuttaWorkspace,
+    /// Lie-algebra increments of `rkmk4`.
+    pub(crate) rkmk: rkmk4::RkmkWorkspace<G>,
+    /// Newton and projection buffers of `variational`.
+    pub(crate) variational: variational::VariationalWorkspace<G>,
     /// Statistics of the last call.
     pub stats: StepStats,
+}
+
+/// Full-state buffers of the explicit Runge-Kutta methods.
+#[derive(Debug, Clone)]
+pub(crate) struct RungeKuttaWorkspace {
+    /// Stage derivatives `k_1..k_7` (RK4 uses four, Dormand-Prince seven).
+    pub(crate) stages: [Vec<f64>; 7],
+    /// The state at the start of the step (RKMK), or the FSAL stage state (adaptive).
+    pub(crate) base: Vec<f64>,
+    /// The stage state being evaluated, or the adaptive method's candidate result.
+    pub(crate) trial: Vec<f64>,
 }
 
 /// What the last [`Stepper::step`] did.
@@ -158,12 +172,13 @@ impl<G: Geometry> Stepper<G> {
         let v = || vec![0.0; dim];
         Self {
             ws: chain.workspace(),
-            stages: [v(), v(), v(), v(), v(), v(), v()],
-            base: v(),
-            trial: v(),
-            spins: std::array::from_fn(|_| vec![G::Spin::zero(); n]),
-            links: std::array::from_fn(|_| vec![G::Link::zero(); n]),
-            scalars: std::array::from_fn(|_| vec![0.0; n]),
+            rk: RungeKuttaWorkspace {
+                stages: std::array::from_fn(|_| v()),
+                base: v(),
+                trial: v(),
+            },
+            rkmk: rkmk4::RkmkWorkspace::new(n),
+            variational: variational::VariationalWorkspace::new(n),
             stats: StepStats::default(),
         }
     }

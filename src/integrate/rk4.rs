@@ -11,8 +11,8 @@ pub(super) fn step<G: Geometry>(
     u: G::Cart,
     h: f64,
 ) {
-    let [k1, k2, k3, k4, ..] = &mut s.stages;
-    let tmp = &mut s.trial;
+    let [k1, k2, k3, k4, ..] = &mut s.rk.stages;
+    let tmp = &mut s.rk.trial;
     chain.derivative(y, u, &mut s.ws, k1);
     axpy(tmp, y, 0.5 * h, k1);
     chain.derivative(tmp, u, &mut s.ws, k2);

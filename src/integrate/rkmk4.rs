@@ -6,8 +6,30 @@
 //! where RKMK reduces to classical RK4. The spins are then made tangent to the new q_i.
 
 use super::{axpy, Stepper};
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, Vector};
 use crate::model::Chain;
+
+/// Per-link Lie-algebra buffers of one RKMK step.
+#[derive(Debug, Clone)]
+pub(crate) struct RkmkWorkspace<G: Geometry> {
+    /// The current stage's increment `dexpinv(theta_i, w_i)`.
+    increment: Vec<G::Spin>,
+    /// The RK4-weighted sum of the stage increments.
+    increment_sum: Vec<G::Spin>,
+    /// The rotation vector of the stage being built.
+    theta: Vec<G::Spin>,
+}
+
+impl<G: Geometry> RkmkWorkspace<G> {
+    pub(crate) fn new(n: usize) -> Self {
+        let spins = || vec![G::Spin::zero(); n];
+        Self {
+            increment: spins(),
+            increment_sum: spins(),
+            theta: spins(),
+        }
+    }
+}
 
 /// Overwrites the link directions of a stage state with `exp(theta_i) q_i(0)`, and
 /// returns the stage's Lie-algebra increments `dexpinv(theta_i, w_i)` into `k`.
@@ -34,10 +56,14 @@ pub(super) fn step<G: Geometry>(
 ) {
     let lay = chain.layout();
     let n = lay.n;
-    let [k1, k2, k3, k4, ..] = &mut s.stages;
-    let base = &mut s.base;
-    let tmp = &mut s.trial;
-    let [kq, ksum, theta] = &mut s.spins;
+    let [k1, k2, k3, k4, ..] = &mut s.rk.stages;
+    let base = &mut s.rk.base;
+    let tmp = &mut s.rk.trial;
+    let RkmkWorkspace {
+        increment: kq,
+        increment_sum: ksum,
+        theta,
+    } = &mut s.rkmk;
     base.copy_from_slice(y);
 
     chain.derivative(base, u, &mut s.ws, k1);

@@ -82,6 +82,58 @@ fn response_matrix<G: Geometry>(
     }
 }
 
+/// Buffers of the variational step, one entry per link.
+#[derive(Debug, Clone)]
+pub(crate) struct VariationalWorkspace<G: Geometry> {
+    /// Link directions at the start of the step.
+    q0: Vec<G::Link>,
+    /// Link directions at its end (the Newton iterate).
+    q1: Vec<G::Link>,
+    /// Link velocities after the first half kick, then after the second.
+    velocity: Vec<G::Link>,
+    /// Displacement (then velocity) response to the constraint impulses.
+    response: Vec<G::Link>,
+    /// Link velocity change per unit time from gravity and the cart force.
+    force_velocity: Vec<G::Link>,
+    /// Scaled constraint multipliers `kappa = h^2/2 lambda`.
+    multipliers: Vec<f64>,
+    /// Constraint residuals, overwritten by each Newton correction.
+    residuals: Vec<f64>,
+    /// The tridiagonal Newton (or projection) matrix and the solver's scratch.
+    diag: Vec<f64>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    scratch: Vec<f64>,
+}
+
+impl<G: Geometry> VariationalWorkspace<G> {
+    pub(crate) fn new(n: usize) -> Self {
+        let links = || vec![G::Link::zero(); n];
+        let scalars = || vec![0.0; n];
+        Self {
+            q0: links(),
+            q1: links(),
+            velocity: links(),
+            response: links(),
+            force_velocity: links(),
+            multipliers: scalars(),
+            residuals: scalars(),
+            diag: scalars(),
+            lower: scalars(),
+            upper: scalars(),
+            scratch: scalars(),
+        }
+    }
+}
+
+/// The cart's half of the step: its velocity after the first half kick and the
+/// velocity change per unit time from the force.
+struct CartKick<G: Geometry> {
+    x0: G::Cart,
+    xdot_half: G::Cart,
+    xdot_force: G::Cart,
+}
+
 pub(super) fn step<G: Geometry>(
     chain: &Chain<G>,
     s: &mut Stepper<G>,
@@ -90,36 +142,73 @@ pub(super) fn step<G: Geometry>(
     h: f64,
     opts: &StepOptions,
 ) -> Result<()> {
+    let ws = &mut s.variational;
+    let cart = first_half_kick(chain, ws, y, u, h);
+    let (xdot_resp, iterations) = solve_positions(chain, ws, h, opts)?;
+    s.stats.newton_iterations += iterations;
+    finish_step(chain, ws, y, &cart, xdot_resp, h);
+    s.stats.evaluations += 1;
+    s.stats.accepted_steps += 1;
+    Ok(())
+}
+
+/// Half kick: `v~ = v + h/2 M^{-1} F`, with `F = (u, g_i e3)` constant over the step.
+fn first_half_kick<G: Geometry>(
+    chain: &Chain<G>,
+    ws: &mut VariationalWorkspace<G>,
+    y: &[f64],
+    u: G::Cart,
+    h: f64,
+) -> CartKick<G> {
     let lay = chain.layout();
-    let n = lay.n;
-    let [q0, q1, vel, resp, force_vel] = &mut s.links;
-    let [lambda, phi, diag, lower, upper, scratch] = &mut s.scalars;
     let gravity = chain.gravity_coefficients();
-
-    // Half kick: v~ = v + h/2 M^{-1} F, with F = (u, g_i e3) constant over the step.
-    let xdot_force = inverse_mass(chain, u, |i| G::down_unit() * gravity[i], force_vel);
+    let xdot_force = inverse_mass(
+        chain,
+        u,
+        |i| G::down_unit() * gravity[i],
+        &mut ws.force_velocity,
+    );
     let xdot_half = lay.load_xdot(y) + xdot_force * (0.5 * h);
-    for i in 0..n {
-        q0[i] = lay.load_q(y, i);
-        vel[i] = G::velocity(lay.load_w(y, i), q0[i]) + force_vel[i] * (0.5 * h);
-        lambda[i] = 0.0;
+    for i in 0..lay.n {
+        ws.q0[i] = lay.load_q(y, i);
+        ws.velocity[i] = G::velocity(lay.load_w(y, i), ws.q0[i]) + ws.force_velocity[i] * (0.5 * h);
+        ws.multipliers[i] = 0.0;
     }
-    let x0 = lay.load_x(y);
+    CartKick {
+        x0: lay.load_x(y),
+        xdot_half,
+        xdot_force,
+    }
+}
 
-    // Newton on phi_i(lambda) = (|q_i + h v~_i - h^2/2 r_i(lambda)|^2 - 1)/2 = 0.
-    // We scale the unknown as kappa = h^2/2 lambda, so q1 = q0 + h v~ - r(kappa).
+/// Newton on `phi_i(lambda) = (|q_i + h v~_i - h^2/2 r_i(lambda)|^2 - 1)/2 = 0`, with the
+/// unknown scaled as `kappa = h^2/2 lambda`, so `q1 = q0 + h v~ - r(kappa)`. Returns the
+/// cart's displacement response and the number of iterations.
+fn solve_positions<G: Geometry>(
+    chain: &Chain<G>,
+    ws: &mut VariationalWorkspace<G>,
+    h: f64,
+    opts: &StepOptions,
+) -> Result<(G::Cart, usize)> {
+    let n = chain.n_links();
     let mut iterations = 0;
-    let mut xdot_resp;
     loop {
-        xdot_resp = inverse_mass(chain, G::Cart::zero(), |j| q0[j] * lambda[j], resp);
+        let q0 = &ws.q0;
+        let multipliers = &ws.multipliers;
+        let xdot_resp = inverse_mass(
+            chain,
+            G::Cart::zero(),
+            |j| q0[j] * multipliers[j],
+            &mut ws.response,
+        );
         let mut worst: f64 = 0.0;
         for i in 0..n {
-            q1[i] = q0[i] + vel[i] * h - resp[i];
-            phi[i] = 0.5 * (q1[i].norm_squared() - 1.0);
-            worst = worst.max(phi[i].abs());
+            ws.q1[i] = ws.q0[i] + ws.velocity[i] * h - ws.response[i];
+            ws.residuals[i] = 0.5 * (ws.q1[i].norm_squared() - 1.0);
+            worst = worst.max(ws.residuals[i].abs());
         }
         if worst <= opts.newton_tolerance {
-            break;
+            return Ok((xdot_resp, iterations));
         }
         if iterations >= opts.max_newton_iterations || !worst.is_finite() {
             return Err(ChainError::NoConvergence {
@@ -130,41 +219,82 @@ pub(super) fn step<G: Geometry>(
             });
         }
         // d phi_i / d kappa_j = -q1_i . d r_i / d kappa_j.
-        response_matrix(chain, q0, q1, diag, lower, upper);
-        for v in diag
+        response_matrix(
+            chain,
+            &ws.q0,
+            &ws.q1,
+            &mut ws.diag,
+            &mut ws.lower,
+            &mut ws.upper,
+        );
+        for v in ws
+            .diag
             .iter_mut()
-            .chain(lower.iter_mut())
-            .chain(upper.iter_mut())
+            .chain(ws.lower.iter_mut())
+            .chain(ws.upper.iter_mut())
         {
             *v = -*v;
         }
-        tridiagonal::solve(diag, &lower[..n - 1], &upper[..n - 1], phi, scratch);
+        tridiagonal::solve(
+            &ws.diag,
+            &ws.lower[..n - 1],
+            &ws.upper[..n - 1],
+            &mut ws.residuals,
+            &mut ws.scratch,
+        );
         for i in 0..n {
-            lambda[i] -= phi[i];
+            ws.multipliers[i] -= ws.residuals[i];
         }
         iterations += 1;
     }
-    s.stats.newton_iterations += iterations;
+}
 
-    // Positions at k+1 and velocities after the second half kick (before projection).
-    let x1 = x0 + (xdot_half * h - xdot_resp);
-    let mut xdot1 = xdot_half - xdot_resp * (1.0 / h) + xdot_force * (0.5 * h);
+/// Positions at k+1, the second half kick, and the projection of the velocities onto
+/// `q1_i . qdot_i = 0` (linear, symmetric tridiagonal); stores the new state in `y`.
+fn finish_step<G: Geometry>(
+    chain: &Chain<G>,
+    ws: &mut VariationalWorkspace<G>,
+    y: &mut [f64],
+    cart: &CartKick<G>,
+    xdot_resp: G::Cart,
+    h: f64,
+) {
+    let lay = chain.layout();
+    let n = lay.n;
+    let x1 = cart.x0 + (cart.xdot_half * h - xdot_resp);
+    let mut xdot1 = cart.xdot_half - xdot_resp * (1.0 / h) + cart.xdot_force * (0.5 * h);
     for i in 0..n {
-        vel[i] = vel[i] - resp[i] * (1.0 / h) + force_vel[i] * (0.5 * h);
-        phi[i] = q1[i].dot(vel[i]);
+        ws.velocity[i] =
+            ws.velocity[i] - ws.response[i] * (1.0 / h) + ws.force_velocity[i] * (0.5 * h);
+        ws.residuals[i] = ws.q1[i].dot(ws.velocity[i]);
     }
-    // Velocity constraint q1_i . qdot_i = 0: linear, symmetric tridiagonal.
-    response_matrix(chain, q1, q1, diag, lower, upper);
-    tridiagonal::solve(diag, &lower[..n - 1], &upper[..n - 1], phi, scratch);
-    xdot1 -= inverse_mass(chain, G::Cart::zero(), |j| q1[j] * phi[j], resp);
+    response_matrix(
+        chain,
+        &ws.q1,
+        &ws.q1,
+        &mut ws.diag,
+        &mut ws.lower,
+        &mut ws.upper,
+    );
+    tridiagonal::solve(
+        &ws.diag,
+        &ws.lower[..n - 1],
+        &ws.upper[..n - 1],
+        &mut ws.residuals,
+        &mut ws.scratch,
+    );
+    let (q1, projection) = (&ws.q1, &ws.residuals);
+    xdot1 -= inverse_mass(
+        chain,
+        G::Cart::zero(),
+        |j| q1[j] * projection[j],
+        &mut ws.response,
+    );
 
     lay.store_x(y, x1);
     lay.store_xdot(y, xdot1);
     for i in 0..n {
-        lay.store_q(y, i, q1[i]);
-        lay.store_w(y, i, G::spin(q1[i], vel[i] - resp[i]));
+        lay.store_q(y, i, ws.q1[i]);
+        lay.store_w(y, i, G::spin(ws.q1[i], ws.velocity[i] - ws.response[i]));
     }
-    s.stats.evaluations += 1;
-    s.stats.accepted_steps += 1;
-    Ok(())
 }
