@@ -166,53 +166,154 @@ fn draw_track_ticks(
     }
 }
 
+/// Sizes shared by both views, derived once per frame from the canvas and the spec.
+struct FrameLayout {
+    /// Canvas height in pixels.
+    height: f64,
+    /// Width of the side view's panel (the whole canvas without a top view).
+    side_width: f64,
+    /// Track half-length (infinite when unlimited).
+    track: f64,
+    /// Whether the side view follows the cart (the track is much longer than the chain).
+    follow: bool,
+    /// World half-width and half-height shown by the side view.
+    half_width: f64,
+    half_height: f64,
+    /// Pixels per metre of the side view.
+    scale: f64,
+    chain_length: f64,
+    link_width: f64,
+    /// Half-extent of the cart box, in metres.
+    cart_half: [f64; 2],
+}
+
+impl FrameLayout {
+    fn new(canvas: &Canvas, spec: &FrameSpec) -> Self {
+        let chain_length: f64 = spec.lengths.iter().sum();
+        let (w, height) = (canvas.width() as f64, canvas.height() as f64);
+        // The side view shows the track, so it gets the larger share of the width.
+        let side_width = if spec.top_view { 0.62 * w } else { w };
+        let track = if spec.track_limit.is_finite() {
+            spec.track_limit.max(0.0)
+        } else {
+            f64::INFINITY
+        };
+        // Show the whole track when it is not much longer than the chain; otherwise
+        // follow the cart.
+        let follow = track > 2.0 * chain_length;
+        let half_width = if follow {
+            1.6 * chain_length
+        } else {
+            track + 1.15 * chain_length
+        };
+        let half_height = 1.15 * chain_length;
+        Self {
+            height,
+            side_width,
+            track,
+            follow,
+            half_width,
+            half_height,
+            scale: (0.5 * side_width / half_width).min(0.5 * height / half_height),
+            chain_length,
+            link_width: (0.006 * height).max(0.8),
+            cart_half: [0.12 * chain_length.max(1e-9), 0.05 * chain_length.max(1e-9)],
+        }
+    }
+
+    /// Metres of arrow per newton: `max_force` is drawn 60% of the chain's length long.
+    fn arrow_scale(&self, max_force: f64) -> f64 {
+        if max_force > 0.0 {
+            0.6 * self.chain_length / max_force
+        } else {
+            0.0
+        }
+    }
+}
+
 /// Draws the frame into the whole canvas.
 pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
     canvas.fill(BACKGROUND);
-    let n = spec.lengths.len();
     let y = spec.state;
-    let chain_length: f64 = spec.lengths.iter().sum();
     let cart = [finite_or(y[0], 0.0), finite_or(y[1], 0.0)];
     let q = |i: usize| [y[4 + 3 * i], y[5 + 3 * i], y[6 + 3 * i]];
     let points = chain_points(cart, spec.lengths, q);
-
-    let (w, h) = (canvas.width() as f64, canvas.height() as f64);
-    // The side view shows the track, so it gets the larger share of the width.
-    let panel_w = if spec.top_view { 0.62 * w } else { w };
-    let top_w = w - panel_w;
-    // Show the whole track when it is not much longer than the chain; otherwise
-    // follow the cart.
-    let track = if spec.track_limit.is_finite() {
-        spec.track_limit.max(0.0)
-    } else {
-        f64::INFINITY
-    };
-    let follow = track > 2.0 * chain_length;
-    let half_width = if follow {
-        1.6 * chain_length
-    } else {
-        track + 1.15 * chain_length
-    };
-    let half_height = 1.15 * chain_length;
-    let scale = (0.5 * panel_w / half_width).min(0.5 * h / half_height);
-    let center_x = if follow { cart[0] } else { 0.0 };
-    let link_width = (0.006 * h).max(0.8);
+    let layout = FrameLayout::new(canvas, spec);
     // Each view draws only inside its panel (the track line or a far-off cart would
     // otherwise run on into the top view).
-    let panel_columns = panel_w.round() as usize;
+    let panel_columns = layout.side_width.round() as usize;
     canvas.clip_columns(0, panel_columns);
+    draw_side_view(canvas, spec, &layout, cart, &points);
+    if spec.top_view && !spec.lengths.is_empty() {
+        canvas.clip_columns(panel_columns, canvas.width());
+        draw_top_view(canvas, spec, &layout, cart, &points);
+    }
+}
 
-    // Side view: e1 to the right, e3 (gravity) down the screen.
+/// Side view: e1 to the right, e3 (gravity) down the screen; track, target, cart,
+/// chain and the force's e1 component.
+fn draw_side_view(
+    canvas: &mut Canvas,
+    spec: &FrameSpec,
+    layout: &FrameLayout,
+    cart: [f64; 2],
+    points: &[[f64; 3]],
+) {
+    let center_x = if layout.follow { cart[0] } else { 0.0 };
     let side = View {
-        origin: [0.5 * panel_w, 0.5 * h],
+        origin: [0.5 * layout.side_width, 0.5 * layout.height],
         center: [center_x, 0.0],
-        scale,
+        scale: layout.scale,
         flip_y: false,
     };
+    draw_track(canvas, &side, layout, center_x);
+    if let Some(s) = spec.target {
+        let target = chain_points(cart, spec.lengths, |i| [0.0, 0.0, s[i]]);
+        draw_chain(
+            canvas,
+            &side,
+            &target,
+            (0, 2),
+            layout.link_width,
+            (TARGET, TARGET),
+            0.3,
+        );
+    }
+    let c = side.px([cart[0], 0.0]);
+    let (cw, ch) = (
+        layout.cart_half[0] * layout.scale,
+        layout.cart_half[1] * layout.scale,
+    );
+    canvas.rect([c[0] - cw, c[1] - ch], [c[0] + cw, c[1] + ch], CART, 1.0);
+    draw_chain(
+        canvas,
+        &side,
+        points,
+        (0, 2),
+        layout.link_width,
+        (LINK, MASS),
+        1.0,
+    );
+    let arrow_scale = layout.arrow_scale(spec.max_force);
+    let tip = side.px([cart[0] + spec.force[0] * arrow_scale, 0.0]);
+    draw_arrow(
+        canvas,
+        [c[0], c[1]],
+        [tip[0], c[1]],
+        0.6 * layout.link_width,
+    );
+}
+
+/// The track line, its distance marks when the view follows the cart, and its end stops.
+fn draw_track(canvas: &mut Canvas, side: &View, layout: &FrameLayout, center_x: f64) {
+    let (track, link_width) = (layout.track, layout.link_width);
     let track_ends = if track.is_finite() {
         [-track, track]
     } else {
-        [center_x - 2.0 * half_width, center_x + 2.0 * half_width]
+        [
+            center_x - 2.0 * layout.half_width,
+            center_x + 2.0 * layout.half_width,
+        ]
     };
     canvas.capsule(
         side.px([track_ends[0], 0.0]),
@@ -221,9 +322,9 @@ pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
         TRACK,
         1.0,
     );
-    if follow {
-        let visible = 0.5 * panel_w / scale;
-        draw_track_ticks(canvas, &side, center_x, visible, track, link_width);
+    if layout.follow {
+        let visible = 0.5 * layout.side_width / layout.scale;
+        draw_track_ticks(canvas, side, center_x, visible, track, link_width);
     }
     if track.is_finite() {
         for end in track_ends {
@@ -237,63 +338,42 @@ pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
             );
         }
     }
-    if let Some(s) = spec.target {
-        let target = chain_points(cart, spec.lengths, |i| [0.0, 0.0, s[i]]);
-        draw_chain(
-            canvas,
-            &side,
-            &target,
-            (0, 2),
-            link_width,
-            (TARGET, TARGET),
-            0.3,
-        );
-    }
-    let cart_half = [0.12 * chain_length.max(1e-9), 0.05 * chain_length.max(1e-9)];
-    let c = side.px([cart[0], 0.0]);
-    let (cw, ch) = (cart_half[0] * scale, cart_half[1] * scale);
-    canvas.rect([c[0] - cw, c[1] - ch], [c[0] + cw, c[1] + ch], CART, 1.0);
-    draw_chain(
-        canvas,
-        &side,
-        &points,
-        (0, 2),
-        link_width,
-        (LINK, MASS),
-        1.0,
-    );
-    let arrow_scale = if spec.max_force > 0.0 {
-        0.6 * chain_length / spec.max_force
-    } else {
-        0.0
-    };
-    let tip = side.px([cart[0] + spec.force[0] * arrow_scale, 0.0]);
-    draw_arrow(canvas, [c[0], c[1]], [tip[0], c[1]], 0.6 * link_width);
+}
 
-    if !spec.top_view || n == 0 {
-        return;
-    }
-    // Top view: e1 to the right, e2 up; the chain seen from above, centred on the cart.
-    canvas.clip_columns(panel_columns, canvas.width());
+/// Top view: e1 to the right, e2 up; the chain seen from above, centred on the cart,
+/// with both force components.
+fn draw_top_view(
+    canvas: &mut Canvas,
+    spec: &FrameSpec,
+    layout: &FrameLayout,
+    cart: [f64; 2],
+    points: &[[f64; 3]],
+) {
+    let (panel_w, h) = (layout.side_width, layout.height);
+    let top_w = canvas.width() as f64 - panel_w;
     canvas.rect([panel_w - 0.5, 0.0], [panel_w + 0.5, h], SEPARATOR, 1.0);
     let top = View {
         origin: [panel_w + 0.5 * top_w, 0.5 * h],
         center: cart,
-        scale: 0.5 * top_w.min(h) / half_height,
+        scale: 0.5 * top_w.min(h) / layout.half_height,
         flip_y: true,
     };
     let c = top.px(cart);
-    let cw = (cart_half[0] * top.scale).min(0.06 * h);
+    let cw = (layout.cart_half[0] * top.scale).min(0.06 * h);
     canvas.rect([c[0] - cw, c[1] - cw], [c[0] + cw, c[1] + cw], CART, 0.35);
-    draw_chain(canvas, &top, &points, (0, 1), link_width, (LINK, MASS), 1.0);
-    let arrow_scale = if spec.max_force > 0.0 {
-        0.6 * chain_length / spec.max_force
-    } else {
-        0.0
-    };
+    draw_chain(
+        canvas,
+        &top,
+        points,
+        (0, 1),
+        layout.link_width,
+        (LINK, MASS),
+        1.0,
+    );
+    let arrow_scale = layout.arrow_scale(spec.max_force);
     let tip = top.px([
         cart[0] + spec.force[0] * arrow_scale,
         cart[1] + spec.force[1] * arrow_scale,
     ]);
-    draw_arrow(canvas, c, tip, 0.6 * link_width);
+    draw_arrow(canvas, c, tip, 0.6 * layout.link_width);
 }
