@@ -13,7 +13,9 @@ use crate::params::ChainParams;
 /// A chain in either scene.
 #[derive(Debug, Clone)]
 pub enum AnyChain {
+    /// The spatial model (2-D cart, spherical joints).
     Spatial(Chain<Spatial>),
+    /// The planar model (1-D cart, hinges in the e1-e3 plane).
     Planar(Chain<Planar>),
 }
 
@@ -28,6 +30,7 @@ macro_rules! dispatch {
 }
 
 impl AnyChain {
+    /// The planar or spatial chain with these parameters.
     pub fn new(params: ChainParams, planar: bool) -> Self {
         if planar {
             AnyChain::Planar(Chain::new(params))
@@ -35,18 +38,23 @@ impl AnyChain {
             AnyChain::Spatial(Chain::new(params))
         }
     }
+    /// Whether this is the planar model.
     pub fn is_planar(&self) -> bool {
         matches!(self, AnyChain::Planar(_))
     }
+    /// The physical parameters.
     pub fn params(&self) -> &ChainParams {
         dispatch!(self, c, c.params())
     }
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         dispatch!(self, c, c.n_links())
     }
+    /// Length of a state: `4 + 6n` spatial, `2 + 3n` planar.
     pub fn state_dim(&self) -> usize {
         dispatch!(self, c, c.state_dim())
     }
+    /// Length of a force: 2 spatial, 1 planar.
     pub fn force_dim(&self) -> usize {
         dispatch!(self, c, c.force_dim())
     }
@@ -116,10 +124,12 @@ impl AnyChain {
         })
     }
 
+    /// Kinetic and potential energy of a checked state.
     pub fn energy(&self, state: &[f64]) -> Result<Energy> {
         self.check_state(state)?;
         Ok(dispatch!(self, c, c.energy(state)))
     }
+    /// Horizontal momentum of a checked state (one entry per cart axis).
     pub fn horizontal_momentum(&self, state: &[f64]) -> Result<Vec<f64>> {
         self.check_state(state)?;
         dispatch!(self, c, {
@@ -128,6 +138,7 @@ impl AnyChain {
             Ok(out)
         })
     }
+    /// Constraint residuals of a state (length and finiteness checked).
     pub fn residuals(&self, state: &[f64]) -> Result<Residuals> {
         self.check_state(state)?;
         Ok(dispatch!(self, c, c.residuals(state)))
@@ -140,6 +151,7 @@ impl AnyChain {
             Ok(c.errors(state, s))
         })
     }
+    /// The equilibrium state with signs `s` (cart at rest at the origin).
     pub fn equilibrium(&self, s: &[f64]) -> Result<Vec<f64>> {
         dispatch!(self, c, c.equilibrium(s))
     }
@@ -170,6 +182,7 @@ impl AnyChain {
         })
     }
 
+    /// Checks a state's length, finiteness and constraints (`|q_i| = 1`, `w_i . q_i = 0`).
     pub fn check_state(&self, state: &[f64]) -> Result<()> {
         check_len("state", state, self.state_dim())?;
         check_finite("state", state)
@@ -189,11 +202,14 @@ fn step_failure(status: StepStatus, k: usize, opts: &StepOptions, dt: f64) -> Ch
 
 /// A batch in either scene.
 pub enum AnyBatch {
+    /// A batch of spatial chains.
     Spatial(Batch<Spatial>),
+    /// A batch of planar chains.
     Planar(Batch<Planar>),
 }
 
 impl AnyBatch {
+    /// A batch of `n_envs` copies of `chain` at its base state, stepping by `dt` with `opts`.
     pub fn new(chain: AnyChain, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
         Ok(match chain {
             AnyChain::Spatial(c) => AnyBatch::Spatial(Batch::new(c, n_envs, dt, opts)?),

@@ -22,13 +22,19 @@ pub trait Vector:
     + SubAssign
     + 'static
 {
+    /// Number of components.
     const DIM: usize;
+    /// The zero vector.
     fn zero() -> Self;
+    /// Euclidean inner product.
     fn dot(self, other: Self) -> f64;
+    /// Squared Euclidean norm.
     fn norm_squared(self) -> f64 {
         self.dot(self)
     }
+    /// Reads the first `DIM` entries of `s`.
     fn load(s: &[f64]) -> Self;
+    /// Writes the vector into the first `DIM` entries of `s`.
     fn store(self, s: &mut [f64]);
 }
 
@@ -103,6 +109,7 @@ pub trait Geometry: Copy + Debug + Send + Sync + Default + 'static {
     type Link: Vector;
     /// Angular velocity w_i: R^3, or R^1 = its e2 component in the planar scene.
     type Spin: Vector;
+    /// `"spatial"` or `"planar"`.
     const NAME: &'static str;
     /// `w x q`.
     fn velocity(w: Self::Spin, q: Self::Link) -> Self::Link;
@@ -241,11 +248,13 @@ impl Geometry for Planar {
 /// Offsets of the parts of a flat state `[x, xdot, q_1..q_n, w_1..w_n]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout<G: Geometry> {
+    /// Number of links.
     pub n: usize,
     _g: std::marker::PhantomData<G>,
 }
 
 impl<G: Geometry> Layout<G> {
+    /// The layout for `n` links.
     pub const fn new(n: usize) -> Self {
         Self {
             n,
@@ -258,50 +267,62 @@ impl<G: Geometry> Layout<G> {
         2 * G::Cart::DIM + self.n * (G::Link::DIM + G::Spin::DIM)
     }
     #[inline(always)]
+    /// Offset of the cart position.
     pub const fn x(&self) -> usize {
         0
     }
     #[inline(always)]
+    /// Offset of the cart velocity.
     pub const fn xdot(&self) -> usize {
         G::Cart::DIM
     }
     #[inline(always)]
+    /// Offset of link `i`'s direction `q_i`.
     pub const fn q(&self, i: usize) -> usize {
         2 * G::Cart::DIM + i * G::Link::DIM
     }
     #[inline(always)]
+    /// Offset of link `i`'s angular velocity `w_i`.
     pub const fn w(&self, i: usize) -> usize {
         2 * G::Cart::DIM + self.n * G::Link::DIM + i * G::Spin::DIM
     }
     #[inline(always)]
+    /// The cart position of state `y`.
     pub fn load_x(&self, y: &[f64]) -> G::Cart {
         G::Cart::load(&y[self.x()..])
     }
     #[inline(always)]
+    /// The cart velocity of state `y`.
     pub fn load_xdot(&self, y: &[f64]) -> G::Cart {
         G::Cart::load(&y[self.xdot()..])
     }
     #[inline(always)]
+    /// Link `i`'s direction in state `y`.
     pub fn load_q(&self, y: &[f64], i: usize) -> G::Link {
         G::Link::load(&y[self.q(i)..])
     }
     #[inline(always)]
+    /// Link `i`'s angular velocity in state `y`.
     pub fn load_w(&self, y: &[f64], i: usize) -> G::Spin {
         G::Spin::load(&y[self.w(i)..])
     }
     #[inline(always)]
+    /// Writes the cart position into `y`.
     pub fn store_x(&self, y: &mut [f64], v: G::Cart) {
         v.store(&mut y[self.x()..])
     }
     #[inline(always)]
+    /// Writes the cart velocity into `y`.
     pub fn store_xdot(&self, y: &mut [f64], v: G::Cart) {
         v.store(&mut y[self.xdot()..])
     }
     #[inline(always)]
+    /// Writes link `i`'s direction into `y`.
     pub fn store_q(&self, y: &mut [f64], i: usize, v: G::Link) {
         v.store(&mut y[self.q(i)..])
     }
     #[inline(always)]
+    /// Writes link `i`'s angular velocity into `y`.
     pub fn store_w(&self, y: &mut [f64], i: usize, v: G::Spin) {
         v.store(&mut y[self.w(i)..])
     }

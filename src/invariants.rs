@@ -7,13 +7,16 @@ use crate::model::Chain;
 /// Kinetic and potential energy (paper eqs. T and V); the cart's height is the zero of V.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Energy {
+    /// Kinetic energy `T` of cart and masses.
     pub kinetic: f64,
+    /// Potential energy `V`.
     pub potential: f64,
     /// `T_q`: the kinetic energy of the chain relative to the cart (paper eq. T2).
     pub kinetic_links: f64,
 }
 
 impl Energy {
+    /// `T + V`.
     pub fn total(&self) -> f64 {
         self.kinetic + self.potential
     }
@@ -23,11 +26,14 @@ impl Energy {
 /// absolute value, in rad/s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Residuals {
+    /// Largest `| |q_i| - 1 |`.
     pub unit_length: f64,
+    /// Largest `|w_i . q_i|`.
     pub tangency: f64,
 }
 
 impl<G: Geometry> Chain<G> {
+    /// Energies of state `y`.
     pub fn energy(&self, y: &[f64]) -> Energy {
         let lay = self.layout();
         let p = self.params();
@@ -67,6 +73,7 @@ impl<G: Geometry> Chain<G> {
         momentum
     }
 
+    /// Constraint residuals of state `y`.
     pub fn residuals(&self, y: &[f64]) -> Residuals {
         let lay = self.layout();
         let mut r = Residuals {

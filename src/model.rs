@@ -30,7 +30,9 @@ pub struct Chain<G: Geometry> {
     gravity_coefficients: Vec<f64>,
 }
 
+/// The spatial chain (2-D cart, spherical joints).
 pub type SpatialChain = Chain<Spatial>;
+/// The planar chain (1-D cart, hinges).
 pub type PlanarChain = Chain<Planar>;
 
 /// Buffers one evaluation needs, allocated once per chain size and reused.
@@ -43,6 +45,7 @@ pub struct Workspace<G: Geometry> {
 }
 
 impl<G: Geometry> Workspace<G> {
+    /// Buffers for a chain of `n` links.
     pub fn new(n: usize) -> Self {
         Self {
             q: vec![G::Link::zero(); n],
@@ -54,6 +57,7 @@ impl<G: Geometry> Workspace<G> {
 }
 
 impl<G: Geometry> Chain<G> {
+    /// The chain with these (validated) parameters.
     pub fn new(params: ChainParams) -> Self {
         let n = params.n_links();
         let gravity_coefficients = (0..n).map(|i| params.gravity_coefficient(i)).collect();
@@ -66,12 +70,15 @@ impl<G: Geometry> Chain<G> {
         }
     }
 
+    /// The physical parameters.
     pub fn params(&self) -> &ChainParams {
         &self.params
     }
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         self.layout.n
     }
+    /// Offsets into this chain's flat state.
     pub fn layout(&self) -> Layout<G> {
         self.layout
     }
@@ -83,6 +90,7 @@ impl<G: Geometry> Chain<G> {
     pub fn force_dim(&self) -> usize {
         G::Cart::DIM
     }
+    /// Fresh buffers for [`Chain::derivative`].
     pub fn workspace(&self) -> Workspace<G> {
         Workspace::new(self.layout.n)
     }

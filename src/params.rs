@@ -77,21 +77,27 @@ impl ChainParams {
         Self::uniform(5, 0.5, 0.1, 0.1, 9.81).expect("paper parameters are valid")
     }
 
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         self.masses.len()
     }
+    /// Cart mass `m`, kg.
     pub fn cart_mass(&self) -> f64 {
         self.cart_mass
     }
+    /// Link masses `m_i`, kg (point masses at the links' ends).
     pub fn masses(&self) -> &[f64] {
         &self.masses
     }
+    /// Link lengths `l_i`, m.
     pub fn lengths(&self) -> &[f64] {
         &self.lengths
     }
+    /// Gravitational acceleration along e3, m/s^2.
     pub fn gravity(&self) -> f64 {
         self.gravity
     }
+    /// `1 / m_i`, precomputed.
     pub fn inv_masses(&self) -> &[f64] {
         &self.inv_masses
     }

@@ -27,10 +27,12 @@ use nalgebra::{Vector2, Vector3};
 /// Offsets of the parts of `z = [x, C^T xi_1..n, xdot, C^T w_1..n]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LocalLayout {
+    /// Number of links.
     pub n: usize,
 }
 
 impl LocalLayout {
+    /// The layout for `n` links.
     pub const fn new(n: usize) -> Self {
         Self { n }
     }
@@ -42,15 +44,19 @@ impl LocalLayout {
     pub const fn dof(&self) -> usize {
         2 + 2 * self.n
     }
+    /// Offset of the cart position `x` (2 entries).
     pub const fn x(&self) -> usize {
         0
     }
+    /// Offset of link `i`'s tilt `C^T xi_i` (2 entries).
     pub const fn xi(&self, i: usize) -> usize {
         2 + 2 * i
     }
+    /// Offset of the cart velocity `xdot` (2 entries).
     pub const fn xdot(&self) -> usize {
         self.dof()
     }
+    /// Offset of link `i`'s horizontal spin `C^T w_i` (2 entries).
     pub const fn w(&self, i: usize) -> usize {
         self.dof() + 2 + 2 * i
     }

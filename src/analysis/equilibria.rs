@@ -111,7 +111,9 @@ pub fn name_of(s: &[f64]) -> Option<&'static str> {
 pub struct Equilibrium {
     /// Position in the enumeration order of the module docs.
     pub index: usize,
+    /// The sign tuple `s` (+1 hanging link, -1 upright link).
     pub signs: Vec<f64>,
+    /// Its name when it has one (`hanging`, `inverted`, `folded`, `folded_up`).
     pub name: Option<&'static str>,
     /// `Chain::energy(equilibrium(s)).total()`, i.e. `-sum_i s_i g l_i sum_{a>=i} m_a`.
     pub energy: f64,

@@ -89,9 +89,11 @@ impl Linearization {
         })
     }
 
+    /// The equilibrium's sign tuple.
     pub fn signs(&self) -> &[f64] {
         &self.signs
     }
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         self.signs.len()
     }

@@ -25,7 +25,9 @@ use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 /// LQR weights in the `z` ordering: `Q` is `(4 + 4n)` square, `R` is 2x2.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LqrWeights {
+    /// State weight, `(4 + 4n)` square, symmetric positive semi-definite.
     pub q: DMatrix<f64>,
+    /// Force weight, 2x2, symmetric positive definite.
     pub r: DMatrix<f64>,
 }
 
@@ -117,9 +119,11 @@ impl LqrController {
         })
     }
 
+    /// The equilibrium's sign tuple.
     pub fn signs(&self) -> &[f64] {
         &self.signs
     }
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         self.signs.len()
     }

@@ -16,7 +16,9 @@ use std::ops::Range;
 /// (`V^T M V = I`), one column per eigenvalue.
 #[derive(Debug, Clone)]
 pub struct PencilEigen {
+    /// Eigenvalues, ascending.
     pub values: DVector<f64>,
+    /// Eigenvectors, one column per eigenvalue, `M`-orthonormal.
     pub vectors: DMatrix<f64>,
 }
 

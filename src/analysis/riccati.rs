@@ -51,7 +51,9 @@ pub struct CareSolution {
     pub residual: f64,
     /// Largest real part of the eigenvalues of `A - B K` (negative).
     pub closed_loop_abscissa: f64,
+    /// Iterations of the matrix sign function.
     pub sign_iterations: usize,
+    /// Newton-Kleinman refinement steps after it.
     pub newton_steps: usize,
 }
 

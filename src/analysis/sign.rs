@@ -41,12 +41,19 @@ pub fn norm1(m: &DMatrix<f64>) -> f64 {
 }
 
 /// Why the iteration stopped without a result.
+/// Why the matrix sign iteration stopped without a result.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SignFailure {
     /// An iterate was singular: an eigenvalue at (or numerically at) zero.
-    Singular { iteration: usize },
+    Singular {
+        /// The iteration at which it happened.
+        iteration: usize,
+    },
     /// No convergence within [`MAX_ITERATIONS`]: eigenvalues on the imaginary axis.
-    NoConvergence { relative_change: f64 },
+    NoConvergence {
+        /// The last iteration's relative change.
+        relative_change: f64,
+    },
 }
 
 /// `sign(z)` and the number of iterations used.

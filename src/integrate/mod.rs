@@ -23,14 +23,20 @@ use crate::model::{Chain, Workspace};
 /// Which integrator; see the module table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Method {
+    /// Classical Runge-Kutta of order 4, then projection onto the constraints.
     Rk4,
+    /// Runge-Kutta-Munthe-Kaas of order 4 on the spheres.
     Rkmk4,
+    /// The Lie group variational integrator (order 2, symplectic).
     Variational,
+    /// Symplectic Lie-Euler (order 1).
     LieEuler,
+    /// Dormand-Prince 5(4) with step-size control.
     Adaptive,
 }
 
 impl Method {
+    /// Every method, in the order of the module table.
     pub const ALL: [Method; 5] = [
         Method::Rk4,
         Method::Rkmk4,
@@ -38,9 +44,11 @@ impl Method {
         Method::LieEuler,
         Method::Adaptive,
     ];
+    /// The accepted names, for error messages.
     pub const NAMES: &'static str =
         "\"rk4\", \"rkmk4\", \"variational\", \"lie_euler\", \"adaptive\"";
 
+    /// The method's name (`"rk4"`, ...).
     pub fn name(self) -> &'static str {
         match self {
             Method::Rk4 => "rk4",
@@ -51,6 +59,7 @@ impl Method {
         }
     }
 
+    /// The method with this name, or an error listing the names.
     pub fn from_name(name: &str) -> Result<Self> {
         Method::ALL
             .into_iter()
@@ -83,6 +92,7 @@ impl std::str::FromStr for Method {
 /// How to advance one control period.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepOptions {
+    /// The integrator.
     pub method: Method,
     /// Integrator steps per control period (the adaptive method's first trial step is dt/substeps).
     pub substeps: usize,
@@ -90,10 +100,12 @@ pub struct StepOptions {
     pub tolerance: f64,
     /// Variational method: Newton stops when every `||q_i|^2 - 1| / 2` is below this.
     pub newton_tolerance: f64,
+    /// Variational method: Newton iterations before the step is reported as failed.
     pub max_newton_iterations: usize,
 }
 
 impl StepOptions {
+    /// Options for `method` with `substeps` steps per control period (others default).
     pub fn new(method: Method, substeps: usize) -> Result<Self> {
         let opts = Self {
             method,
@@ -104,6 +116,7 @@ impl StepOptions {
         Ok(opts)
     }
 
+    /// Checks `substeps >= 1` and positive tolerances.
     pub fn validate(&self) -> Result<()> {
         if self.substeps == 0 {
             return Err(ChainError::InvalidParameter {
@@ -160,13 +173,18 @@ pub(crate) struct RungeKuttaWorkspace {
 /// What the last [`Stepper::step`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepStats {
+    /// Derivative evaluations.
     pub evaluations: usize,
+    /// Integrator steps taken.
     pub accepted_steps: usize,
+    /// Steps rejected by the adaptive method's error control.
     pub rejected_steps: usize,
+    /// Newton iterations of the variational method.
     pub newton_iterations: usize,
 }
 
 impl<G: Geometry> Stepper<G> {
+    /// Buffers sized for `chain`.
     pub fn new(chain: &Chain<G>) -> Self {
         let (n, dim) = (chain.n_links(), chain.state_dim());
         let v = || vec![0.0; dim];

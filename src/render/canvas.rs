@@ -34,13 +34,16 @@ impl<'a> Canvas<'a> {
         self.clip = (from.min(to), to);
     }
 
+    /// Width in pixels.
     pub fn width(&self) -> usize {
         self.width
     }
+    /// Height in pixels.
     pub fn height(&self) -> usize {
         self.height
     }
 
+    /// Paints every pixel (inside the clip) with `color`.
     pub fn fill(&mut self, color: Rgb) {
         for px in self.pixels.chunks_exact_mut(3) {
             px.copy_from_slice(&color);

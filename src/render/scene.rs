@@ -17,11 +17,17 @@ const SEPARATOR: Rgb = [200, 200, 200];
 /// What to draw. `state` is a spatial state `[x(2), xdot(2), q(3n), w(3n)]` (planar
 /// states are embedded first); `target` is a sign tuple or `None`.
 pub struct FrameSpec<'a> {
+    /// Link lengths, m.
     pub lengths: &'a [f64],
+    /// The spatial state to draw.
     pub state: &'a [f64],
+    /// The target equilibrium's signs, drawn faintly.
     pub target: Option<&'a [f64]>,
+    /// The force of the last step, N (drawn as an arrow).
     pub force: [f64; 2],
+    /// The force that draws as 60% of the chain's length.
     pub max_force: f64,
+    /// Track half-length, m (end stops; infinite: none).
     pub track_limit: f64,
     /// Draw the top view beside the side view (planar scenes need only the side view).
     pub top_view: bool,
