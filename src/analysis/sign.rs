@@ -41,7 +41,6 @@ pub fn norm1(m: &DMatrix<f64>) -> f64 {
 }
 
 /// Why the iteration stopped without a result.
-/// Why the matrix sign iteration stopped without a result.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SignFailure {
     /// An iterate was singular: an eigenvalue at (or numerically at) zero.
