@@ -1,0 +1,114 @@
+"""Sweeps: every policy evaluated on the same seeded starts at each value of an axis.
+
+An axis turns a value into a variant of the scene's configuration (a larger start
+perturbation, a system that differs from the model, a noisier sensor, ...). For each
+value the same seeds start the episodes of every policy, so the comparison is paired:
+at one value, the policies face the same random directions; across values, the same
+directions scaled (``start_noise``).
+
+Each row of a sweep is one (axis, value, policy): the success rate with its 95% Wilson
+interval, the mean return, the mean time to settle over the settled episodes and the
+mean peak force.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from chaincart_env._core import ChainCartError
+from chaincart_env.compare.evaluation import Policy, rollout, settle_times
+from chaincart_env.compare.statistics import wilson_interval
+from chaincart_env.config import ChainCartConfig
+
+__all__ = ["SWEEP_AXES", "SWEEP_COLUMNS", "SweepAxis", "parse_sweep", "run_sweep", "sweep_rows"]
+
+
+@dataclass(frozen=True)
+class SweepAxis:
+    """One axis: what it varies (for tables and plot labels) and how a value changes
+    the configuration."""
+
+    name: str
+    label: str
+    apply: Callable[[ChainCartConfig, float], ChainCartConfig]
+    minimum: float = 0.0
+
+
+def _start_noise(config: ChainCartConfig, value: float) -> ChainCartConfig:
+    return config.replace(start_noise=value)
+
+
+#: The axes ``compare --sweep AXIS=V1,V2,...`` accepts.
+SWEEP_AXES: dict[str, SweepAxis] = {
+    axis.name: axis
+    for axis in (
+        SweepAxis("start_noise", "start perturbation (half-width, rad and m)", _start_noise),
+    )
+}
+
+#: Columns of ``sweeps.csv``.
+SWEEP_COLUMNS = (
+    "axis", "value", "policy", "episodes", "successes", "success_rate", "ci_low", "ci_high",
+    "return_mean", "settled", "settle_time_mean", "peak_force_mean",
+)
+
+
+def parse_sweep(text: str) -> tuple[str, list[float]]:
+    """``"AXIS=V1,V2,..."`` into the axis name and its values (checked)."""
+    name, sep, values = text.partition("=")
+    name = name.strip()
+    if not sep or name not in SWEEP_AXES:
+        raise ChainCartError(
+            f"--sweep {text!r}: expected AXIS=V1,V2,... with AXIS one of {sorted(SWEEP_AXES)}"
+        )
+    try:
+        numbers = [float(v) for v in values.split(",") if v.strip()]
+    except ValueError:
+        raise ChainCartError(f"--sweep {text!r}: the values must be numbers separated by commas") from None
+    axis = SWEEP_AXES[name]
+    if not numbers:
+        raise ChainCartError(f"--sweep {text!r}: expected at least one value")
+    for value in numbers:
+        if not math.isfinite(value) or value < axis.minimum:
+            raise ChainCartError(f"--sweep {name} value {value!r}: expected a finite number >= {axis.minimum}")
+    return name, numbers
+
+
+def sweep_rows(axis: str, value: float, runs: Sequence[Any], tolerances: tuple[float, float]) -> list[dict[str, Any]]:
+    """The :data:`SWEEP_COLUMNS` of each policy's rollouts at one value."""
+    rows = []
+    for run in runs:
+        wins = int(run.success.sum())
+        low, high = wilson_interval(wins, run.episodes)
+        settle = settle_times(run, tolerances)
+        peaks = np.array([np.max(run.force[i, : run.lengths[i]]) for i in range(run.episodes)])
+        rows.append(dict(
+            axis=axis, value=float(value), policy=run.policy, episodes=run.episodes, successes=wins,
+            success_rate=wins / run.episodes, ci_low=low, ci_high=high,
+            return_mean=float(run.returns.mean()), settled=int(np.isfinite(settle).sum()),
+            settle_time_mean=float(np.nanmean(settle)) if np.isfinite(settle).any() else float("nan"),
+            peak_force_mean=float(peaks.mean()),
+        ))
+    return rows
+
+
+def run_sweep(
+    policies: Sequence[tuple[str, Policy]],
+    config: ChainCartConfig,
+    axis: str,
+    values: Sequence[float],
+    seeds: Sequence[int],
+) -> list[dict[str, Any]]:
+    """Evaluates every ``(name, policy)`` at every value of ``axis`` on the same ``seeds``."""
+    if axis not in SWEEP_AXES:
+        raise ChainCartError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
+    rows: list[dict[str, Any]] = []
+    for value in values:
+        variant = SWEEP_AXES[axis].apply(config, float(value))
+        runs = [rollout(policy, name, variant, seeds) for name, policy in policies]
+        rows.extend(sweep_rows(axis, value, runs, variant.success_tolerances))
+    return rows

@@ -1,0 +1,92 @@
+"""The main job's study: intervals, aggregation over seeds and sweeps on shared starts."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from chaincart_env import ChainCartConfig, ChainCartError, LQRPolicy
+from chaincart_env.compare.statistics import aggregate_over_seeds, wilson_interval
+from chaincart_env.compare.sweeps import parse_sweep, run_sweep
+from chaincart_env.env import ChainCartEnv
+from chaincart_env.roa import success_fractions
+
+
+def test_wilson_interval_matches_the_closed_form() -> None:
+    z = 1.959963984540054
+    for k, n in [(8, 10), (0, 10), (10, 10), (37, 50)]:
+        p = k / n
+        centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+        half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+        low, high = wilson_interval(k, n)
+        assert low == pytest.approx(max(0.0, centre - half), abs=1e-12)
+        assert high == pytest.approx(min(1.0, centre + half), abs=1e-12)
+
+
+@pytest.mark.parametrize("k, n", [(-1, 10), (11, 10), (1, 0), (True, 3), (1.5, 3)])
+def test_wilson_interval_rejects_impossible_counts(k: object, n: object) -> None:
+    with pytest.raises(ChainCartError):
+        wilson_interval(k, n)  # type: ignore[arg-type]
+
+
+def test_bootstrap_over_two_seeds_has_the_known_percentile_interval() -> None:
+    # Resampling {0, 1} with replacement gives a mean of 0, 0.5 or 1 with probabilities
+    # 1/4, 1/2, 1/4: the 2.5% and 97.5% percentiles are 0 and 1.
+    result = aggregate_over_seeds([0.0, 1.0])
+    assert (result.mean, result.ci_low, result.ci_high, result.seeds) == (0.5, 0.0, 1.0, 2)
+
+
+def test_bootstrap_interval_brackets_the_mean_and_is_reproducible() -> None:
+    values = [0.62, 0.9, 0.74, 0.95, 0.81]
+    first, again = aggregate_over_seeds(values), aggregate_over_seeds(values)
+    assert first == again
+    assert min(values) <= first.ci_low < first.mean < first.ci_high <= max(values)
+    assert first.mean == pytest.approx(np.mean(values))
+
+
+def test_one_seed_has_no_interval_and_equal_seeds_a_point() -> None:
+    single = aggregate_over_seeds([0.7])
+    assert single.mean == 0.7 and math.isnan(single.ci_low) and "1 seed" in single.describe()
+    assert aggregate_over_seeds([1.0, 1.0, 1.0]).describe() == "1 [1, 1]"
+    with pytest.raises(ChainCartError):
+        aggregate_over_seeds([])
+    with pytest.raises(ChainCartError):
+        aggregate_over_seeds([1.0, float("nan")])
+
+
+def test_sweep_option_is_parsed_and_checked() -> None:
+    assert parse_sweep("start_noise=0.05,0.2") == ("start_noise", [0.05, 0.2])
+    for bad in ("start_noise", "speed=1", "start_noise=", "start_noise=a", "start_noise=-0.1", "start_noise=inf"):
+        with pytest.raises(ChainCartError, match="sweep"):
+            parse_sweep(bad)
+
+
+class _Zero:
+    """A policy that never pushes."""
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=False):  # type: ignore[no-untyped-def]
+        return np.zeros((len(obs), 1), dtype=np.float32), None
+
+
+def test_sweep_runs_every_policy_on_the_same_starts_and_agrees_with_roa() -> None:
+    config = ChainCartConfig(scene="inverted-1", max_episode_steps=100)
+    lqr = LQRPolicy.from_env(ChainCartEnv(config))
+    seeds = list(range(20))
+    policies = [("LQR", lqr), ("zero", _Zero()), ("LQR again", lqr)]
+    rows = run_sweep(policies, config, "start_noise", [0.05, 0.6], seeds)
+    assert [(r["value"], r["policy"]) for r in rows] == [
+        (v, name) for v in (0.05, 0.6) for name in ("LQR", "zero", "LQR again")
+    ]
+    # The same starts for every policy: a copy of a policy under another name scores the same.
+    for first, copy in ((rows[0], rows[2]), (rows[3], rows[5])):
+        assert {k: v for k, v in first.items() if k != "policy"} == {k: v for k, v in copy.items() if k != "policy"}
+    assert all(r["episodes"] == 20 and r["ci_low"] <= r["success_rate"] <= r["ci_high"] for r in rows)
+    for row in rows:
+        if row["policy"] == "LQR":
+            roa = success_fractions(config.replace(start_noise=row["value"]), starts=20, seed=0, policy=lqr)
+            assert row["success_rate"] == roa.success
+    lqr_small, zero_small, lqr_large = rows[0], rows[1], rows[3]
+    assert lqr_small["success_rate"] == 1.0 and zero_small["success_rate"] < 1.0
+    assert lqr_large["success_rate"] < 1.0  # 0.6 is outside the LQR's region of attraction here
