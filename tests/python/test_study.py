@@ -90,3 +90,84 @@ def test_sweep_runs_every_policy_on_the_same_starts_and_agrees_with_roa() -> Non
     lqr_small, zero_small, lqr_large = rows[0], rows[1], rows[3]
     assert lqr_small["success_rate"] == 1.0 and zero_small["success_rate"] < 1.0
     assert lqr_large["success_rate"] < 1.0  # 0.6 is outside the LQR's region of attraction here
+
+
+# --- training-time evaluation and checkpoints ---------------------------------------
+
+def _tiny_ppo(seed: int = 0):  # type: ignore[no-untyped-def]
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from chaincart_env import ChainCartVecEnv
+
+    torch.set_num_threads(1)
+    venv = VecMonitor(ChainCartVecEnv(4, ChainCartConfig(scene="inverted-1"), seed=seed))
+    return PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=2, seed=seed, device="cpu")
+
+
+def _same_weights(a, b) -> bool:  # type: ignore[no-untyped-def]
+    import torch
+
+    wa, wb = a.policy.state_dict(), b.policy.state_dict()
+    return wa.keys() == wb.keys() and all(torch.equal(wa[k], wb[k]) for k in wa)
+
+
+def test_periodic_evaluation_rows_best_model_and_no_effect_on_training(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from chaincart_env.compare.periodic_eval import PeriodicEvaluation, read_evaluations
+
+    config = ChainCartConfig(scene="inverted-1", max_episode_steps=50)
+    evaluation = PeriodicEvaluation(config, seeds=[7, 8, 9], every=256, directory=tmp_path)
+    with_eval = _tiny_ppo()
+    with_eval.learn(640, callback=evaluation)
+    rows = read_evaluations(tmp_path / "evaluations.csv")
+    # At the start, at the first rollout boundary past 256 and 512, and at the end.
+    assert [int(r["timesteps"]) for r in rows] == [0, 256, 512, 640]
+    assert all(r["episodes"] == 3 and r["ci_low"] <= r["success_rate"] <= r["ci_high"] for r in rows)
+    best = max(rows, key=lambda r: (r["success_rate"], r["return_mean"]))
+    assert evaluation.best == best and (tmp_path / "best_model.zip").is_file()
+    # The saved best model scores what its row says on the same starts.
+    from stable_baselines3 import PPO
+
+    from chaincart_env.compare.evaluation import rollout
+
+    again = rollout(PPO.load(tmp_path / "best_model.zip", device="cpu"), "best", config, [7, 8, 9])
+    assert float(np.mean(again.returns)) == pytest.approx(best["return_mean"], rel=1e-12)
+    without_eval = _tiny_ppo()
+    without_eval.learn(640)
+    assert _same_weights(with_eval, without_eval)
+
+
+def test_training_resumed_from_a_checkpoint_ends_bit_identical(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from chaincart_env.compare.checkpoints import Checkpointer, restore
+
+    class Interrupt(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps >= 600:
+                raise KeyboardInterrupt
+            return True
+
+    whole, broken = tmp_path / "whole", tmp_path / "broken"
+    whole.mkdir(), broken.mkdir()
+    uninterrupted = _tiny_ppo()
+    uninterrupted.learn(1024, callback=Checkpointer(whole, every=256))
+    interrupted = _tiny_ppo()
+    with pytest.raises(KeyboardInterrupt):
+        interrupted.learn(1024, callback=[Checkpointer(broken, every=256), Interrupt()])
+    resumed, state = restore(broken, PPO)
+    assert state["timesteps"] == 512 and resumed.num_timesteps == 512
+    assert not _same_weights(resumed, uninterrupted)
+    resumed.learn(1024 - resumed.num_timesteps, reset_num_timesteps=False, callback=Checkpointer(broken, every=256))
+    assert resumed.num_timesteps == 1024 and _same_weights(resumed, uninterrupted)
+
+
+def test_restore_without_a_checkpoint_names_what_is_missing(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from stable_baselines3 import PPO
+
+    from chaincart_env.compare.checkpoints import restore
+
+    with pytest.raises(ChainCartError, match="no checkpoint"):
+        restore(tmp_path, PPO)
