@@ -21,10 +21,13 @@ import numpy as np
 
 from chaincart_env._core import ChainCartError
 from chaincart_env.compare.evaluation import Policy, rollout, settle_times
-from chaincart_env.compare.statistics import wilson_interval
+from chaincart_env.compare.statistics import aggregate_over_seeds, wilson_interval
 from chaincart_env.config import ChainCartConfig
 
-__all__ = ["SWEEP_AXES", "SWEEP_COLUMNS", "SweepAxis", "parse_sweep", "run_sweep", "sweep_rows"]
+__all__ = [
+    "SWEEP_AXES", "SWEEP_COLUMNS", "SWEEP_SUMMARY_COLUMNS", "SweepAxis", "parse_sweep", "run_sweep", "summarize_sweep",
+    "sweep_rows",
+]
 
 
 @dataclass(frozen=True)
@@ -112,3 +115,38 @@ def run_sweep(
         runs = [rollout(policy, name, variant, seeds) for name, policy in policies]
         rows.extend(sweep_rows(axis, value, runs, variant.success_tolerances))
     return rows
+
+
+#: Columns of ``sweep_summary.csv``: one row per (axis, value, policy) over seeds.
+SWEEP_SUMMARY_COLUMNS = (
+    "axis", "value", "policy", "seeds", "episodes", "success_rate", "ci_low", "ci_high", "interval",
+    "return_mean", "settle_time_mean", "peak_force_mean",
+)
+
+
+def summarize_sweep(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Aggregates :func:`run_sweep` rows of several training seeds (each row may carry a
+    ``seed``; rows without one are a single evaluation, e.g. the LQR's). A policy
+    measured on one seed keeps its Wilson interval over episodes; one measured on several
+    gets the mean over seeds with the 95% bootstrap interval over seeds."""
+    groups: dict[tuple[str, float, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["axis"], row["value"], row["policy"]), []).append(row)
+    out = []
+    for (axis, value, policy), members in groups.items():
+        mean_of = lambda key: float(np.nanmean([m[key] for m in members]))  # noqa: E731
+        if len(members) == 1:
+            only = members[0]
+            low, high, interval = only["ci_low"], only["ci_high"], "Wilson, over episodes"
+        else:
+            aggregate = aggregate_over_seeds([m["success_rate"] for m in members])
+            low, high, interval = aggregate.ci_low, aggregate.ci_high, "bootstrap, over seeds"
+        settles = [m["settle_time_mean"] for m in members if math.isfinite(m["settle_time_mean"])]
+        out.append(dict(
+            axis=axis, value=value, policy=policy, seeds=len(members),
+            episodes=int(sum(m["episodes"] for m in members)), success_rate=mean_of("success_rate"),
+            ci_low=float(low), ci_high=float(high), interval=interval, return_mean=mean_of("return_mean"),
+            settle_time_mean=float(np.mean(settles)) if settles else float("nan"),
+            peak_force_mean=mean_of("peak_force_mean"),
+        ))
+    return out
