@@ -2,8 +2,8 @@
 # Set-up of a machine that has only Rust and Python 3.11 with pip (idempotent).
 #
 # Creates .venv, installs maturin, then builds the Rust extension in release mode and
-# installs chaincart-env in editable mode with the sb3, test, plot and mujoco extras
-# (`maturin develop --release --extras sb3,test,plot,mujoco`). Re-running it is cheap: the
+# installs chaincart-env in editable mode with the sb3, test, plot, mujoco and rllib extras
+# (`maturin develop --release --extras sb3,test,plot,mujoco,rllib`). Re-running it is cheap: the
 # Python dependencies are reinstalled only when pyproject.toml changed, and the
 # extension is rebuilt only when the Rust sources changed (cargo decides).
 #
@@ -25,7 +25,7 @@ want="$(sha256sum pyproject.toml | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ] || ! python -c "import maturin" >/dev/null 2>&1; then
     python -m pip install --upgrade pip
     python -m pip install "maturin>=1.5,<2"
-    maturin develop --release --extras sb3,test,plot,mujoco
+    maturin develop --release --extras sb3,test,plot,mujoco,rllib
     echo "$want" > "$stamp"
 else
     # Dependencies are in place: rebuild the extension in place if Rust changed.

@@ -2,7 +2,7 @@
 ``evaluate`` (re-run the comparison of a saved model). Registered as subcommands of
 ``python -m chaincart_env`` and as the console script ``chaincart-compare``.
 
-Nothing heavy is imported here: stable-baselines3 and torch load when a command runs.
+Nothing heavy is imported here: stable-baselines3 (or Ray) and torch load when a command runs.
 """
 
 from __future__ import annotations
@@ -57,10 +57,12 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=_integer(0, "seed"), default=0,
                         help="training seed: agent and env i seeded seed + i (default: 0)")
     parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=8,
-                        help="training envs in the native VecEnv (default: 8)")
+                        help="training envs in the native VecEnv of the sb3 trainer (default: 8)")
     parser.add_argument("--algo-kwarg", dest="algo_kwargs", action="append", default=[], metavar="KEY=VALUE",
                         help="constructor keyword of the algorithm on top of the defaults (repeatable), "
-                        "e.g. --algo-kwarg n_steps=256")
+                        "e.g. --algo-kwarg n_steps=256; with --trainer rllib a PPOConfig.training keyword, "
+                        "e.g. --algo-kwarg train_batch_size_per_learner=4096")
+    _add_rllib_options(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_evaluation_options(parser, defaults=True)
     add_scene_options(parser)
@@ -68,8 +70,22 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_compare_command(args, parser))
 
 
+def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("trainer (Ray RLlib on a cluster: needs the rllib extra)")
+    group.add_argument("--trainer", choices=("sb3", "rllib"), default="sb3",
+                       help="sb3: stable-baselines3 on --num-envs envs in this process (default); rllib: Ray RLlib "
+                       "PPO on --num-env-runners runners of --envs-per-runner native envs each")
+    group.add_argument("--num-env-runners", type=_integer(0, "num-env-runners"), default=2,
+                       help="RLlib env runners, one CPU each (0: sample in the driver; default: 2)")
+    group.add_argument("--envs-per-runner", type=_integer(1, "envs-per-runner"), default=4,
+                       help="native envs in each RLlib env runner (default: 4)")
+    group.add_argument("--address", default=None,
+                       help="Ray cluster to train on ('auto': the one this machine joined with `ray start`, or "
+                       "HOST:PORT of its head); default: a local cluster started for the run")
+
+
 def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("model", type=Path, help="a run folder written by compare, or its model.zip")
+    parser.add_argument("model", type=Path, help="a run folder written by compare, or its model.zip or rllib_checkpoint")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
     _add_evaluation_options(parser, defaults=False)
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
@@ -94,7 +110,9 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps, seed=args.seed,
                     num_envs=args.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
                     progress_bar=not args.no_progress, torch_threads=args.torch_threads,
-                    hyperparameters=hyperparameters)
+                    hyperparameters=hyperparameters, trainer=args.trainer,
+                    rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner,
+                               address=args.address))
     except ChainCartError as error:
         parser.error(str(error))
     return 0
@@ -115,9 +133,10 @@ def add_commands(commands: "argparse._SubParsersAction[argparse.ArgumentParser]"
     """Adds ``compare`` and ``evaluate`` to a subcommand set; each parser's ``handler``
     default runs it as ``args.handler(args, dispatching_parser)``."""
     _configure_compare(commands.add_parser(
-        "compare", help="train an SB3 agent and compare it with the LQR baseline (the main job)",
-        description="Train a stable-baselines3 agent on a scene, evaluate it and the LQR baseline on the "
-        "same seeded starts, and write tables, a learning curve, error plots, a filmstrip and the model.",
+        "compare", help="train an SB3 (or RLlib) agent and compare it with the LQR baseline (the main job)",
+        description="Train a stable-baselines3 agent (or Ray RLlib PPO, on a cluster) on a scene, evaluate it and "
+        "the LQR baseline on the same seeded starts, and write tables, a learning curve, error plots, a filmstrip "
+        "and the model.",
     ))
     _configure_evaluate(commands.add_parser(
         "evaluate", help="re-run the comparison of a model saved by compare",

@@ -9,7 +9,12 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["LEARNING_CURVE_COLUMNS", "learning_curve", "read_training_episodes"]
+__all__ = ["LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "learning_curve", "read_training_episodes"]
+
+#: Columns of ``training_episodes.csv`` (written by either trainer).
+TRAINING_EPISODE_COLUMNS = (
+    "timesteps", "wall_time_s", "episode", "return", "length", "is_success", "out_of_track", "numerical_failure"
+)
 
 #: Columns of ``learning_curve.csv``.
 LEARNING_CURVE_COLUMNS = ("timesteps", "episodes", "return_mean", "return_std", "success_rate")

@@ -1,5 +1,6 @@
-"""The files that make a trained run re-evaluable: ``model.zip`` (SB3), ``config.json``
-(the env config's keywords) and ``run.json`` (algorithm, budget, seeds, evaluation
+"""The files that make a trained run re-evaluable: ``model.zip`` (SB3) or
+``rllib_checkpoint/`` (RLlib, written by its trainer), ``config.json`` (the env
+config's keywords) and ``run.json`` (trainer, algorithm, budget, seeds, evaluation
 settings, hyperparameters, timings)."""
 
 from __future__ import annotations
@@ -9,10 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from stable_baselines3.common.base_class import BaseAlgorithm
-
 from chaincart_env._core import ChainCartError
-from chaincart_env.compare.training import algorithm_class
 from chaincart_env.config import ChainCartConfig
 
 __all__ = ["MODEL_FILE", "CONFIG_FILE", "RUN_FILE", "SavedRun", "load_run", "save_run"]
@@ -24,15 +22,22 @@ RUN_FILE = "run.json"
 
 @dataclass(frozen=True)
 class SavedRun:
-    model: BaseAlgorithm
+    #: An SB3 model, or an RLlibPolicy for runs of ``--trainer rllib``.
+    model: Any
     config: ChainCartConfig
     info: dict[str, Any]
     directory: Path
 
 
-def save_run(directory: Path, model: BaseAlgorithm, config: ChainCartConfig, info: dict[str, Any]) -> None:
+def _rllib(info: dict[str, Any]) -> bool:
+    return info.get("trainer") == "rllib"
+
+
+def save_run(directory: Path, model: Any, config: ChainCartConfig, info: dict[str, Any]) -> None:
+    """Writes the run's files (an RLlib run's checkpoint is already there)."""
     directory = Path(directory)
-    model.save(directory / MODEL_FILE)
+    if not _rllib(info):
+        model.save(directory / MODEL_FILE)
     (directory / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2) + "\n")
     (directory / RUN_FILE).write_text(json.dumps(info, indent=2, default=repr) + "\n")
 
@@ -47,17 +52,33 @@ def _json(path: Path) -> dict[str, Any]:
 
 
 def load_run(path: Path) -> SavedRun:
-    """A run directory written by ``compare``, or the ``model.zip`` inside one."""
+    """A run directory written by ``compare``, or the ``model.zip`` (SB3) or
+    ``rllib_checkpoint`` (RLlib) inside one."""
+    from chaincart_env.compare.rllib_training import CHECKPOINT_DIR
+
     path = Path(path)
-    if path.is_dir():
-        directory, model_path = path, path / MODEL_FILE
-    elif path.suffix == ".zip":
-        directory, model_path = path.parent, path
+    if path.is_dir() and path.name == CHECKPOINT_DIR:
+        path = path.parent
+    if path.is_dir() and (path / CHECKPOINT_DIR).is_dir():
+        from chaincart_env.compare.rllib_training import RLlibPolicy
+
+        directory = path
+        info = _json(directory / RUN_FILE)
+        model: Any = RLlibPolicy.load(directory / CHECKPOINT_DIR)
     else:
-        raise ChainCartError(f"model {str(path)!r}: expected a run directory or a .zip model file that exists")
-    if not model_path.is_file():
-        raise ChainCartError(f"{model_path} does not exist: expected an SB3 model saved by compare")
-    info = _json(directory / RUN_FILE)
+        if path.is_dir():
+            directory, model_path = path, path / MODEL_FILE
+        elif path.suffix == ".zip":
+            directory, model_path = path.parent, path
+        else:
+            raise ChainCartError(
+                f"model {str(path)!r}: expected a run directory, a .zip model file or an {CHECKPOINT_DIR} that exists"
+            )
+        if not model_path.is_file():
+            raise ChainCartError(f"{model_path} does not exist: expected an SB3 model saved by compare")
+        info = _json(directory / RUN_FILE)
+        from chaincart_env.compare.training import algorithm_class
+
+        model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
     config = ChainCartConfig(**_json(directory / CONFIG_FILE))
-    model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
     return SavedRun(model=model, config=config, info=info, directory=directory)

@@ -15,6 +15,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecMonitor
 
 from chaincart_env._core import ChainCartError
+from chaincart_env.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.sb3 import ChainCartVecEnv
 
@@ -35,11 +36,6 @@ ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3
 #: PPO: SB3's defaults solve the default scene; these are kept. Off-policy methods:
 #: SB3's defaults too (their budget is not tuned here).
 DEFAULT_HYPERPARAMETERS: dict[str, dict[str, Any]] = {"ppo": {}, "sac": {}, "td3": {}}
-
-#: Columns of ``training_episodes.csv``.
-TRAINING_EPISODE_COLUMNS = (
-    "timesteps", "wall_time_s", "episode", "return", "length", "is_success", "out_of_track", "numerical_failure"
-)
 
 
 def algorithm_class(name: str) -> type[BaseAlgorithm]:
