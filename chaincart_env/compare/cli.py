@@ -14,6 +14,7 @@ from typing import Any, Callable, Optional, Sequence
 
 from chaincart_env._core import ChainCartError
 from chaincart_env.compare.scene_options import add_scene_options, config_from_options, parse_value
+from chaincart_env.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES, parse_sweep
 
 __all__ = ["DEFAULT_TIMESTEPS", "add_commands", "compare_main"]
 
@@ -54,8 +55,23 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default: {DEFAULT_OUT})")
     parser.add_argument("--algo", type=str.lower, choices=ALGORITHM_NAMES, default="ppo",
                         help="stable-baselines3 algorithm (default: ppo)")
-    parser.add_argument("--seed", type=_integer(0, "seed"), default=0,
-                        help="training seed: agent and env i seeded seed + i (default: 0)")
+    seeds = parser.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=_integer(0, "seed"), default=None,
+                       help="one training seed: agent and env i seeded seed + i (default: 0)")
+    seeds.add_argument("--seeds", type=_seed_list, default=None, metavar="S1,S2,...",
+                       help="several training seeds, one independent agent each; tables and curves aggregate over "
+                       "them (mean and 95%% bootstrap interval over seeds)")
+    parser.add_argument("--sweep", dest="sweeps", action="append", default=[], metavar="AXIS=V1,V2,...",
+                        help="evaluate every policy on the same starts at each value of AXIS (repeatable; axes: "
+                        f"{', '.join(sorted(SWEEP_AXES))}; default: {_default_sweeps()})")
+    parser.add_argument("--eval-every", type=_integer(1, "eval-every"), default=20_000,
+                        help="timesteps between deterministic evaluations during training (default: 20000)")
+    parser.add_argument("--eval-starts", type=_integer(1, "eval-starts"), default=20,
+                        help="seeded starts of each evaluation during training (default: 20)")
+    parser.add_argument("--checkpoint-every", type=_integer(1, "checkpoint-every"), default=50_000,
+                        help="timesteps between checkpoints, for --resume (default: 50000)")
+    parser.add_argument("--resume", type=Path, default=None, metavar="RUN_DIR",
+                        help="continue an interrupted run with its own settings (other options are ignored)")
     parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=8,
                         help="training envs in the native VecEnv of the sb3 trainer (default: 8)")
     parser.add_argument("--algo-kwarg", dest="algo_kwargs", action="append", default=[], metavar="KEY=VALUE",
@@ -91,6 +107,20 @@ def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
 
 
+def _seed_list(text: str) -> list[int]:
+    try:
+        seeds = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seeds = {text!r}: expected integers >= 0 separated by commas") from None
+    if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"seeds = {text!r}: expected distinct integers >= 0 separated by commas")
+    return seeds
+
+
+def _default_sweeps() -> str:
+    return " ".join(f"{axis}={','.join(f'{v:g}' for v in values)}" for axis, values in DEFAULT_SWEEPS.items())
+
+
 def _algo_kwarg(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep or not key.strip().isidentifier():
@@ -98,19 +128,38 @@ def _algo_kwarg(text: str) -> tuple[str, Any]:
     return key.strip(), parse_value(value)
 
 
+def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
+    """``--sweep`` options as axis -> values (``None``: the default sweeps)."""
+    if not texts:
+        return None
+    sweeps: dict[str, list[float]] = {}
+    for text in texts:
+        axis, values = parse_sweep(text)
+        if axis in sweeps:
+            raise ChainCartError(f"--sweep {axis} is given twice: expected each axis once")
+        sweeps[axis] = values
+    return sweeps
+
+
 def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from chaincart_env.compare.job import run_compare
+    from chaincart_env.compare.job import resume_compare, run_compare
 
     try:
+        if args.resume is not None:
+            resume_compare(args.resume)
+            return 0
         config = config_from_options(args)
         hyperparameters = dict(_algo_kwarg(text) for text in args.algo_kwargs)
+        sweeps = _sweeps(args.sweeps)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
+    seeds = args.seeds if args.seeds is not None else [0 if args.seed is None else args.seed]
     try:
-        run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps, seed=args.seed,
+        run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps, seeds=seeds,
                     num_envs=args.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
-                    progress_bar=not args.no_progress, torch_threads=args.torch_threads,
-                    hyperparameters=hyperparameters, trainer=args.trainer,
+                    sweeps=sweeps, eval_every=args.eval_every, eval_starts=args.eval_starts,
+                    checkpoint_every=args.checkpoint_every, progress_bar=not args.no_progress,
+                    torch_threads=args.torch_threads, hyperparameters=hyperparameters, trainer=args.trainer,
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner,
                                address=args.address))
     except ChainCartError as error:

@@ -1,88 +1,105 @@
-"""The main job: train, evaluate against the LQR baseline, report; and the re-run of
-the evaluation from saved files."""
+"""The main job: train one agent per training seed, evaluate them and the LQR baseline
+(on the main starts and over the sweeps), report; resume an interrupted run; re-run the
+evaluation of a saved run.
+
+A run directory holds ``config.json``, ``run.json`` (the settings, a ``status`` and
+per-seed progress), one ``seed-<s>/`` folder per training seed (the agent, its best
+model by evaluation, logs, checkpoints) and the study's tables and pictures
+(:data:`chaincart_env.compare.study.EVALUATION_FILES`).
+
+``run.json``'s ``status`` is ``training``, ``evaluating``, ``done``, ``interrupted``
+(Ctrl-C or SIGTERM: everything produced so far stays, and ``compare --resume RUN``
+continues) or ``failed`` (with the error).
+"""
 
 from __future__ import annotations
 
+import json
 import platform
+import signal
 import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Iterator, Optional, Sequence
 
 from chaincart_env._core import ChainCartError
-from chaincart_env.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, evaluate_policies, evaluation_seeds
-from chaincart_env.compare.filmstrip import write_filmstrip
-from chaincart_env.compare.learning_curve import LEARNING_CURVE_COLUMNS, learning_curve, read_training_episodes
-from chaincart_env.compare.plots import plot_errors, plot_learning_curve
-from chaincart_env.compare.run_files import load_run, save_run
-from chaincart_env.compare.tables import write_csv, write_markdown
+from chaincart_env.compare.learning_curve import (
+    LEARNING_CURVE_COLUMNS, learning_curve, read_learning_curve, read_training_episodes,
+)  # fmt: skip
+from chaincart_env.compare.plots import plot_learning_curve
+from chaincart_env.compare.run_files import CONFIG_FILE, RUN_FILE, load_run, save_run
+from chaincart_env.compare.study import (
+    EVALUATION_FILES, describe, evaluate_study, lqr_baseline, policy_label, seed_directory,
+)  # fmt: skip
+from chaincart_env.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
+from chaincart_env.compare.tables import write_csv
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "OUTPUT_FILES", "EVALUATION_FILES", "RLLIB_OUTPUT_FILES", "TRAINERS", "lqr_baseline", "run_compare",
-    "run_evaluate",
+    "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "StudySettings",
+    "lqr_baseline", "policy_label", "resume_compare", "run_compare", "run_evaluate",
 ]  # fmt: skip
 
 #: The trainers of compare: stable-baselines3 on one machine, Ray RLlib on a cluster.
 TRAINERS = ("sb3", "rllib")
-
-#: What evaluation writes (compare and evaluate).
-EVALUATION_FILES = ("comparison.csv", "comparison.md", "episodes.csv", "errors.png", "filmstrip.png")
-#: What compare writes in all.
-OUTPUT_FILES = EVALUATION_FILES + (
-    "training_episodes.csv", "learning_curve.csv", "learning_curve.png", "model.zip", "config.json", "run.json",
+#: What compare writes at the top of the run directory.
+OUTPUT_FILES = EVALUATION_FILES + (CONFIG_FILE, RUN_FILE)
+#: What each ``seed-<s>/`` folder holds after training with stable-baselines3.
+SEED_FILES = (
+    "model.zip", "best_model.zip", "config.json", "run.json", "training_episodes.csv", "evaluations.csv",
+    "learning_curve.csv", "learning_curve.png",
 )
-#: What compare --trainer rllib writes: the RLlib checkpoint instead of model.zip.
-RLLIB_OUTPUT_FILES = tuple("rllib_checkpoint" if name == "model.zip" else name for name in OUTPUT_FILES)
 
 
-def _describe(config: ChainCartConfig) -> str:
-    return (
-        f"scene {config.scene}: {config.n_links} link(s), {'planar' if config.planar else 'spatial'}, "
-        f"target {config.target_signs}, start {config.start!r} +- {config.start_noise}, dt {config.dt} s, "
-        f"max_force {config.max_force} N, {config.max_episode_steps} steps"
-    )
+class StudySettings(dict):  # type: ignore[type-arg]
+    """The settings of a run as saved in ``run.json`` (a plain dict with checks)."""
+
+    @classmethod
+    def checked(cls, **settings: Any) -> "StudySettings":
+        seeds = settings["seeds"]
+        if not seeds or len(set(seeds)) != len(seeds) or any(
+            isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds
+        ):
+            raise ChainCartError(f"seeds = {seeds!r}: expected distinct integers >= 0, at least one")
+        if settings["trainer"] not in TRAINERS:
+            raise ChainCartError(f"trainer = {settings['trainer']!r}: expected one of {list(TRAINERS)}")
+        for axis in settings["sweeps"]:
+            if axis not in SWEEP_AXES:
+                raise ChainCartError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
+        for key in ("eval_every", "checkpoint_every", "eval_starts", "timesteps"):
+            value = settings[key]
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ChainCartError(f"{key} = {value!r}: expected an integer >= 1")
+        return cls(settings)
 
 
-def lqr_baseline(config: ChainCartConfig) -> Any:
-    """The LQR baseline of ``config`` (``LQRPolicy.from_env``); a scene it cannot serve
-    (e.g. no force) is a ChainCartError naming it."""
-    from chaincart_env.env import ChainCartEnv
-    from chaincart_env.lqr import LQRPolicy
+def _write_json(path: Path, data: dict[str, Any]) -> None:
+    staging = path.with_suffix(".tmp")
+    staging.write_text(json.dumps(data, indent=2, default=repr) + "\n")
+    staging.replace(path)
+
+
+def _set_status(out: Path, run: dict[str, Any], status: str, **extra: Any) -> None:
+    run.update(status=status, **extra)
+    _write_json(out / RUN_FILE, run)
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM ends the run the way Ctrl-C does (``KeyboardInterrupt``)."""
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt(f"signal {signum}")
 
     try:
-        return LQRPolicy.from_env(ChainCartEnv(config))
-    except ValueError as error:
-        raise ChainCartError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
-
-
-def policy_label(algo: str, trainer: str = "sb3") -> str:
-    """The trained policy's name in tables and plots: ``PPO``, or ``PPO (RLlib)``."""
-    return algo.upper() + (" (RLlib)" if trainer == "rllib" else "")
-
-
-def _evaluate_and_report(
-    model: Any, label: str, config: ChainCartConfig, out: Path, eval_seed: int, eval_episodes: int
-) -> list[dict[str, Any]]:
-    """Evaluates ``model`` and the LQR baseline on the same seeded starts and writes
-    the table (CSV, Markdown), per-episode rows, the error plot and the filmstrip."""
-    seeds = evaluation_seeds(eval_seed, eval_episodes)
-    baseline = lqr_baseline(config)
-    runs, episodes, summaries = evaluate_policies([(label, model), ("LQR", baseline)], config, seeds)
-    write_csv(out / "comparison.csv", summaries, METRIC_COLUMNS)
-    write_csv(out / "episodes.csv", episodes, EPISODE_COLUMNS)
-    tol_q, tol_w = config.success_tolerances
-    notes = [
-        _describe(config),
-        f"{eval_episodes} evaluation episodes, seeds {seeds[0]}..{seeds[-1]}, deterministic actions; "
-        "mean ± std over episodes.",
-        f"Success: the episode reaches the time limit with e_q <= {tol_q} and e_w <= {tol_w}. "
-        "Time to settle: the first time after which e_q and e_w stay within these tolerances to the end "
-        "(successful episodes only).",
-    ]
-    print(write_markdown(out / "comparison.md", f"{label} vs LQR", summaries, notes))
-    plot_errors(out / "errors.png", runs, config.success_tolerances)
-    write_filmstrip(out / "filmstrip.png", runs, config)
-    return summaries
+        previous = signal.signal(signal.SIGTERM, interrupt)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _set_torch_threads(threads: Optional[int]) -> None:
@@ -92,34 +109,108 @@ def _set_torch_threads(threads: Optional[int]) -> None:
         torch.set_num_threads(threads)
 
 
-def _train_sb3(config: ChainCartConfig, out: Path, algo: str, timesteps: int, seed: int, num_envs: int,
-               progress_bar: bool, hyperparameters: Optional[dict[str, Any]]) -> tuple[Any, dict[str, Any]]:
-    from chaincart_env.compare.training import train
+def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySettings, resume: bool) -> dict[str, Any]:
+    """Trains one seed into ``seed-<seed>/`` and saves it; returns its record for run.json."""
+    directory = seed_directory(out, seed)
+    directory.mkdir(parents=True, exist_ok=True)
+    algo, timesteps = settings["algo"], settings["timesteps"]
+    if settings["trainer"] == "rllib":
+        result, trained = _train_rllib(config, directory, seed, settings)
+    else:
+        from chaincart_env.compare.training import train
 
-    print(f"training {algo.upper()} for {timesteps} timesteps on {num_envs} envs, seed {seed} -> {out}")
-    result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=num_envs,
-                   episodes_csv=out / "training_episodes.csv", progress_bar=progress_bar,
-                   hyperparameters=hyperparameters)
-    info = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=num_envs)
-    return result, info
+        eval_starts = list(range(settings["eval_seed"], settings["eval_seed"] + settings["eval_starts"]))
+        print(f"training {algo.upper()} for {timesteps} timesteps on {settings['num_envs']} envs, seed {seed} -> "
+              f"{directory}")
+        result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=settings["num_envs"],
+                       directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
+                       checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
+                       hyperparameters=settings["hyperparameters"], resume=resume)
+        trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=settings["num_envs"],
+                       resumed_from=result.resumed_from, evaluations=result.evaluations)
+    print(f"seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
+    info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
+                eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
+                hyperparameters=result.hyperparameters, training_wall_time_s=round(result.wall_time_s, 2),
+                training_episodes=result.episodes, **trained)
+    save_run(directory, result.model, config, info)
+    curve = learning_curve(read_training_episodes(directory / "training_episodes.csv"), timesteps)
+    write_csv(directory / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
+    return info
 
 
-def _train_rllib(config: ChainCartConfig, out: Path, algo: str, timesteps: int, seed: int, rllib: dict[str, Any],
-                 progress_bar: bool, hyperparameters: Optional[dict[str, Any]]) -> tuple[Any, dict[str, Any]]:
+def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: StudySettings) -> tuple[Any, dict[str, Any]]:
     from chaincart_env.compare.rllib_training import CHECKPOINT_DIR, train_rllib
 
-    if algo.lower() != "ppo":
-        raise ChainCartError(f"--trainer rllib with --algo {algo}: the RLlib trainer offers ppo only")
+    if settings["algo"] != "ppo":
+        raise ChainCartError(f"--trainer rllib with --algo {settings['algo']}: the RLlib trainer offers ppo only")
+    rllib = settings["rllib"]
     runners, per_runner = rllib["num_env_runners"], rllib["envs_per_runner"]
-    print(f"training {algo.upper()} with RLlib for {timesteps} timesteps on {runners} env runner(s) x "
-          f"{per_runner} envs, seed {seed} -> {out}")
-    result = train_rllib(config, timesteps=timesteps, seed=seed, num_env_runners=runners,
+    print(f"training PPO with RLlib for {settings['timesteps']} timesteps on {runners} env runner(s) x "
+          f"{per_runner} envs, seed {seed} -> {directory}")
+    result = train_rllib(config, timesteps=settings["timesteps"], seed=seed, num_env_runners=runners,
                          envs_per_runner=per_runner, address=rllib.get("address"),
-                         episodes_csv=out / "training_episodes.csv", checkpoint=out / CHECKPOINT_DIR,
-                         progress=progress_bar, hyperparameters=hyperparameters)
+                         episodes_csv=directory / "training_episodes.csv", checkpoint=directory / CHECKPOINT_DIR,
+                         progress=settings["progress_bar"], hyperparameters=settings["hyperparameters"])
     info = dict(timesteps_trained=result.timesteps_trained, num_env_runners=runners, envs_per_runner=per_runner,
                 num_envs=runners * per_runner, training_iterations=result.iterations, cluster=result.cluster)
     return result, info
+
+
+def _training_notes(run: dict[str, Any]) -> list[str]:
+    notes = []
+    for seed, info in run["seed_runs"].items():
+        evaluations = info.get("evaluations") or {}
+        best = evaluations.get("best")
+        line = (f"Seed {seed}: {info['timesteps_trained']} timesteps in {info['training_wall_time_s']} s of training "
+                f"({info['training_episodes']} training episodes)")
+        if best:
+            line += (f"; best deterministic evaluation at {int(best['timesteps'])} timesteps "
+                     f"(success {best['success_rate']:.2f}, return {best['return_mean']:.1f}, "
+                     f"{int(best['episodes'])} starts)")
+        notes.append(line + ".")
+    return notes
+
+
+def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
+    settings = StudySettings(run["settings"])
+    for seed in settings["seeds"]:
+        if str(seed) in run["seed_runs"]:
+            continue  # trained before the interruption
+        _set_status(out, run, "training", training_seed=seed)
+        run["seed_runs"][str(seed)] = _train_seed(config, out, seed, settings, resume)
+        _set_status(out, run, "training")
+    _set_status(out, run, "evaluating")
+    summaries = evaluate_study(out, config, seeds=settings["seeds"], eval_seed=settings["eval_seed"],
+                               eval_episodes=settings["eval_episodes"], sweeps=settings["sweeps"],
+                               training_notes=_training_notes(run))
+    for seed in settings["seeds"]:
+        curve_csv = seed_directory(out, seed) / "learning_curve.csv"
+        if curve_csv.is_file():
+            plot_learning_curve(seed_directory(out, seed) / "learning_curve.png", read_learning_curve(curve_csv),
+                                policy_label(settings["algo"], settings["trainer"]), summaries[-1])
+    return summaries
+
+
+def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
+    _set_torch_threads(run["settings"].get("torch_threads"))
+    start = time.perf_counter()
+    print(describe(config))
+    try:
+        with _sigterm_as_interrupt():
+            summaries = _study(config, out, run, resume)
+    except KeyboardInterrupt:
+        _set_status(out, run, "interrupted", resume_with=f"python -m chaincart_env compare --resume {out}")
+        print(f"interrupted: what was produced is in {out}; continue with `compare --resume {out}`")
+        raise
+    except Exception as error:
+        _set_status(out, run, "failed", error=f"{type(error).__name__}: {error}")
+        raise
+    total = time.perf_counter() - start
+    run["wall_time_s"] = round(run.get("wall_time_s", 0.0) + total, 2)
+    _set_status(out, run, "done")
+    print(f"wall time {total:.1f} s; wrote {', '.join(OUTPUT_FILES)} and seed-<s>/ folders in {out}")
+    return summaries
 
 
 def run_compare(
@@ -128,53 +219,59 @@ def run_compare(
     out: Path,
     algo: str = "ppo",
     timesteps: int,
-    seed: int = 0,
+    seeds: Sequence[int] = (0,),
     num_envs: int = 8,
     eval_episodes: int = 50,
     eval_seed: int = 1_000_000,
+    sweeps: Optional[dict[str, Sequence[float]]] = None,
+    eval_every: int = 20_000,
+    eval_starts: int = 20,
+    checkpoint_every: int = 50_000,
     progress_bar: bool = True,
     torch_threads: Optional[int] = None,
     hyperparameters: Optional[dict[str, Any]] = None,
     trainer: str = "sb3",
     rllib: Optional[dict[str, Any]] = None,
 ) -> list[dict[str, Any]]:
-    """Trains ``algo`` on ``config`` with ``trainer`` (``sb3``: ``num_envs`` envs in one
-    process; ``rllib``: ``rllib = {"num_env_runners": ..., "envs_per_runner": ...,
-    "address": ...}``), saves it, compares it with the LQR baseline and writes
-    :data:`OUTPUT_FILES` (:data:`RLLIB_OUTPUT_FILES`) into ``out``; returns the two
-    summaries."""
-    if trainer not in TRAINERS:
-        raise ChainCartError(f"trainer = {trainer!r}: expected one of {list(TRAINERS)}")
+    """Trains ``algo`` on ``config`` once per training seed, evaluates every agent and
+    the LQR baseline on ``eval_episodes`` seeded starts and over ``sweeps`` (default
+    :data:`DEFAULT_SWEEPS`), and writes the study into ``out``; returns the main
+    comparison's summaries. ``trainer="rllib"`` trains with Ray RLlib (``rllib =
+    {"num_env_runners": ..., "envs_per_runner": ..., "address": ...}``)."""
+    from chaincart_env.compare.evaluation import evaluation_seeds
+
+    settings = StudySettings.checked(
+        algo=algo.lower(), timesteps=timesteps, seeds=list(seeds), num_envs=num_envs, eval_episodes=eval_episodes,
+        eval_seed=eval_seed, sweeps={k: list(v) for k, v in (DEFAULT_SWEEPS if sweeps is None else sweeps).items()},
+        eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every,
+        progress_bar=progress_bar, torch_threads=torch_threads, hyperparameters=dict(hyperparameters or {}),
+        trainer=trainer, rllib={"num_env_runners": 2, "envs_per_runner": 4, "address": None, **(rllib or {})},
+    )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     lqr_baseline(config)  # so does a scene without a baseline
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    _set_torch_threads(torch_threads)
-    start = time.perf_counter()
-    print(_describe(config))
-    if trainer == "rllib":
-        settings = {"num_env_runners": 2, "envs_per_runner": 4, "address": None, **(rllib or {})}
-        result, trained = _train_rllib(config, out, algo, timesteps, seed, settings, progress_bar, hyperparameters)
-    else:
-        result, trained = _train_sb3(config, out, algo, timesteps, seed, num_envs, progress_bar, hyperparameters)
-    print(f"trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
-    info = dict(
-        trainer=trainer, algo=algo.lower(), timesteps=timesteps, seed=seed, eval_seed=eval_seed,
-        eval_episodes=eval_episodes, hyperparameters=result.hyperparameters,
-        training_wall_time_s=round(result.wall_time_s, 2), training_episodes=result.episodes,
+    (out / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2) + "\n")
+    run = dict(
+        status="training", settings=settings, seed_runs={},
         machine=f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
-        **trained,
     )
-    save_run(out, result.model, config, info)
-    label = policy_label(algo, trainer)
-    summaries = _evaluate_and_report(result.model, label, config, out, eval_seed, eval_episodes)
-    curve = learning_curve(read_training_episodes(out / "training_episodes.csv"), timesteps)
-    write_csv(out / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
-    plot_learning_curve(out / "learning_curve.png", curve, label, summaries[1])
-    total = time.perf_counter() - start
-    files = RLLIB_OUTPUT_FILES if trainer == "rllib" else OUTPUT_FILES
-    print(f"wall time {total:.1f} s (training {result.wall_time_s:.1f} s); wrote {', '.join(files)} in {out}")
-    return summaries
+    return _run(config, out, run, resume=False)
+
+
+def resume_compare(out: Path) -> list[dict[str, Any]]:
+    """Continues the run in ``out`` where it stopped: seeds already trained are kept, an
+    interrupted seed continues from its last checkpoint (ending as it would have without
+    the interruption), the rest train, then the study is evaluated."""
+    out = Path(out)
+    if not (out / RUN_FILE).is_file() or not (out / CONFIG_FILE).is_file():
+        raise ChainCartError(f"--resume {out}: expected a run directory of compare (with {RUN_FILE} and {CONFIG_FILE})")
+    run = json.loads((out / RUN_FILE).read_text())
+    if "settings" not in run or "seed_runs" not in run:
+        raise ChainCartError(f"--resume {out}: {RUN_FILE} is not that of a compare study")
+    config = ChainCartConfig(**json.loads((out / CONFIG_FILE).read_text()))
+    print(f"resuming {out} (status {run.get('status')!r}, seeds trained: {sorted(run['seed_runs']) or 'none'})")
+    return _run(config, out, run, resume=True)
 
 
 def run_evaluate(
@@ -185,19 +282,31 @@ def run_evaluate(
     eval_seed: Optional[int] = None,
     torch_threads: Optional[int] = None,
 ) -> list[dict[str, Any]]:
-    """Re-runs the comparison of a saved run (same starts unless told otherwise);
-    writes :data:`EVALUATION_FILES` into ``out`` (default: ``<run>/evaluation``)."""
+    """Re-runs the evaluation of a saved run (same starts and sweeps unless told
+    otherwise) into ``out`` (default ``<run>/evaluation``): a whole study directory, or
+    one seed's folder or model file (then that agent alone against the LQR)."""
     _set_torch_threads(torch_threads)
-    run = load_run(Path(path))
-    out = run.directory / "evaluation" if out is None else Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    episodes = int(run.info.get("eval_episodes", 50)) if eval_episodes is None else eval_episodes
-    first_seed = int(run.info.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed
-    print(_describe(run.config))
-    print(f"evaluating {run.directory} ({str(run.info.get('algo')).upper()}) -> {out}")
-    label = policy_label(str(run.info["algo"]), str(run.info.get("trainer", "sb3")))
-    summaries = _evaluate_and_report(run.model, label, run.config, out, first_seed, episodes)
-    print(f"wrote {', '.join(EVALUATION_FILES)} in {out}")
+    path = Path(path)
+    if (path / RUN_FILE).is_file() and "settings" in json.loads((path / RUN_FILE).read_text()):
+        run = json.loads((path / RUN_FILE).read_text())
+        settings, directory = run["settings"], path
+        config = ChainCartConfig(**json.loads((path / CONFIG_FILE).read_text()))
+        seeds = [int(s) for s in run["seed_runs"]]
+        if not seeds:
+            raise ChainCartError(f"{path} has no trained seed yet (status {run.get('status')!r}): nothing to evaluate")
+        sweeps = settings["sweeps"]
+    else:
+        saved = load_run(path)  # a seed folder, model.zip or RLlib checkpoint
+        directory, config, settings = saved.directory.parent, saved.config, saved.info
+        seeds, sweeps = [int(saved.info["seed"])], {}
+        if seed_directory(directory, seeds[0]) != saved.directory:
+            raise ChainCartError(f"{path}: expected a seed-<s> folder of a compare run, or the run directory")
+    into = (path if path.is_dir() else path.parent) / "evaluation" if out is None else Path(out)
+    episodes = int(settings.get("eval_episodes", 50)) if eval_episodes is None else eval_episodes
+    first = int(settings.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed
+    print(describe(config))
+    print(f"evaluating {directory} -> {into}")
+    summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
+                               sweeps=sweeps, into=into)
+    print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
     return summaries
-
-

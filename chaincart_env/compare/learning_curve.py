@@ -9,7 +9,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "learning_curve", "read_training_episodes"]
+__all__ = [
+    "LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "learning_curve", "read_learning_curve", "read_training_episodes",
+]
 
 #: Columns of ``training_episodes.csv`` (written by either trainer).
 TRAINING_EPISODE_COLUMNS = (
@@ -46,3 +48,11 @@ def learning_curve(episodes: dict[str, np.ndarray], total_timesteps: int, bins: 
             success_rate=float(episodes["is_success"][members].mean()),
         ))
     return rows
+
+
+def read_learning_curve(path: Path) -> list[dict[str, Any]]:
+    """The rows of a ``learning_curve.csv`` (numbers as floats, counts as ints)."""
+    with Path(path).open(newline="") as file:
+        rows = list(csv.DictReader(file))
+    integers = {"timesteps", "episodes"}
+    return [{k: int(v) if k in integers else float(v) for k, v in row.items()} for row in rows]

@@ -61,14 +61,14 @@ def write_report(
     """Writes ``report.md`` into ``directory``: the setup, the comparison on the main
     starts, one table per sweep axis, training notes and the pictures (``(file,
     caption)``; only files that exist are linked). Returns the text."""
-    parts = [f"# {title}\n", *[f"{line}\n" for line in setup], "\n## On the evaluation starts\n",
+    parts = [f"# {title}\n\n", *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n",
              markdown_table(comparison)]
     for axis, (label, rows) in sweeps.items():
         parts.append(f"\n## Sweep: {label}\n\n")
         parts.append(sweep_markdown(rows, label))
     if training:
         parts.append("\n## Training\n\n")
-        parts.extend(f"{line}\n" for line in training)
+        parts.extend(f"{line}\n\n" for line in training)
     shown = [(name, caption) for name, caption in pictures if (Path(directory) / name).is_file()]
     if shown:
         parts.append("\n## Pictures\n")
@@ -101,7 +101,10 @@ def write_summary_figure(
     rows = (panels + 1) // columns + 1
     fig = Figure(figsize=(12, 3.6 * rows), dpi=100, layout="constrained")
     grid = fig.add_gridspec(rows, columns)
-    axes = [fig.add_subplot(grid[i // columns, i % columns]) for i in range(panels)]
+    axes = [fig.add_subplot(grid[i // columns, i % columns]) for i in range(panels - 1)]
+    # The last panel (e_q(t)) takes the rest of its row.
+    last = panels - 1
+    axes.append(fig.add_subplot(grid[last // columns, last % columns:]))
     draw_evaluation_curves(axes[0], curves, baseline, "success_rate")
     for ax, (label, sweep_rows) in zip(axes[1:], sweeps.values()):
         draw_sweep(ax, sweep_rows, label)

@@ -25,7 +25,7 @@ from chaincart_env.compare.statistics import aggregate_over_seeds, wilson_interv
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "SWEEP_AXES", "SWEEP_COLUMNS", "SWEEP_SUMMARY_COLUMNS", "SweepAxis", "parse_sweep", "run_sweep", "summarize_sweep",
+    "DEFAULT_SWEEPS", "SWEEP_AXES", "SWEEP_COLUMNS", "SWEEP_SUMMARY_COLUMNS", "SweepAxis", "parse_sweep", "run_sweep", "summarize_sweep",
     "sweep_rows",
 ]
 
@@ -52,6 +52,10 @@ SWEEP_AXES: dict[str, SweepAxis] = {
         SweepAxis("start_noise", "start perturbation (half-width, rad and m)", _start_noise),
     )
 }
+
+#: The sweep of a default run: start perturbations from inside the LQR's region of
+#: attraction to well outside it.
+DEFAULT_SWEEPS: dict[str, tuple[float, ...]] = {"start_noise": (0.05, 0.1, 0.2, 0.3, 0.5)}
 
 #: Columns of ``sweeps.csv``.
 SWEEP_COLUMNS = (

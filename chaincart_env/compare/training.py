@@ -7,7 +7,7 @@ import csv
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Optional, TextIO
+from typing import Any, Mapping, Optional, Sequence, TextIO
 
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
@@ -50,19 +50,28 @@ class EpisodeCsvLogger(BaseCallback):
     """Writes one CSV row per finished training episode (read from ``VecMonitor``'s
     ``episode`` info and the env's episode-end keys)."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, append: bool = False) -> None:
         super().__init__()
         self.path = Path(path)
+        self.append = append and self.path.is_file()
         self.episodes = 0
         self._file: Optional[TextIO] = None
         self._writer: Any = None
         self._start = 0.0
 
     def _on_training_start(self) -> None:
+        self._start = time.perf_counter()
+        if self.append:  # a resumed run: continue the episode count and the clock
+            with self.path.open(newline="") as file:
+                rows = list(csv.DictReader(file))
+            self.episodes = len(rows)
+            self._start -= float(rows[-1]["wall_time_s"]) if rows else 0.0
+            self._file = self.path.open("a", newline="")
+            self._writer = csv.writer(self._file)
+            return
         self._file = self.path.open("w", newline="")
         self._writer = csv.writer(self._file)
         self._writer.writerow(TRAINING_EPISODE_COLUMNS)
-        self._start = time.perf_counter()
 
     def _on_step(self) -> bool:
         for info in self.locals["infos"]:
@@ -98,6 +107,22 @@ class TrainingResult:
     wall_time_s: float
     episodes: int
     hyperparameters: dict[str, Any]
+    #: The deterministic evaluations' best and last rows (``PeriodicEvaluation.summary``).
+    evaluations: dict[str, Any]
+    #: Timesteps at which this call started (0, or the checkpoint it resumed from).
+    resumed_from: int
+
+
+#: Files of a training directory.
+EPISODES_FILE = "training_episodes.csv"
+
+
+def _new_agent(algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any]) -> BaseAlgorithm:
+    venv = VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed))
+    try:
+        return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
+    except TypeError as error:  # an unknown or ill-typed keyword
+        raise ChainCartError(f"{algo} keywords {kwargs}: {error}") from None
 
 
 def train(
@@ -107,23 +132,40 @@ def train(
     timesteps: int,
     seed: int = 0,
     num_envs: int = 8,
-    episodes_csv: Path,
+    directory: Path,
+    eval_seeds: Sequence[int],
+    eval_every: int,
+    checkpoint_every: int,
     progress_bar: bool = True,
     hyperparameters: Optional[Mapping[str, Any]] = None,
+    resume: bool = False,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
-    (env i seeded ``seed + i``, the agent seeded ``seed``) and logs episodes to
-    ``episodes_csv``."""
+    (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
+    training episode in ``training_episodes.csv``, the deterministic policy evaluated
+    on ``eval_seeds`` every ``eval_every`` steps (``evaluations.csv``,
+    ``best_model.zip``), a checkpoint every ``checkpoint_every`` steps. With
+    ``resume=True`` and a checkpoint in ``directory``, training continues from it (and
+    ends as the uninterrupted run would)."""
+    from chaincart_env.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
+    from chaincart_env.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
+
     cls = algorithm_class(algo)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise ChainCartError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     kwargs = {**DEFAULT_HYPERPARAMETERS[algo.lower()], **(hyperparameters or {})}
-    venv = VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed))
-    try:
-        model = cls("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
-    except TypeError as error:  # an unknown or ill-typed keyword
-        raise ChainCartError(f"{algo} keywords {kwargs}: {error}") from None
-    logger = EpisodeCsvLogger(episodes_csv)
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    resuming = resume and (directory / CHECKPOINT_DIR).is_dir()
+    model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs)
+    resumed_from = int(model.num_timesteps)
+    logger = EpisodeCsvLogger(directory / EPISODES_FILE, append=resuming)
+    evaluation = PeriodicEvaluation(config, eval_seeds, eval_every, directory, resume=resuming)
+    checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
+                               keep=(BEST_MODEL_FILE,))
     start = time.perf_counter()
-    model.learn(total_timesteps=timesteps, callback=logger, progress_bar=progress_bar)
-    return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs)
+    remaining = max(0, timesteps - resumed_from)
+    model.learn(total_timesteps=remaining, callback=[logger, evaluation, checkpoints], progress_bar=progress_bar,
+                reset_num_timesteps=not resuming)
+    return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs, evaluation.summary(),
+                          resumed_from)

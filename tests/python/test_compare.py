@@ -26,7 +26,7 @@ from chaincart_env.compare.evaluation import (
     settle_times,
 )
 from chaincart_env.compare.filmstrip import filmstrip_size
-from chaincart_env.compare.job import EVALUATION_FILES, OUTPUT_FILES
+from chaincart_env.compare.job import EVALUATION_FILES, OUTPUT_FILES, SEED_FILES
 from chaincart_env.compare.learning_curve import LEARNING_CURVE_COLUMNS
 from chaincart_env.compare.plots import FIGURE_SIZE_PX
 from chaincart_env.compare.scene_options import parse_value
@@ -35,10 +35,12 @@ from chaincart_env.compare.training import TRAINING_EPISODE_COLUMNS
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 EPISODE_STEPS = 40
 MAX_FORCE = 20.0
-# A budget of seconds: 2 envs, PPO rollouts of 64 steps, 40-step episodes, 3 starts.
+# A budget of seconds: 2 envs, PPO rollouts of 64 steps, 40-step episodes, 3 starts,
+# evaluations during training every 128 steps on 2 starts, one two-value sweep.
 TINY = [
     "--timesteps", "256", "--num-envs", "2", "--eval-episodes", "3", "--eval-seed", "7",
     "--set", f"max_episode_steps={EPISODE_STEPS}", "--algo-kwarg", "n_steps=64", "--algo-kwarg", "batch_size=64",
+    "--eval-every", "128", "--eval-starts", "2", "--checkpoint-every", "128", "--sweep", "start_noise=0.05,0.5",
     "--no-progress",
 ]  # fmt: skip
 
@@ -59,10 +61,12 @@ def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
 def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) -> None:
     for name in OUTPUT_FILES:
         assert (tiny_run / name).is_file() and (tiny_run / name).stat().st_size > 0, name
+    for name in SEED_FILES:
+        assert (tiny_run / "seed-0" / name).is_file(), name
 
     columns, rows = read_csv(tiny_run / "comparison.csv")
     assert columns == list(METRIC_COLUMNS)
-    assert [row["policy"] for row in rows] == ["PPO", "LQR"]
+    assert [row["policy"] for row in rows] == ["PPO (seed 0)", "PPO best (seed 0)", "LQR"]
     for row in rows:
         assert int(row["episodes"]) == 3
         assert 0.0 <= float(row["success_rate"]) <= 1.0
@@ -77,7 +81,7 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
         assert settled == round(float(row["success_rate"]) * 3)
 
     columns, episodes = read_csv(tiny_run / "episodes.csv")
-    assert columns == list(EPISODE_COLUMNS) and len(episodes) == 6
+    assert columns == list(EPISODE_COLUMNS) and len(episodes) == 9
     assert sorted({int(e["seed"]) for e in episodes}) == [7, 8, 9]
     for e in episodes:
         length = int(e["length"])
@@ -88,17 +92,18 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
             assert float(e["final_e_q"]) <= 0.1 and float(e["final_e_w"]) <= 0.5
             assert 0.0 <= float(e["settle_time"]) <= length * 0.02
 
-    columns, train = read_csv(tiny_run / "training_episodes.csv")
+    columns, train = read_csv(tiny_run / "seed-0" / "training_episodes.csv")
     assert columns == list(TRAINING_EPISODE_COLUMNS) and train
     steps = [int(r["timesteps"]) for r in train]
     assert steps == sorted(steps) and steps[-1] <= 256 + 64 * 2
     assert all(1 <= int(r["length"]) <= EPISODE_STEPS and int(r["is_success"]) in (0, 1) for r in train)
-    columns, curve = read_csv(tiny_run / "learning_curve.csv")
+    columns, curve = read_csv(tiny_run / "seed-0" / "learning_curve.csv")
     assert columns == list(LEARNING_CURVE_COLUMNS) and curve
     assert sum(int(r["episodes"]) for r in curve) == len(train)
     assert all(0.0 <= float(r["success_rate"]) <= 1.0 and math.isfinite(float(r["return_mean"])) for r in curve)
 
-    sizes = {"learning_curve.png": FIGURE_SIZE_PX, "errors.png": FIGURE_SIZE_PX,
+    sizes = {"seed-0/learning_curve.png": FIGURE_SIZE_PX, "errors.png": FIGURE_SIZE_PX,
+             "evaluation_curve.png": FIGURE_SIZE_PX, "sweep_start_noise.png": FIGURE_SIZE_PX,
              "filmstrip.png": filmstrip_size(2, 8)}  # fmt: skip
     for name, size in sizes.items():
         with Image.open(tiny_run / name) as image:
@@ -110,27 +115,44 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
     config = json.loads((tiny_run / "config.json").read_text())
     assert ChainCartConfig(**config) == ChainCartConfig(max_episode_steps=EPISODE_STEPS)
     run = json.loads((tiny_run / "run.json").read_text())
-    assert run["algo"] == "ppo" and run["eval_seed"] == 7 and run["hyperparameters"]["n_steps"] == 64
+    assert run["status"] == "done" and run["settings"]["seeds"] == [0]
+    seed_run = json.loads((tiny_run / "seed-0" / "run.json").read_text())
+    assert seed_run["algo"] == "ppo" and seed_run["eval_seed"] == 7 and seed_run["hyperparameters"]["n_steps"] == 64
     table = (tiny_run / "comparison.md").read_text()
-    assert "| PPO | 3 |" in table and "| LQR | 3 |" in table
+    assert "| PPO (seed 0) | 3 |" in table and "| LQR | 3 |" in table
+    # Evaluations during training: at 0, every 128 steps, and at the end (256 steps, 2 starts).
+    _, evaluations = read_csv(tiny_run / "seed-0" / "evaluations.csv")
+    assert [int(float(r["timesteps"])) for r in evaluations] == [0, 128, 256]
+    assert all(float(r["episodes"]) == 2 for r in evaluations)
+    # The sweep: every policy at both values on the same 3 starts.
+    _, sweep = read_csv(tiny_run / "sweep_summary.csv")
+    assert [(float(r["value"]), r["policy"]) for r in sweep] == [
+        (v, p) for v in (0.05, 0.5) for p in ("PPO", "PPO best", "LQR")
+    ]
+    assert all(int(r["episodes"]) == 3 for r in sweep)
+    report = (tiny_run / "report.md").read_text()
+    assert "## Sweep: start perturbation" in report and "![summary](summary.png)" in report
 
 
 def test_evaluate_reproduces_the_comparison_from_the_saved_model(
     tiny_run: pathlib.Path, tmp_path: pathlib.Path
 ) -> None:
     assert main(["evaluate", str(tiny_run), "--out", str(tmp_path / "dir")]) == 0
-    assert main(["evaluate", str(tiny_run / "model.zip"), "--out", str(tmp_path / "zip")]) == 0
-    for out in (tmp_path / "dir", tmp_path / "zip"):
-        for name in EVALUATION_FILES:
-            assert (out / name).is_file(), name
-        for name in ("comparison.csv", "episodes.csv"):
-            assert (out / name).read_text() == (tiny_run / name).read_text(), name
+    for name in EVALUATION_FILES:
+        assert (tmp_path / "dir" / name).is_file(), name
+    for name in ("comparison.csv", "episodes.csv", "sweeps.csv", "seeds.csv"):
+        assert (tmp_path / "dir" / name).read_text() == (tiny_run / name).read_text(), name
+    # One seed's model alone: the same rows for it and the LQR.
+    assert main(["evaluate", str(tiny_run / "seed-0" / "model.zip"), "--out", str(tmp_path / "zip")]) == 0
+    _, whole = read_csv(tiny_run / "comparison.csv")
+    _, alone = read_csv(tmp_path / "zip" / "comparison.csv")
+    assert alone == [row for row in whole if row["policy"] in ("PPO (seed 0)", "PPO best (seed 0)", "LQR")]
 
 
 def test_a_reloaded_model_gives_identical_rollouts(tiny_run: pathlib.Path) -> None:
     from chaincart_env.compare.run_files import load_run
 
-    first, second = load_run(tiny_run), load_run(tiny_run / "model.zip")
+    first, second = load_run(tiny_run / "seed-0"), load_run(tiny_run / "seed-0" / "model.zip")
     seeds = evaluation_seeds(100, 4)
     a = rollout(first.model, "PPO", first.config, seeds)
     b = rollout(second.model, "PPO", second.config, seeds)
@@ -215,6 +237,16 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--start-noise=-1"], "start_noise"),
         (["--algo-kwarg", "n_stepz=64"], "n_stepz"),
         (["--scene", "paper-fig1"], "no LQR baseline for scene 'paper-fig1'"),
+        (["--seeds", "0,0"], "expected distinct integers"),
+        (["--seeds", "1,x"], "seeds = '1,x'"),
+        (["--seeds", "0", "--seed", "1"], "not allowed with argument"),
+        (["--sweep", "speed=1,2"], "AXIS one of"),
+        (["--sweep", "start_noise=0.1,-1"], "expected a finite number >= 0"),
+        (["--sweep", "start_noise=0.1", "--sweep", "start_noise=0.2"], "given twice"),
+        (["--eval-every", "0"], "eval-every = 0"),
+        (["--checkpoint-every", "-3"], "checkpoint-every = -3"),
+        (["--eval-starts", "0"], "eval-starts = 0"),
+        (["--resume", "/nonexistent/run"], "expected a run directory of compare"),
     ],
 )
 def test_bad_compare_input_is_a_clear_error(
@@ -224,7 +256,7 @@ def test_bad_compare_input_is_a_clear_error(
         main(["compare", "--out", str(tmp_path), "--timesteps", "64", "--no-progress", *args])
     assert exit_info.value.code == 2
     assert message in capsys.readouterr().err
-    assert not (tmp_path / "model.zip").exists()
+    assert not (tmp_path / "seed-0" / "model.zip").exists()
 
 
 def test_evaluate_of_a_missing_model_is_a_clear_error(
@@ -242,8 +274,8 @@ def test_off_policy_algorithms_run_through_the_console_entry(algo: str, tmp_path
     args = [*TINY[:TINY.index("--algo-kwarg")], *budget, "--no-progress", "--algo", algo.upper()]
     assert compare_main([*args, "--out", str(tmp_path)]) == 0
     _, rows = read_csv(tmp_path / "comparison.csv")
-    assert [row["policy"] for row in rows] == [algo.upper(), "LQR"]
-    assert json.loads((tmp_path / "run.json").read_text())["algo"] == algo
+    assert [row["policy"] for row in rows] == [f"{algo.upper()} (seed 0)", f"{algo.upper()} best (seed 0)", "LQR"]
+    assert json.loads((tmp_path / "run.json").read_text())["settings"]["algo"] == algo
 
 
 def test_console_scripts_point_at_the_commands() -> None:
@@ -252,3 +284,81 @@ def test_console_scripts_point_at_the_commands() -> None:
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
     assert scripts["chaincart-compare"] == "chaincart_env.compare.cli:compare_main"
     assert scripts["chaincart"] == "chaincart_env.__main__:main"
+
+
+def test_several_seeds_train_independent_agents_and_aggregate(tmp_path: pathlib.Path) -> None:
+    args = [a for a in TINY if a not in ("--sweep", "start_noise=0.05,0.5")]
+    assert main(["compare", *args, "--seeds", "3,4", "--sweep", "start_noise=0.1", "--out", str(tmp_path)]) == 0
+    _, rows = read_csv(tmp_path / "comparison.csv")
+    assert [r["policy"] for r in rows] == [
+        "PPO (seed 3)", "PPO (seed 4)", "PPO best (seed 3)", "PPO best (seed 4)", "LQR",
+    ]
+    _, seeds = read_csv(tmp_path / "seeds.csv")
+    final = next(r for r in seeds if r["policy"] == "PPO")
+    per_seed = [float(r["success_rate"]) for r in rows[:2]]
+    assert int(final["seeds"]) == 2 and float(final["success_mean"]) == pytest.approx(np.mean(per_seed))
+    assert float(final["success_ci_low"]) <= float(final["success_mean"]) <= float(final["success_ci_high"])
+    _, sweep = read_csv(tmp_path / "sweep_summary.csv")
+    ppo = next(r for r in sweep if r["policy"] == "PPO")
+    assert int(ppo["seeds"]) == 2 and ppo["interval"] == "bootstrap, over seeds"
+    lqr = next(r for r in sweep if r["policy"] == "LQR")
+    assert int(lqr["seeds"]) == 1 and lqr["interval"] == "Wilson, over episodes"
+    # Different training seeds, different agents.
+    a, b = (tmp_path / f"seed-{s}" / "training_episodes.csv" for s in (3, 4))
+    assert a.read_text() != b.read_text()
+
+
+RESUMABLE = [
+    "--scene", "inverted-1", "--timesteps", "1024", "--num-envs", "2", "--eval-episodes", "3",
+    "--set", "max_episode_steps=40", "--algo-kwarg", "n_steps=64", "--algo-kwarg", "batch_size=64",
+    "--eval-every", "256", "--eval-starts", "2", "--checkpoint-every", "256", "--sweep", "start_noise=0.05",
+    "--no-progress", "--torch-threads", "1",
+]  # fmt: skip
+
+
+def _interrupt_after_first_checkpoint(out: pathlib.Path, signal_number: int) -> "subprocess.CompletedProcess[str]":
+    """Runs compare in a subprocess and sends it ``signal_number`` once its first
+    checkpoint exists."""
+    import signal as signals  # noqa: F401  (the caller passes a number from it)
+    import subprocess
+    import sys
+    import time
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "chaincart_env", "compare", *RESUMABLE, "--out", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    checkpoint = out / "seed-0" / "checkpoints" / "state.json"
+    deadline = time.monotonic() + 240
+    while not checkpoint.is_file() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert process.poll() is None, "the run ended before its first checkpoint"
+    process.send_signal(signal_number)
+    stdout, stderr = process.communicate(timeout=120)
+    return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
+
+
+@pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
+def test_an_interrupted_run_keeps_its_files_and_resumes_to_the_uninterrupted_result(
+    signal_name: str, tmp_path: pathlib.Path
+) -> None:
+    import signal
+
+    whole, broken = tmp_path / "whole", tmp_path / "broken"
+    assert main(["compare", *RESUMABLE, "--out", str(whole)]) == 0
+    finished = _interrupt_after_first_checkpoint(broken, getattr(signal, signal_name))
+    assert finished.returncode != 0
+    run = json.loads((broken / "run.json").read_text())
+    assert run["status"] == "interrupted" and "--resume" in run["resume_with"]
+    assert run["seed_runs"] == {}  # interrupted while training seed 0
+    assert (broken / "config.json").is_file() and (broken / "seed-0" / "training_episodes.csv").is_file()
+    assert main(["compare", "--resume", str(broken)]) == 0
+    resumed = json.loads((broken / "run.json").read_text())
+    assert resumed["status"] == "done" and resumed["seed_runs"]["0"]["resumed_from"] >= 256
+    for name in ("comparison.csv", "episodes.csv", "sweeps.csv"):
+        assert (broken / name).read_text() == (whole / name).read_text(), name
+    # The logs agree but for the wall clock.
+    untimed = lambda rows: [{k: v for k, v in r.items() if k != "wall_time_s"} for r in rows]  # noqa: E731
+    for name in ("training_episodes.csv", "evaluations.csv"):
+        resumed, uninterrupted = (read_csv(run / "seed-0" / name)[1] for run in (broken, whole))
+        assert untimed(resumed) == untimed(uninterrupted) and resumed, name
