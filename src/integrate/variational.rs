@@ -126,6 +126,21 @@ impl<G: Geometry> VariationalWorkspace<G> {
     }
 }
 
+impl<G: Geometry> VariationalWorkspace<G> {
+    /// Overwrites `residuals` with the solution of the tridiagonal system held in
+    /// `diag`, `lower`, `upper`.
+    fn solve_residuals(&mut self) {
+        let off = self.diag.len() - 1;
+        tridiagonal::solve(
+            &self.diag,
+            &self.lower[..off],
+            &self.upper[..off],
+            &mut self.residuals,
+            &mut self.scratch,
+        );
+    }
+}
+
 /// The cart's half of the step: its velocity after the first half kick and the
 /// velocity change per unit time from the force.
 struct CartKick<G: Geometry> {
@@ -235,13 +250,7 @@ fn solve_positions<G: Geometry>(
         {
             *v = -*v;
         }
-        tridiagonal::solve(
-            &ws.diag,
-            &ws.lower[..n - 1],
-            &ws.upper[..n - 1],
-            &mut ws.residuals,
-            &mut ws.scratch,
-        );
+        ws.solve_residuals();
         for i in 0..n {
             ws.multipliers[i] -= ws.residuals[i];
         }
@@ -276,13 +285,7 @@ fn finish_step<G: Geometry>(
         &mut ws.lower,
         &mut ws.upper,
     );
-    tridiagonal::solve(
-        &ws.diag,
-        &ws.lower[..n - 1],
-        &ws.upper[..n - 1],
-        &mut ws.residuals,
-        &mut ws.scratch,
-    );
+    ws.solve_residuals();
     let (q1, projection) = (&ws.q1, &ws.residuals);
     xdot1 -= inverse_mass(
         chain,
