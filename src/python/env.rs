@@ -489,6 +489,21 @@ impl EnvBatch {
             .reshape([n, DIAGNOSTICS.len()])?
             .into_any())
     }
+    /// Every env's current observation (its state, or its last noisy reading when
+    /// `obs_noise` is set), shape `(num_envs, state_dim)`.
+    fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let shape = self.obs_shape(false);
+        let n = self.batch.n_envs() * self.batch.state_dim();
+        Ok(if self.obs_f64 {
+            let mut v = vec![0.0f64; n];
+            self.batch.write_obs(&mut v)?;
+            PyArray1::from_vec(py, v).reshape(shape)?.into_any()
+        } else {
+            let mut v = vec![0.0f32; n];
+            self.batch.write_obs(&mut v)?;
+            PyArray1::from_vec(py, v).reshape(shape)?.into_any()
+        })
+    }
     /// A copy of every env's float64 state, shape `(num_envs, state_dim)`.
     fn states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         Ok(PyArray1::from_slice(py, self.batch.states())

@@ -54,7 +54,12 @@ fn entries<'py>(
         let key: String = k
             .extract()
             .map_err(|_| error(format!("{kind} has key {k}: expected a parameter name")))?;
-        out.push((Param::from_name(kind, &key)?, v));
+        let what = match kind {
+            "randomize" => "randomize key",
+            "params" => "params key",
+            _ => "mismatch key",
+        };
+        out.push((Param::from_name(what, &key)?, v));
     }
     Ok(out)
 }
