@@ -26,14 +26,16 @@ _FAILED = _core.EVENT_NUMERICAL_FAILURE
 
 
 def observation_space(config: ChainCartConfig) -> spaces.Box:
-    """Box of one observation: link direction components in [-1, 1], the rest any
-    finite number of the observation dtype (observations are never NaN or inf)."""
+    """Box of one observation: link direction components in [-1, 1] (unbounded too
+    with ``obs_noise``), the rest any finite number of the observation dtype
+    (observations are never NaN or inf)."""
     n, d = config.n_links, config.state_dim
     cart = 1 if config.planar else 2
     link = 2 if config.planar else 3
     dtype = np.dtype(config.obs_dtype)
     high = np.full(d, np.finfo(dtype).max, dtype=dtype)
-    high[2 * cart : 2 * cart + link * n] = 1.0
+    if not any(config.obs_noise or ()):
+        high[2 * cart : 2 * cart + link * n] = 1.0
     return spaces.Box(-high, high, dtype=dtype)
 
 
