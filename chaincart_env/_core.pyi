@@ -6,7 +6,7 @@ whose message names the value and what was expected.
 """
 
 from collections.abc import Sequence
-from typing import Any, Optional, Union, final
+from typing import Any, Mapping, Optional, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -28,6 +28,7 @@ __all__ = [
     "EVENT_NUMERICAL_FAILURE",
     "EVENT_RESET",
     "RNG_BYTES",
+    "REALITY_KEYS",
 ]
 
 #: Integrator names: "rk4", "rkmk4", "variational", "lie_euler", "adaptive".
@@ -47,6 +48,8 @@ EVENT_NUMERICAL_FAILURE: int
 EVENT_RESET: int
 #: Bytes of one env's RNG state in a snapshot.
 RNG_BYTES: int
+#: ``(name, default, help)`` of each reality-gap keyword of ``EnvBatch``.
+REALITY_KEYS: tuple[tuple[str, Any, str], ...]
 
 _Signs = Union[str, Sequence[float]]
 
@@ -189,6 +192,12 @@ class EnvBatch:
         autoreset_mode: str = "next_step",
         diagnostics: bool = False,
         seed: int = 0,
+        randomize: Optional[Mapping[str, Any]] = None,
+        params: Optional[Union[Mapping[str, Any], ChainCart]] = None,
+        mismatch: Optional[Mapping[str, Any]] = None,
+        obs_noise: Optional[Union[float, Sequence[float]]] = None,
+        action_delay: int = 0,
+        force_rate_limit: Optional[float] = None,
     ) -> Self: ...
     @property
     def num_envs(self) -> int:
@@ -217,6 +226,14 @@ class EnvBatch:
     @property
     def base_state(self) -> npt.NDArray[np.float64]:
         """The state episodes start from before noise."""
+    def true_params(self) -> dict[str, Any]:
+        """The true parameters shared before randomisation (model with params/mismatch)."""
+    def env_params(self, env: int) -> dict[str, Any]:
+        """Env ``env``'s current true parameters."""
+    def param_arrays(self) -> dict[str, npt.NDArray[np.float64]]:
+        """Every env's current true parameters, arrays with a leading num_envs axis."""
+    def observations(self) -> npt.NDArray[Any]:
+        """Every env's current observation (noisy when obs_noise is set)."""
     def reset(
         self, seeds: Optional[Sequence[Optional[int]]] = None, mask: Optional[npt.NDArray[np.bool_]] = None
     ) -> npt.NDArray[Any]:

@@ -13,7 +13,7 @@ import dataclasses
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
-from typing import Any, Union
+from typing import Any, Optional, Union
 
 import numpy as np
 
@@ -28,6 +28,7 @@ __all__ = [
     "DEFAULT_SCENE",
     "EQUILIBRIUM_NAMES",
     "START_NAMES",
+    "REALITY_KEYS",
 ]
 
 #: Names accepted for ``target`` (besides a sign tuple).
@@ -76,6 +77,12 @@ class RewardWeights:
         )
 
 
+#: The keywords of the reality gap (parameter mismatch and randomisation, sensor noise,
+#: control delay, force-rate limit) as the core defines them: ``(name, default, help)``.
+#: Their values are checked and brought into canonical form by the core.
+REALITY_KEYS: tuple[tuple[str, Any, str], ...] = tuple(_core.REALITY_KEYS)
+_REALITY_NAMES = tuple(name for name, _, _ in REALITY_KEYS)
+
 _DEFAULTS: dict[str, Any] = dict(
     n_links=1,
     cart_mass=1.0,
@@ -99,6 +106,7 @@ _DEFAULTS: dict[str, Any] = dict(
     obs_dtype="float32",
     success_tolerances=(0.1, 0.5),
     diagnostics=False,
+    **{name: default for name, default, _ in REALITY_KEYS},
 )
 
 _PAPER: dict[str, Any] = dict(
@@ -143,6 +151,26 @@ SCENES: dict[str, dict[str, Any]] = {
     # the paper's weights the slowest closed-loop poles are -0.77 +- 0.56i: e_q and e_w
     # fall below 1e-3 at 11.3 s, so the episode lasts 12 s.
     "paper-fig3": dict(_PAPER, target="paper-fig3", start="paper-fig3", dt=1e-3, substeps=1, max_episode_steps=12_000),
+    # Sim-to-real scenes on the default double inverted pendulum. "-randomized": every
+    # reset draws the cart mass and each link's mass and length within +-25 % of the
+    # model's, so a controller designed on the model meets a different system in
+    # every episode. "-noisy": Gaussian sensor noise (0.01 in every state component:
+    # 1 cm, 0.01 rad, 0.01 m/s, 0.01 rad/s) and a one-period (20 ms) control delay.
+    "inverted-2-randomized": dict(
+        _DEFAULTS, n_links=2, max_force=20.0, randomize={"cart_mass": 0.25, "link_masses": 0.25, "link_lengths": 0.25}
+    ),
+    "inverted-2-noisy": dict(_DEFAULTS, n_links=2, max_force=20.0, obs_noise=0.01, action_delay=1),
+    # The same two on the spatial double pendulum (cart in the plane, links on spherical joints).
+    "spatial-inverted-2-randomized": dict(
+        _DEFAULTS,
+        n_links=2,
+        planar=False,
+        max_force=20.0,
+        randomize={"cart_mass": 0.25, "link_masses": 0.25, "link_lengths": 0.25},
+    ),
+    "spatial-inverted-2-noisy": dict(
+        _DEFAULTS, n_links=2, planar=False, max_force=20.0, obs_noise=0.01, action_delay=1
+    ),
 }
 
 DEFAULT_SCENE = "inverted-2"
@@ -210,6 +238,15 @@ class ChainCartConfig:
     success_tolerances: tuple[float, float] = _UNSET
     #: Put energies and constraint residuals in every step's info (costs time).
     diagnostics: bool = _UNSET
+    #: Reality gap (see :data:`REALITY_KEYS` for forms and defaults): stored in the
+    #: canonical form the core returns. ``{}`` / ``0`` / ``inf`` switch a scene's
+    #: setting off.
+    randomize: Optional[dict[str, Any]] = _UNSET
+    params: Optional[dict[str, Any]] = _UNSET
+    mismatch: Optional[dict[str, Any]] = _UNSET
+    obs_noise: Optional[Floats] = _UNSET
+    action_delay: int = _UNSET
+    force_rate_limit: Optional[float] = _UNSET
     _model: ChainCart = field(default=_UNSET, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -264,7 +301,12 @@ class ChainCartConfig:
             self.n_links, self.cart_mass, self.link_masses, self.link_lengths, self.gravity, self.planar
         )
         set_("_model", model)
-        _core.EnvBatch(model, 1, **self.task_kwargs())
+        for name in _REALITY_NAMES:
+            set_(name, values[name])
+        set_("action_delay", _integer("action_delay", values["action_delay"]))
+        canonical = _core.EnvBatch(model, 1, **self.task_kwargs()).task
+        for name in _REALITY_NAMES:
+            set_(name, canonical[name])
 
     # -- derived values -------------------------------------------------------------
 
@@ -307,6 +349,7 @@ class ChainCartConfig:
             autoreset_mode=autoreset_mode,
             diagnostics=self.diagnostics,
             seed=seed,
+            **{name: getattr(self, name) for name in _REALITY_NAMES},
         )
 
     def make_batch(self, num_envs: int, autoreset_mode: str, seed: int = 0) -> _core.EnvBatch:
@@ -316,6 +359,16 @@ class ChainCartConfig:
     def replace(self, **changes: Any) -> "ChainCartConfig":
         """A copy with some keywords changed (the others keep their resolved values)."""
         return dataclasses.replace(self, **changes)
+
+    @property
+    def has_reality_gap(self) -> bool:
+        """The true system or its sensing/actuation differs from the nominal model."""
+        return any(getattr(self, name) != default for name, default, _ in REALITY_KEYS)
+
+    @property
+    def has_param_gap(self) -> bool:
+        """The true parameters differ from the model's (mismatch or randomisation)."""
+        return any(getattr(self, name) is not None for name in ("randomize", "params", "mismatch"))
 
     def to_dict(self) -> dict[str, Any]:
         """The keywords as plain values (``ChainCartConfig(**config.to_dict())`` is equal)."""

@@ -26,14 +26,16 @@ _FAILED = _core.EVENT_NUMERICAL_FAILURE
 
 
 def observation_space(config: ChainCartConfig) -> spaces.Box:
-    """Box of one observation: link direction components in [-1, 1], the rest any
-    finite number of the observation dtype (observations are never NaN or inf)."""
+    """Box of one observation: link direction components in [-1, 1] (unbounded too
+    with ``obs_noise``), the rest any finite number of the observation dtype
+    (observations are never NaN or inf)."""
     n, d = config.n_links, config.state_dim
     cart = 1 if config.planar else 2
     link = 2 if config.planar else 3
     dtype = np.dtype(config.obs_dtype)
     high = np.full(d, np.finfo(dtype).max, dtype=dtype)
-    high[2 * cart : 2 * cart + link * n] = 1.0
+    if not any(config.obs_noise or ()):
+        high[2 * cart : 2 * cart + link * n] = 1.0
     return spaces.Box(-high, high, dtype=dtype)
 
 
@@ -183,6 +185,13 @@ class ChainCartEnv(NativeBatchCopies, gym.Env[np.ndarray, np.ndarray]):
     * ``max_force`` (N), ``track_limit`` (m), ``max_episode_steps``,
       ``reward_weights``, ``success_tolerances``, ``obs_dtype``, ``diagnostics``.
 
+    * Sim-to-real (all off by default; forms in :data:`chaincart_env.config.REALITY_KEYS`
+      and the robustness docs): ``randomize`` (parameters redrawn at every reset),
+      ``params`` / ``mismatch`` (a fixed true system differing from ``model``),
+      ``obs_noise`` (Gaussian, per component), ``action_delay`` (control periods),
+      ``force_rate_limit`` (N/s). With a parameter gap, ``reset`` returns
+      ``info["params"]``, the episode's true parameters (also :attr:`true_params`).
+
     Note: ``gymnasium.make``'s own ``max_episode_steps`` keyword is consumed by
     Gymnasium (a ``TimeLimit`` wrapper) and never reaches the env; set the env's
     episode length with ``config=ChainCartConfig(max_episode_steps=...)``.
@@ -263,12 +272,24 @@ class ChainCartEnv(NativeBatchCopies, gym.Env[np.ndarray, np.ndarray]):
         if start is not None:
             # Validated by the core: length, finiteness, |q_i| = 1 and w_i . q_i = 0.
             self._batch.set_state(0, start)
-            obs = self._batch.states()[0].astype(obs.dtype)
+            obs = self._batch.observations()[0]
         if self.render_mode is not None:
             self._rendering.clear_forces()
             if self._rendering.human_frame_due(reset=True):
                 self.render()
-        return obs, {}
+        return obs, ({"params": self.true_params} if self.config.has_param_gap else {})
+
+    @property
+    def true_params(self) -> dict[str, Any]:
+        """The physical parameters the env really simulates in this episode
+        (``cart_mass``, ``link_masses``, ``link_lengths``, ``gravity``): the model's
+        unless ``params``, ``mismatch`` or ``randomize`` is set. ``model`` stays the
+        nominal system."""
+        return self._batch.env_params(0)
+
+    def get_true_params(self) -> dict[str, Any]:
+        """:attr:`true_params`, as a method (for ``env_method``-style access)."""
+        return self.true_params
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         if self._needs_reset:

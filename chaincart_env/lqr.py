@@ -18,7 +18,7 @@ from typing import Any, Optional, Sequence
 
 import numpy as np
 
-__all__ = ["LQRPolicy", "lqr_coordinates"]
+__all__ = ["LQRPolicy", "OracleLQRPolicy", "lqr_coordinates"]
 
 
 def lqr_coordinates(states: np.ndarray, target: Sequence[float]) -> np.ndarray:
@@ -89,13 +89,24 @@ class LQRPolicy:
         return cls(gain, target, max_force, model.planar if planar is None else planar)
 
     @classmethod
-    def from_env(cls, env: Any, Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None) -> "LQRPolicy":
+    def from_env(
+        cls, env: Any, Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None, *, oracle: bool = False
+    ) -> "LQRPolicy":
         """For a ``ChainCartEnv``, its vector envs or SB3 VecEnv (anything exposing the
-        config through ``unwrapped`` or ``config``)."""
+        config through ``unwrapped`` or ``config``).
+
+        By default the gain is designed on the env's nominal ``model``, what a control
+        engineer knows: the honest baseline when the true system differs (``params``,
+        ``mismatch``, ``randomize``). ``oracle=True`` returns an
+        :class:`OracleLQRPolicy` instead, which designs one gain per env on that env's
+        true parameters of the current episode (an upper bound no real controller
+        reaches)."""
         base = getattr(env, "unwrapped", env)
         config = getattr(base, "config", None)
         if config is None:
             raise ValueError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+        if oracle:
+            return OracleLQRPolicy(env, Q, R)
         return cls.from_model(base.model, config.target_signs, config.max_force, Q, R, planar=config.planar)
 
     def forces(self, observation: np.ndarray) -> np.ndarray:
@@ -126,3 +137,78 @@ class LQRPolicy:
 
     def __call__(self, observation: np.ndarray) -> np.ndarray:
         return self.predict(observation)[0]
+
+
+def _true_param_rows(env: Any) -> list[dict[str, Any]]:
+    """The current true parameters of each env of ``env`` (one dict per env)."""
+    base = getattr(env, "unwrapped", env)
+    if hasattr(base, "get_attr") and hasattr(base, "env_method"):  # an SB3 VecEnv
+        return list(base.get_attr("true_params"))
+    params = base.true_params
+    cart = np.atleast_1d(params["cart_mass"])
+    if np.ndim(params["cart_mass"]) == 0:  # a single env
+        return [params]
+    return [
+        {
+            "cart_mass": float(cart[i]),
+            "link_masses": list(params["link_masses"][i]),
+            "link_lengths": list(params["link_lengths"][i]),
+            "gravity": float(params["gravity"][i]),
+        }
+        for i in range(cart.shape[0])
+    ]
+
+
+class OracleLQRPolicy(LQRPolicy):
+    """LQR with perfect knowledge of the true system: before each action it reads the
+    true parameters of every env of ``env`` (single, vector or SB3 VecEnv) for the
+    current episode and uses a gain designed on them (cached per parameter set). Its
+    observations must come from that env, one row per env in env order. With no
+    parameter gap it acts exactly as :meth:`LQRPolicy.from_env`.
+    """
+
+    def __init__(self, env: Any, Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None) -> None:
+        from chaincart_env.model import ChainCart
+
+        base = getattr(env, "unwrapped", env)
+        config = base.config
+        self._env, self._Q, self._R = env, Q, R
+        self._make_model = lambda p: ChainCart(
+            config.n_links, p["cart_mass"], p["link_masses"], p["link_lengths"], p["gravity"], config.planar
+        )
+        self._gains: dict[tuple[float, ...], np.ndarray] = {}
+        nominal = base.model.lqr_gain(list(config.target_signs), Q, R)
+        super().__init__(nominal, config.target_signs, config.max_force, config.planar)
+
+    def _gain(self, params: dict[str, Any]) -> np.ndarray:
+        key = (
+            float(params["cart_mass"]),
+            *map(float, params["link_masses"]),
+            *map(float, params["link_lengths"]),
+            float(params["gravity"]),
+        )
+        gain = self._gains.get(key)
+        if gain is None:
+            gain = np.asarray(self._make_model(params).lqr_gain(list(self.target), self._Q, self._R))
+            self._gains[key] = gain
+        return gain
+
+    def gains(self) -> np.ndarray:
+        """The gain of each env for its current episode, shape ``(num_envs, 2, 4 + 4n)``."""
+        return np.stack([self._gain(p) for p in _true_param_rows(self._env)])
+
+    def forces(self, observation: np.ndarray) -> np.ndarray:
+        obs = np.asarray(observation, dtype=np.float64)
+        batch = np.atleast_2d(obs)
+        gains = self.gains()
+        if batch.ndim != 2 or batch.shape != (gains.shape[0], self.state_dim):
+            raise ValueError(
+                f"observation has shape {obs.shape}: expected one row of {self.state_dim} per env "
+                f"({gains.shape[0]} envs)"
+            )
+        if not np.all(np.isfinite(batch)):
+            raise ValueError("observation has non-finite entries: expected finite states")
+        states = _planar_to_spatial(batch, self.n_links) if self.planar else batch
+        z = lqr_coordinates(states, self.target)
+        u = -np.einsum("nij,nj->ni", gains, z)
+        return u[:, :1] if self.planar else u

@@ -46,6 +46,14 @@ class _EnvView:
     def set_state(self, state: np.ndarray) -> None:
         self._vec._batch.set_state(self._index, state)
 
+    @property
+    def true_params(self) -> dict[str, Any]:
+        """This env's true physical parameters in its current episode."""
+        return self._vec._batch.env_params(self._index)
+
+    def get_true_params(self) -> dict[str, Any]:
+        return self.true_params
+
     def get_wrapper_attr(self, name: str) -> Any:
         return getattr(self, name)
 
@@ -73,7 +81,10 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     Rewards are float32. Works with ``VecMonitor`` and ``VecNormalize``.
 
     ``get_attr``/``env_method`` see each sub-env as a view with ``state``,
-    ``model_state``, ``elapsed_steps``, ``set_state`` and every attribute of this
+    ``model_state``, ``elapsed_steps``, ``set_state``, ``true_params`` /
+    ``get_true_params()`` (the env's true physical parameters; with a parameter gap
+    also in ``reset_infos`` and, for the new episode, in a done env's info under
+    ``"params"``) and every attribute of this
     VecEnv (``config``, ``model``, ``dt``, ...); ``set_attr`` sets an attribute shared
     by all envs. No env is wrapped (``env_is_wrapped`` is all False).
 
@@ -141,6 +152,9 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
             if self._rendering.human_frame_due(reset=True):
                 self.render()
         self.reset_infos = [{} for _ in range(self.num_envs)]
+        if self.config.has_param_gap:
+            for i, info in enumerate(self.reset_infos):
+                info["params"] = self._batch.env_params(i)
         self._reset_seeds()
         self._reset_options()
         return obs
@@ -172,6 +186,8 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
                 info.update(episode_info(int(events[i]), errors[i, 0], errors[i, 1]))
                 info["terminal_observation"] = finals[i]
                 info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+                if self.config.has_param_gap:
+                    info["params"] = self._batch.env_params(int(i))  # of the new episode
         return obs, rewards.astype(np.float32), dones, infos
 
     def _indices(self, indices: VecEnvIndices) -> list[int]:

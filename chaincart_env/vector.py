@@ -78,6 +78,13 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
     * Disabled: ended envs must be reset with ``reset(options={"reset_mask": mask})``
       before they are stepped again.
 
+    Sim-to-real keywords (``randomize``, ``params``, ``mismatch``, ``obs_noise``,
+    ``action_delay``, ``force_rate_limit``) as for the single env; env i's parameters
+    are those of the single env seeded ``s + i``. With a parameter gap,
+    ``info["params"]`` (arrays over the envs, mask ``_params``) comes with ``reset``
+    and with every step in which some env started a new episode; ``true_params``
+    reads them at any time.
+
     Episode-end keys (``is_success``, ``numerical_failure``, ``out_of_track``, ``e_q``,
     ``e_w``) come batched with ``_key`` masks, like Gymnasium's vector envs.
     ``reset(seed=s)`` seeds env i with ``s + i`` (or a list of per-env seeds): env i
@@ -205,7 +212,19 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
             self._rendering.clear_forces(mask)
             if self._rendering.human_frame_due(reset=True):
                 self.render()
-        return obs, {}
+        info: dict[str, Any] = {}
+        if self.config.has_param_gap:
+            info["params"] = self.true_params
+            info["_params"] = np.ones(self.num_envs, dtype=np.bool_) if mask is None else mask.copy()
+        return obs, info
+
+    @property
+    def true_params(self) -> dict[str, np.ndarray]:
+        """Every env's true physical parameters in its current episode, arrays with a
+        leading ``num_envs`` axis: ``cart_mass``, ``gravity`` ``(num_envs,)``,
+        ``link_masses``, ``link_lengths`` ``(num_envs, n_links)``. ``model`` stays the
+        nominal system."""
+        return self._batch.param_arrays()
 
     def step(
         self, actions: np.ndarray
@@ -231,6 +250,12 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
 
     def _infos(self, n_ended: int) -> dict[str, Any]:
         info: dict[str, Any] = {}
+        if self.config.has_param_gap:
+            # Envs that started a new episode in this step report its parameters.
+            events = self._batch.events()
+            fresh = (events & (_core.EVENT_ENDED if self._same_step else _core.EVENT_RESET)) != 0
+            if fresh.any():
+                info["params"], info["_params"] = self.true_params, fresh
         if self._diagnostics:
             diag = self._batch.diagnostics()
             everyone = np.ones(self.num_envs, dtype=np.bool_)

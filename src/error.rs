@@ -19,6 +19,13 @@ pub enum ChainError {
         value: f64,
         expected: &'static str,
     },
+    /// A `[low, high]` range that is empty, not finite, or admits inadmissible values.
+    InvalidRange {
+        name: &'static str,
+        low: f64,
+        high: f64,
+        expected: &'static str,
+    },
     /// Two things that must have the same length do not.
     LengthMismatch {
         name: &'static str,
@@ -63,6 +70,9 @@ impl fmt::Display for ChainError {
             }
             InvalidLinkParameter { name, link, value, expected } => {
                 write!(f, "invalid {name}[{link}] = {value}: expected {expected}")
+            }
+            InvalidRange { name, low, high, expected } => {
+                write!(f, "invalid {name} range [{low}, {high}]: expected {expected}")
             }
             LengthMismatch { name, got, expected } => {
                 write!(f, "{name} has length {got}, expected {expected}")

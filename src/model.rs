@@ -60,13 +60,42 @@ impl<G: Geometry> Chain<G> {
     /// The chain with these (validated) parameters.
     pub fn new(params: ChainParams) -> Self {
         let n = params.n_links();
-        let gravity_coefficients = (0..n).map(|i| params.gravity_coefficient(i)).collect();
-        Self {
-            inv_cart_mass: 1.0 / params.cart_mass(),
-            inv_lengths: params.lengths().iter().map(|l| 1.0 / l).collect(),
+        let mut chain = Self {
+            inv_cart_mass: 0.0,
+            inv_lengths: vec![0.0; n],
             layout: Layout::new(n),
-            gravity_coefficients,
+            gravity_coefficients: vec![0.0; n],
             params,
+        };
+        chain.update_constants();
+        chain
+    }
+
+    /// Replaces the physical parameters in place without allocating (the per-env
+    /// parameters of an env batch are loaded this way before each env's step). The
+    /// result is bit-identical to `Chain::new` with the same values. The caller
+    /// guarantees what [`ChainParams::new`] checks: `masses` and `lengths` of length
+    /// `n_links`, every value finite and > 0.
+    pub(crate) fn set_params_unchecked(
+        &mut self,
+        cart_mass: f64,
+        masses: &[f64],
+        lengths: &[f64],
+        gravity: f64,
+    ) {
+        self.params
+            .assign_unchecked(cart_mass, masses, lengths, gravity);
+        self.update_constants();
+    }
+
+    fn update_constants(&mut self) {
+        let p = &self.params;
+        self.inv_cart_mass = 1.0 / p.cart_mass();
+        for (inv, l) in self.inv_lengths.iter_mut().zip(p.lengths()) {
+            *inv = 1.0 / l;
+        }
+        for (i, c) in self.gravity_coefficients.iter_mut().enumerate() {
+            *c = p.gravity_coefficient(i);
         }
     }
 

@@ -51,20 +51,43 @@ impl ChainParams {
         check_positive_links("link_masses", masses)?;
         check_positive_links("link_lengths", lengths)?;
         let n = masses.len();
-        let mut outboard_mass = vec![0.0; n];
-        let mut acc = 0.0;
-        for i in (0..n).rev() {
-            acc += masses[i];
-            outboard_mass[i] = acc;
-        }
-        Ok(Self {
+        let mut params = Self {
             cart_mass,
-            masses: masses.to_vec(),
-            lengths: lengths.to_vec(),
+            masses: vec![0.0; n],
+            lengths: vec![0.0; n],
             gravity,
-            inv_masses: masses.iter().map(|m| 1.0 / m).collect(),
-            outboard_mass,
-        })
+            inv_masses: vec![0.0; n],
+            outboard_mass: vec![0.0; n],
+        };
+        params.assign_unchecked(cart_mass, masses, lengths, gravity);
+        Ok(params)
+    }
+
+    /// Overwrites every value in place (no allocation), recomputing the derived
+    /// constants exactly as [`ChainParams::new`] does, so that the result is
+    /// bit-identical to a freshly built set. The caller guarantees what `new` checks:
+    /// `masses` and `lengths` of length `n_links`, every value finite and > 0.
+    pub(crate) fn assign_unchecked(
+        &mut self,
+        cart_mass: f64,
+        masses: &[f64],
+        lengths: &[f64],
+        gravity: f64,
+    ) {
+        debug_assert_eq!(masses.len(), self.masses.len());
+        debug_assert_eq!(lengths.len(), self.lengths.len());
+        self.cart_mass = cart_mass;
+        self.gravity = gravity;
+        self.masses.copy_from_slice(masses);
+        self.lengths.copy_from_slice(lengths);
+        for (inv, m) in self.inv_masses.iter_mut().zip(masses) {
+            *inv = 1.0 / m;
+        }
+        let mut acc = 0.0;
+        for i in (0..masses.len()).rev() {
+            acc += masses[i];
+            self.outboard_mass[i] = acc;
+        }
     }
 
     /// `n` identical links (scalars broadcast).

@@ -8,15 +8,19 @@
 //! [`EnvBatch::step`] or [`EnvBatch::reset`].
 
 use super::config::{AutoresetMode, TaskConfig};
-use super::start::{base_state, perturb};
+use super::reality::{EnvParams, NOISE_STREAM, PARAM_STREAM};
+use super::start::base_state;
+use super::step::{
+    reset_env, run_range, sense, write_obs, Ctx, EnvData, OutRange, Slot, Widths, Worker,
+};
 use crate::any::AnyChain;
-use crate::batch::{GuardedStepper, CHUNK};
+use crate::batch::CHUNK;
 use crate::error::{ChainError, Result};
-use crate::geometry::{Geometry, Layout, Planar, Spatial, Vector};
+use crate::geometry::{Geometry, Planar, Spatial};
 use crate::model::Chain;
+use crate::params::ChainParams;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 
 /// Bits of [`EnvBatch::events`], one byte per env, set by the last step or reset.
 pub mod event {
@@ -80,40 +84,6 @@ pub struct StepOutputs<'a, T: Real> {
     pub truncated: &'a mut [bool],
 }
 
-/// Per-env bookkeeping besides the state.
-#[derive(Debug, Clone)]
-struct Slot {
-    rng: ChaCha8Rng,
-    steps: u64,
-    /// The episode has ended and the env has not been reset since.
-    ended: bool,
-}
-
-/// Everything a step reads (shared by all chunks).
-struct Ctx<'a, G: Geometry> {
-    chain: &'a Chain<G>,
-    task: &'a TaskConfig,
-    base: &'a [f64],
-    mode: AutoresetMode,
-    diagnostics: bool,
-}
-
-/// The mutable slices of one chunk of envs.
-struct Chunk<'a, G: Geometry, T: Real, A: Real> {
-    states: &'a mut [f64],
-    slots: &'a mut [Slot],
-    worker: &'a mut GuardedStepper<G>,
-    actions: &'a [A],
-    obs: &'a mut [T],
-    rewards: &'a mut [f64],
-    terminated: &'a mut [bool],
-    truncated: &'a mut [bool],
-    events: &'a mut [u8],
-    errors: &'a mut [f64],
-    finals: &'a mut [f64],
-    diag: &'a mut [f64],
-}
-
 /// A saved copy of everything that evolves (states, RNG streams, step counts, ended
 /// flags), enough to continue a batch identically after [`EnvBatch::restore`].
 #[derive(Debug, Clone, PartialEq)]
@@ -124,6 +94,16 @@ pub struct Snapshot {
     pub rng: Vec<[u8; RNG_BYTES]>,
     pub steps: Vec<u64>,
     pub ended: Vec<bool>,
+    /// Per env, the parameter and observation-noise streams (empty when off).
+    pub param_rng: Vec<[u8; RNG_BYTES]>,
+    pub noise_rng: Vec<[u8; RNG_BYTES]>,
+    /// Per-env parameters (empty vectors when the batch shares one set).
+    pub params: EnvParams,
+    /// Each env's current noisy observation, delayed actions and last applied force
+    /// (empty when the feature is off).
+    pub noisy_obs: Vec<f64>,
+    pub action_queue: Vec<f64>,
+    pub last_force: Vec<f64>,
 }
 
 /// Bytes of one env's RNG state in a [`Snapshot`].
@@ -152,21 +132,57 @@ fn rng_from_bytes(b: &[u8; RNG_BYTES]) -> ChaCha8Rng {
 
 /// N envs of one task on one chain.
 pub struct EnvBatch<G: Geometry> {
+    /// The nominal model (what the task reports and a controller designer knows).
     chain: Chain<G>,
+    /// The true system all envs share (the nominal one unless mismatched); with
+    /// randomisation, the centre each env's parameters are drawn around.
+    true_chain: Chain<G>,
     task: TaskConfig,
     base: Vec<f64>,
     mode: AutoresetMode,
     diagnostics: bool,
     n_envs: usize,
-    states: Vec<f64>,
-    slots: Vec<Slot>,
-    workers: Vec<GuardedStepper<G>>,
+    widths: Widths,
+    data: EnvData,
+    workers: Vec<Worker<G>>,
     events: Vec<u8>,
     /// `(e_q, e_w)` per env after the last step (before any same-step reset).
     errors: Vec<f64>,
-    /// Same-step mode: the last state of each env whose episode ended on the last step.
+    /// Same-step mode: the last observation of each env whose episode ended on the
+    /// last step.
     finals: Vec<f64>,
     diag: Vec<f64>,
+}
+
+/// The shared read-only context of a step or reset, from the batch's fields.
+macro_rules! ctx {
+    ($b:expr) => {
+        Ctx {
+            chain: &$b.true_chain,
+            truth: $b.true_chain.params(),
+            task: &$b.task,
+            base: &$b.base,
+            mode: $b.mode,
+            diagnostics: $b.diagnostics,
+            widths: $b.widths,
+        }
+    };
+}
+
+/// Env `k`'s generator streams for `seed`: start states, parameters, noise.
+fn seed_env(data: &mut EnvData, k: usize, seed: u64) {
+    data.slots[k].rng = ChaCha8Rng::seed_from_u64(seed);
+    let stream = |s| {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(s);
+        rng
+    };
+    if let Some(r) = data.param_rngs.get_mut(k) {
+        *r = stream(PARAM_STREAM);
+    }
+    if let Some(r) = data.noise_rngs.get_mut(k) {
+        *r = stream(NOISE_STREAM);
+    }
 }
 
 impl<G: Geometry> EnvBatch<G> {
@@ -187,17 +203,38 @@ impl<G: Geometry> EnvBatch<G> {
             });
         }
         task.validate(chain.n_links())?;
+        task.reality.validate(chain.n_links(), chain.state_dim())?;
+        let true_chain = Chain::new(task.reality.true_params(chain.params())?);
         let base = base_state(&chain, &task)?;
         let d = chain.state_dim();
-        let slots = (0..n_envs)
-            .map(|i| Slot {
-                rng: ChaCha8Rng::seed_from_u64(seed.wrapping_add(i as u64)),
-                steps: 0,
-                ended: false,
-            })
-            .collect();
+        let widths = Widths::new(&chain, &task.reality);
+        let unseeded = ChaCha8Rng::seed_from_u64(0);
+        let mut data = EnvData {
+            states: vec![0.0; n_envs * d],
+            slots: vec![
+                Slot {
+                    rng: unseeded.clone(),
+                    steps: 0,
+                    ended: false,
+                };
+                n_envs
+            ],
+            params: if widths.param_scalars == 1 {
+                EnvParams::filled(true_chain.params(), n_envs)
+            } else {
+                EnvParams::empty(chain.n_links())
+            },
+            param_rngs: vec![unseeded.clone(); n_envs * widths.param_scalars],
+            noise_rngs: vec![unseeded; n_envs * widths.noise_rng],
+            noisy_obs: vec![0.0; n_envs * widths.noisy],
+            queue: vec![0.0; n_envs * widths.queue],
+            last_force: vec![0.0; n_envs * widths.last_force],
+        };
+        for k in 0..n_envs {
+            seed_env(&mut data, k, seed.wrapping_add(k as u64));
+        }
         let workers = (0..n_envs.div_ceil(CHUNK))
-            .map(|_| GuardedStepper::new(&chain))
+            .map(|_| Worker::new(&true_chain))
             .collect();
         let mut batch = Self {
             task,
@@ -205,14 +242,15 @@ impl<G: Geometry> EnvBatch<G> {
             mode,
             diagnostics,
             n_envs,
-            states: vec![0.0; n_envs * d],
-            slots,
+            widths,
+            data,
             workers,
             events: vec![0; n_envs],
             errors: vec![0.0; 2 * n_envs],
             finals: vec![0.0; n_envs * d],
             diag: vec![0.0; DIAGNOSTICS.len() * n_envs],
             chain,
+            true_chain,
         };
         for env in 0..n_envs {
             batch.reset_one(env);
@@ -220,6 +258,7 @@ impl<G: Geometry> EnvBatch<G> {
         Ok(batch)
     }
 
+    /// The nominal model.
     pub fn chain(&self) -> &Chain<G> {
         &self.chain
     }
@@ -249,19 +288,38 @@ impl<G: Geometry> EnvBatch<G> {
     }
     /// All states, env-major.
     pub fn states(&self) -> &[f64] {
-        &self.states
+        &self.data.states
     }
     pub fn state(&self, env: usize) -> &[f64] {
         let d = self.state_dim();
-        &self.states[env * d..(env + 1) * d]
+        &self.data.states[env * d..(env + 1) * d]
     }
     /// Steps taken in each env's current episode.
     pub fn step_count(&self, env: usize) -> u64 {
-        self.slots[env].steps
+        self.data.slots[env].steps
     }
     /// Whether env's episode has ended and it has not been reset since.
     pub fn has_ended(&self, env: usize) -> bool {
-        self.slots[env].ended
+        self.data.slots[env].ended
+    }
+    /// The true parameters shared by the envs before randomisation: the nominal ones
+    /// with the task's parameter replacement and mismatch applied.
+    pub fn true_params(&self) -> &ChainParams {
+        self.true_chain.params()
+    }
+    /// Env `env`'s current true parameters (its own draw when randomised).
+    pub fn env_params(&self, env: usize) -> Result<ChainParams> {
+        self.check_env(env)?;
+        if self.widths.param_scalars == 1 {
+            self.data.params.get(env)
+        } else {
+            Ok(self.true_chain.params().clone())
+        }
+    }
+    /// The per-env parameter arrays (struct of arrays over the envs) when parameters
+    /// are per env, `None` when all envs share [`EnvBatch::true_params`].
+    pub fn per_env_params(&self) -> Option<&EnvParams> {
+        (self.widths.param_scalars == 1).then_some(&self.data.params)
     }
     /// [`event`] bits of the last step or reset, one per env.
     pub fn events(&self) -> &[u8] {
@@ -282,12 +340,16 @@ impl<G: Geometry> EnvBatch<G> {
         &self.diag
     }
 
-    /// Writes every env's observation (its state cast to `T`) into `obs`.
+    /// Writes every env's current observation (its state cast to `T`, or its last
+    /// noisy reading when sensor noise is on) into `obs`.
     pub fn write_obs<T: Real>(&self, obs: &mut [T]) -> Result<()> {
-        check_size("obs", obs.len(), self.states.len())?;
-        for (o, &s) in obs.iter_mut().zip(&self.states) {
-            *o = T::from_f64(s);
-        }
+        check_size("obs", obs.len(), self.data.states.len())?;
+        let current = if self.widths.noisy > 0 {
+            &self.data.noisy_obs
+        } else {
+            &self.data.states
+        };
+        write_obs(current, obs);
         Ok(())
     }
 
@@ -310,23 +372,21 @@ impl<G: Geometry> EnvBatch<G> {
         let mut task = self.task.clone();
         task.start = super::config::Start::State(state.to_vec());
         let y = base_state(&self.chain, &task)?;
-        let d = self.state_dim();
-        self.states[env * d..(env + 1) * d].copy_from_slice(&y);
+        let w = self.widths;
+        let reality = &self.task.reality;
+        let mut data = self.data.view();
+        let mut e = data.env(env, &w);
+        e.y.copy_from_slice(&y);
+        sense(reality, &mut e);
         Ok(())
     }
 
     fn reset_one(&mut self, env: usize) {
-        let d = self.chain.state_dim();
-        let slot = &mut self.slots[env];
-        perturb(
-            self.chain.layout(),
-            &self.base,
-            self.task.start_noise,
-            &mut slot.rng,
-            &mut self.states[env * d..(env + 1) * d],
-        );
-        slot.steps = 0;
-        slot.ended = false;
+        let ctx = ctx!(self);
+        let mut data = self.data.view();
+        let mut e = data.env(env, &ctx.widths);
+        reset_env(&ctx, &mut e);
+        sense(&ctx.task.reality, &mut e);
     }
 
     /// Starts new episodes in the envs where `mask` is true (all if `None`). Env k is
@@ -345,13 +405,13 @@ impl<G: Geometry> EnvBatch<G> {
         if let Some(m) = mask {
             check_size("reset_mask", m.len(), n)?;
         }
-        check_size("obs", obs.len(), self.states.len())?;
+        check_size("obs", obs.len(), self.data.states.len())?;
         for env in 0..n {
             if mask.is_some_and(|m| !m[env]) {
                 continue;
             }
             if let Some(seed) = seeds.and_then(|s| s[env]) {
-                self.slots[env].rng = ChaCha8Rng::seed_from_u64(seed);
+                seed_env(&mut self.data, env, seed);
             }
             self.reset_one(env);
             self.events[env] = 0;
@@ -372,7 +432,7 @@ impl<G: Geometry> EnvBatch<G> {
             });
         }
         if self.mode == AutoresetMode::Disabled {
-            if let Some(env) = self.slots.iter().position(|s| s.ended) {
+            if let Some(env) = self.data.slots.iter().position(|s| s.ended) {
                 return Err(ChainError::InvalidParameter {
                     name: "stepped env",
                     value: env as f64,
@@ -395,92 +455,24 @@ impl<G: Geometry> EnvBatch<G> {
         out: StepOutputs<'_, T>,
     ) -> Result<usize> {
         self.check_actions(actions)?;
-        let (n, d, f) = (self.n_envs, self.state_dim(), self.force_dim());
+        let (n, d) = (self.n_envs, self.state_dim());
         check_size("obs", out.obs.len(), n * d)?;
         check_size("rewards", out.rewards.len(), n)?;
         check_size("terminated", out.terminated.len(), n)?;
         check_size("truncated", out.truncated.len(), n)?;
-        let ctx = Ctx {
-            chain: &self.chain,
-            task: &self.task,
-            base: &self.base,
-            mode: self.mode,
-            diagnostics: self.diagnostics,
+        let ctx = ctx!(self);
+        let outputs = OutRange {
+            actions,
+            obs: out.obs,
+            rewards: out.rewards,
+            terminated: out.terminated,
+            truncated: out.truncated,
+            events: &mut self.events,
+            errors: &mut self.errors,
+            finals: &mut self.finals,
+            diag: &mut self.diag,
         };
-        let nd = DIAGNOSTICS.len();
-        if n <= CHUNK {
-            // One chunk: step it on this thread and skip the pool's wake-up cost.
-            run_chunk(
-                &ctx,
-                Chunk {
-                    states: &mut self.states,
-                    slots: &mut self.slots,
-                    worker: &mut self.workers[0],
-                    actions,
-                    obs: out.obs,
-                    rewards: out.rewards,
-                    terminated: out.terminated,
-                    truncated: out.truncated,
-                    events: &mut self.events,
-                    errors: &mut self.errors,
-                    finals: &mut self.finals,
-                    diag: &mut self.diag,
-                },
-            );
-        } else {
-            self.states
-                .par_chunks_mut(CHUNK * d)
-                .zip(self.slots.par_chunks_mut(CHUNK))
-                .zip(self.workers.par_iter_mut())
-                .zip(actions.par_chunks(CHUNK * f))
-                .zip(out.obs.par_chunks_mut(CHUNK * d))
-                .zip(out.rewards.par_chunks_mut(CHUNK))
-                .zip(out.terminated.par_chunks_mut(CHUNK))
-                .zip(out.truncated.par_chunks_mut(CHUNK))
-                .zip(self.events.par_chunks_mut(CHUNK))
-                .zip(self.errors.par_chunks_mut(CHUNK * 2))
-                .zip(self.finals.par_chunks_mut(CHUNK * d))
-                .zip(self.diag.par_chunks_mut(CHUNK * nd))
-                .for_each(
-                    |(
-                        (
-                            (
-                                (
-                                    (
-                                        (
-                                            (((((states, slots), worker), actions), obs), rewards),
-                                            terminated,
-                                        ),
-                                        truncated,
-                                    ),
-                                    events,
-                                ),
-                                errors,
-                            ),
-                            finals,
-                        ),
-                        diag,
-                    )| {
-                        run_chunk(
-                            &ctx,
-                            Chunk {
-                                states,
-                                slots,
-                                worker,
-                                actions,
-                                obs,
-                                rewards,
-                                terminated,
-                                truncated,
-                                events,
-                                errors,
-                                finals,
-                                diag,
-                            },
-                        )
-                    },
-                );
-        }
+        run_range(&ctx, self.data.view(), outputs, &mut self.workers);
         Ok(self
             .events
             .iter()
@@ -490,29 +482,76 @@ impl<G: Geometry> EnvBatch<G> {
 
     /// Everything that evolves, for [`EnvBatch::restore`].
     pub fn snapshot(&self) -> Snapshot {
+        let d = &self.data;
         Snapshot {
-            states: self.states.clone(),
-            rng: self.slots.iter().map(|s| rng_to_bytes(&s.rng)).collect(),
-            steps: self.slots.iter().map(|s| s.steps).collect(),
-            ended: self.slots.iter().map(|s| s.ended).collect(),
+            states: d.states.clone(),
+            rng: d.slots.iter().map(|s| rng_to_bytes(&s.rng)).collect(),
+            steps: d.slots.iter().map(|s| s.steps).collect(),
+            ended: d.slots.iter().map(|s| s.ended).collect(),
+            param_rng: d.param_rngs.iter().map(rng_to_bytes).collect(),
+            noise_rng: d.noise_rngs.iter().map(rng_to_bytes).collect(),
+            params: d.params.clone(),
+            noisy_obs: d.noisy_obs.clone(),
+            action_queue: d.queue.clone(),
+            last_force: d.last_force.clone(),
         }
     }
 
-    /// Continues from a [`Snapshot`] of a batch of the same shape (checked: sizes,
-    /// finite states).
+    /// Continues from a [`Snapshot`] of a batch of the same shape and configuration
+    /// (checked: sizes, finite states and parameters).
     pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
+        let d = &mut self.data;
         let n = self.n_envs;
-        check_size("snapshot states", snap.states.len(), self.states.len())?;
+        check_size("snapshot states", snap.states.len(), d.states.len())?;
         check_size("snapshot rng", snap.rng.len(), n)?;
         check_size("snapshot steps", snap.steps.len(), n)?;
         check_size("snapshot ended", snap.ended.len(), n)?;
+        check_size(
+            "snapshot param_rng",
+            snap.param_rng.len(),
+            d.param_rngs.len(),
+        )?;
+        check_size(
+            "snapshot noise_rng",
+            snap.noise_rng.len(),
+            d.noise_rngs.len(),
+        )?;
+        check_size("snapshot params", snap.params.n_envs(), d.params.n_envs())?;
+        check_size(
+            "snapshot noisy_obs",
+            snap.noisy_obs.len(),
+            d.noisy_obs.len(),
+        )?;
+        check_size(
+            "snapshot action_queue",
+            snap.action_queue.len(),
+            d.queue.len(),
+        )?;
+        check_size(
+            "snapshot last_force",
+            snap.last_force.len(),
+            d.last_force.len(),
+        )?;
         crate::error::check_finite("snapshot states", &snap.states)?;
-        self.states.copy_from_slice(&snap.states);
-        for (k, slot) in self.slots.iter_mut().enumerate() {
+        for k in 0..snap.params.n_envs() {
+            snap.params.get(k)?;
+        }
+        d.states.copy_from_slice(&snap.states);
+        for (k, slot) in d.slots.iter_mut().enumerate() {
             slot.rng = rng_from_bytes(&snap.rng[k]);
             slot.steps = snap.steps[k];
             slot.ended = snap.ended[k];
         }
+        for (r, b) in d.param_rngs.iter_mut().zip(&snap.param_rng) {
+            *r = rng_from_bytes(b);
+        }
+        for (r, b) in d.noise_rngs.iter_mut().zip(&snap.noise_rng) {
+            *r = rng_from_bytes(b);
+        }
+        d.params.clone_from(&snap.params);
+        d.noisy_obs.copy_from_slice(&snap.noisy_obs);
+        d.queue.copy_from_slice(&snap.action_queue);
+        d.last_force.copy_from_slice(&snap.last_force);
         self.events.fill(0);
         Ok(())
     }
@@ -529,167 +568,6 @@ fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
             expected,
         })
     }
-}
-
-fn run_chunk<G: Geometry, T: Real, A: Real>(ctx: &Ctx<'_, G>, c: Chunk<'_, G, T, A>) {
-    let d = ctx.chain.state_dim();
-    let f = ctx.chain.force_dim();
-    let nd = DIAGNOSTICS.len();
-    for k in 0..c.slots.len() {
-        step_env(
-            ctx,
-            c.worker,
-            &mut c.slots[k],
-            &mut c.states[k * d..(k + 1) * d],
-            &c.actions[k * f..(k + 1) * f],
-            &mut c.obs[k * d..(k + 1) * d],
-            EnvOut {
-                reward: &mut c.rewards[k],
-                terminated: &mut c.terminated[k],
-                truncated: &mut c.truncated[k],
-                event: &mut c.events[k],
-                errors: &mut c.errors[2 * k..2 * k + 2],
-                finals: &mut c.finals[k * d..(k + 1) * d],
-                diag: &mut c.diag[k * nd..(k + 1) * nd],
-            },
-        );
-    }
-}
-
-struct EnvOut<'a> {
-    reward: &'a mut f64,
-    terminated: &'a mut bool,
-    truncated: &'a mut bool,
-    event: &'a mut u8,
-    errors: &'a mut [f64],
-    finals: &'a mut [f64],
-    diag: &'a mut [f64],
-}
-
-#[inline(always)]
-fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
-    for (o, &s) in obs.iter_mut().zip(y) {
-        *o = T::from_f64(s);
-    }
-}
-
-/// `(sum |q_i - s_i e3|^2, sum |w_i|^2, e_q, e_w)`.
-#[inline(always)]
-fn distances<G: Geometry>(lay: Layout<G>, y: &[f64], s: &[f64]) -> (f64, f64, f64, f64) {
-    let (mut q2, mut w2, mut e_q, mut e_w) = (0.0, 0.0, 0.0, 0.0);
-    for (i, &si) in s.iter().enumerate() {
-        let dq = (lay.load_q(y, i) - G::down_unit() * si).norm_squared();
-        let dw = lay.load_w(y, i).norm_squared();
-        q2 += dq;
-        w2 += dw;
-        e_q += dq.sqrt();
-        e_w += dw.sqrt();
-    }
-    (q2, w2, e_q, e_w)
-}
-
-fn write_diagnostics<G: Geometry>(chain: &Chain<G>, y: &[f64], diag: &mut [f64]) {
-    let e = chain.energy(y);
-    let r = chain.residuals(y);
-    diag.copy_from_slice(&[e.total(), e.kinetic, e.potential, r.unit_length, r.tangency]);
-}
-
-fn step_env<G: Geometry, T: Real, A: Real>(
-    ctx: &Ctx<'_, G>,
-    worker: &mut GuardedStepper<G>,
-    slot: &mut Slot,
-    y: &mut [f64],
-    action: &[A],
-    obs: &mut [T],
-    out: EnvOut<'_>,
-) {
-    let chain = ctx.chain;
-    let task = ctx.task;
-    let lay = chain.layout();
-    let reset = |slot: &mut Slot, y: &mut [f64]| {
-        perturb(lay, ctx.base, task.start_noise, &mut slot.rng, y);
-        slot.steps = 0;
-        slot.ended = false;
-    };
-    if slot.ended {
-        // Next-step autoreset (the other modes never get here: same-step resets at
-        // once, disabled is refused in check_actions).
-        reset(slot, y);
-        write_obs(y, obs);
-        *out.reward = 0.0;
-        *out.terminated = false;
-        *out.truncated = false;
-        *out.event = event::RESET;
-        let (_, _, e_q, e_w) = distances(lay, y, &task.target);
-        out.errors.copy_from_slice(&[e_q, e_w]);
-        if ctx.diagnostics {
-            write_diagnostics(chain, y, out.diag);
-        }
-        return;
-    }
-
-    let mut force = [0.0; 3];
-    let mut a2 = 0.0;
-    for (fk, a) in force.iter_mut().zip(action) {
-        let a = a.to_f64().clamp(-1.0, 1.0);
-        a2 += a * a;
-        *fk = a * task.max_force;
-    }
-    let status = worker.step(
-        chain,
-        y,
-        G::Cart::load(&force),
-        task.dt,
-        &task.step_options,
-        &task.guard,
-    );
-    slot.steps += 1;
-    let failed = status.is_failure();
-    let cart_dim = G::Cart::DIM;
-    let off_track = !failed
-        && y[lay.x()..lay.x() + cart_dim]
-            .iter()
-            .any(|x| x.abs() > task.track_limit);
-    let terminated = failed || off_track;
-    let truncated = slot.steps >= task.max_episode_steps;
-    let (q2, w2, e_q, e_w) = distances(lay, y, &task.target);
-    let w = &task.reward;
-    *out.reward = if failed {
-        0.0
-    } else {
-        let x2 = lay.load_x(y).norm_squared();
-        let v2 = lay.load_xdot(y).norm_squared();
-        (-(w.q * q2 + w.w * w2 + w.x * x2 + w.v * v2 + w.u * a2)).exp()
-    };
-    *out.terminated = terminated;
-    *out.truncated = truncated;
-    out.errors.copy_from_slice(&[e_q, e_w]);
-    let mut ev = 0;
-    if terminated || truncated {
-        ev |= event::ENDED;
-        if !terminated && e_q <= task.success.e_q && e_w <= task.success.e_w {
-            ev |= event::SUCCESS;
-        }
-    }
-    if off_track {
-        ev |= event::OUT_OF_TRACK;
-    }
-    if failed {
-        ev |= event::NUMERICAL_FAILURE;
-    }
-    *out.event = ev;
-    if ctx.diagnostics {
-        write_diagnostics(chain, y, out.diag);
-    }
-    if ev & event::ENDED != 0 {
-        if ctx.mode == AutoresetMode::SameStep {
-            out.finals.copy_from_slice(y);
-            reset(slot, y);
-        } else {
-            slot.ended = true;
-        }
-    }
-    write_obs(y, obs);
 }
 
 /// An env batch in either scene, chosen at run time.
@@ -797,6 +675,15 @@ impl AnyEnvBatch {
         out: StepOutputs<'_, T>,
     ) -> Result<usize> {
         dispatch!(self, b, b.step(actions, out))
+    }
+    pub fn true_params(&self) -> &ChainParams {
+        dispatch!(self, b, b.true_params())
+    }
+    pub fn env_params(&self, env: usize) -> Result<ChainParams> {
+        dispatch!(self, b, b.env_params(env))
+    }
+    pub fn per_env_params(&self) -> Option<&EnvParams> {
+        dispatch!(self, b, b.per_env_params())
     }
     pub fn snapshot(&self) -> Snapshot {
         dispatch!(self, b, b.snapshot())

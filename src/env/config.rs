@@ -1,6 +1,7 @@
 //! The task: which equilibrium to reach, where episodes start, how they are scored
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
+use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
 use crate::batch::Guard;
 use crate::error::{check_finite, check_positive, ChainError, Result};
@@ -248,6 +249,9 @@ pub struct TaskConfig {
     pub success: SuccessTolerances,
     /// When a step counts as a numerical failure.
     pub guard: Guard,
+    /// Parameter mismatch and randomisation, sensor noise, delay and rate limit
+    /// (default: none of them).
+    pub reality: RealityGap,
 }
 
 impl TaskConfig {
@@ -265,6 +269,7 @@ impl TaskConfig {
             reward: RewardWeights::default(),
             guard: Guard::default(),
             success: SuccessTolerances::default(),
+            reality: RealityGap::default(),
         }
     }
 

@@ -31,11 +31,16 @@
 
 pub mod batch;
 pub mod config;
+pub mod reality;
 pub mod start;
+mod step;
 
 pub use batch::{event, AnyEnvBatch, EnvBatch, Real, Snapshot, StepOutputs, DIAGNOSTICS};
 pub use config::{
     target_signs, AutoresetMode, PaperFigure, RewardWeights, Start, SuccessTolerances, TaskConfig,
+};
+pub use reality::{
+    Distribution, EnvParams, Param, ParamRandomization, ParamValues, Randomization, RealityGap,
 };
 pub use start::{base_state, paper_initial_condition, perturb};
 

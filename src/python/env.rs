@@ -6,6 +6,9 @@
 
 use super::convert::{check_shape, error, signs, ActionSlice, Actions, Floats};
 use super::model::ChainCart;
+use super::reality::{param_arrays, params_dict, reality_gap, write_task_keys, RealityArgs};
+use crate::env::batch::RNG_BYTES;
+use crate::env::EnvParams;
 use crate::env::{
     AnyEnvBatch, AutoresetMode, Real, RewardWeights, Snapshot, Start, StepOutputs,
     SuccessTolerances, TaskConfig, DIAGNOSTICS,
@@ -171,7 +174,8 @@ impl EnvBatch {
         start=None, start_noise=None, dt=None, integrator="rk4", substeps=1,
         max_force=None, track_limit=None, max_episode_steps=None, reward_weights=None,
         success_tolerances=None, obs_dtype="float32", autoreset_mode="next_step",
-        diagnostics=false, seed=0
+        diagnostics=false, seed=0, randomize=None, params=None, mismatch=None,
+        obs_noise=None, action_delay=0, force_rate_limit=None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -192,6 +196,12 @@ impl EnvBatch {
         autoreset_mode: &str,
         diagnostics: bool,
         seed: u64,
+        randomize: Option<&Bound<'_, PyAny>>,
+        params: Option<&Bound<'_, PyAny>>,
+        mismatch: Option<&Bound<'_, PyAny>>,
+        obs_noise: Option<&Bound<'_, PyAny>>,
+        action_delay: i64,
+        force_rate_limit: Option<f64>,
     ) -> PyResult<Self> {
         let chain = model.get().chain.clone();
         let n = chain.n_links();
@@ -225,6 +235,14 @@ impl EnvBatch {
         if let Some([e_q, e_w]) = success_tolerances {
             task.success = SuccessTolerances { e_q, e_w };
         }
+        task.reality = reality_gap(RealityArgs {
+            randomize,
+            params,
+            mismatch,
+            obs_noise,
+            action_delay,
+            force_rate_limit,
+        })?;
         let obs_f64 = match obs_dtype {
             "float32" => false,
             "float64" => true,
@@ -292,7 +310,30 @@ impl EnvBatch {
         d.set_item("max_episode_steps", t.max_episode_steps)?;
         d.set_item("reward_weights", t.reward.as_array())?;
         d.set_item("success_tolerances", [t.success.e_q, t.success.e_w])?;
+        write_task_keys(py, &t.reality, &d)?;
         Ok(d)
+    }
+
+    /// The true parameters the envs share before randomisation (the model's, with
+    /// `params` and `mismatch` applied), as a dict.
+    fn true_params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        params_dict(py, self.batch.true_params())
+    }
+    /// Env `env`'s current true parameters (its own draw when randomised), as a dict.
+    fn env_params<'py>(&self, py: Python<'py>, env: usize) -> PyResult<Bound<'py, PyDict>> {
+        params_dict(py, &self.batch.env_params(env)?)
+    }
+    /// Every env's current true parameters as a dict of arrays with a leading
+    /// `num_envs` axis (`cart_mass`, `gravity`: `(num_envs,)`; `link_masses`,
+    /// `link_lengths`: `(num_envs, n_links)`).
+    fn param_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        match self.batch.per_env_params() {
+            Some(p) => param_arrays(py, p),
+            None => param_arrays(
+                py,
+                &EnvParams::filled(self.batch.true_params(), self.batch.n_envs()),
+            ),
+        }
     }
     /// The state episodes start from before noise.
     #[getter]
@@ -448,6 +489,21 @@ impl EnvBatch {
             .reshape([n, DIAGNOSTICS.len()])?
             .into_any())
     }
+    /// Every env's current observation (its state, or its last noisy reading when
+    /// `obs_noise` is set), shape `(num_envs, state_dim)`.
+    fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let shape = self.obs_shape(false);
+        let n = self.batch.n_envs() * self.batch.state_dim();
+        Ok(if self.obs_f64 {
+            let mut v = vec![0.0f64; n];
+            self.batch.write_obs(&mut v)?;
+            PyArray1::from_vec(py, v).reshape(shape)?.into_any()
+        } else {
+            let mut v = vec![0.0f32; n];
+            self.batch.write_obs(&mut v)?;
+            PyArray1::from_vec(py, v).reshape(shape)?.into_any()
+        })
+    }
     /// A copy of every env's float64 state, shape `(num_envs, state_dim)`.
     fn states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         Ok(PyArray1::from_slice(py, self.batch.states())
@@ -485,12 +541,25 @@ impl EnvBatch {
             PyArray1::from_vec(py, s.states).reshape(self.obs_shape(false))?,
         )?;
         let rng: Vec<u8> = s.rng.iter().flatten().copied().collect();
-        d.set_item(
-            "rng",
-            PyArray1::from_vec(py, rng).reshape([n, crate::env::batch::RNG_BYTES])?,
-        )?;
+        d.set_item("rng", PyArray1::from_vec(py, rng).reshape([n, RNG_BYTES])?)?;
         d.set_item("steps", PyArray1::from_vec(py, s.steps))?;
         d.set_item("ended", PyArray1::from_vec(py, s.ended))?;
+        let rng_array = |rows: &[[u8; RNG_BYTES]]| {
+            let flat: Vec<u8> = rows.iter().flatten().copied().collect();
+            PyArray1::from_vec(py, flat).reshape([rows.len(), RNG_BYTES])
+        };
+        d.set_item("param_rng", rng_array(&s.param_rng)?)?;
+        d.set_item("noise_rng", rng_array(&s.noise_rng)?)?;
+        let p = &s.params;
+        let params = PyDict::new(py);
+        params.set_item("cart_mass", PyArray1::from_slice(py, &p.cart_mass))?;
+        params.set_item("link_masses", PyArray1::from_slice(py, &p.link_masses))?;
+        params.set_item("link_lengths", PyArray1::from_slice(py, &p.link_lengths))?;
+        params.set_item("gravity", PyArray1::from_slice(py, &p.gravity))?;
+        d.set_item("env_params", params)?;
+        d.set_item("noisy_obs", PyArray1::from_vec(py, s.noisy_obs))?;
+        d.set_item("action_queue", PyArray1::from_vec(py, s.action_queue))?;
+        d.set_item("last_force", PyArray1::from_vec(py, s.last_force))?;
         Ok(d)
     }
 
@@ -505,30 +574,46 @@ impl EnvBatch {
         let states: PyReadonlyArray2<'_, f64> = get("states")?.extract()?;
         check_shape("snapshot states", states.shape(), &self.obs_shape(false))?;
         let rng: PyReadonlyArray2<'_, u8> = get("rng")?.extract()?;
-        check_shape(
-            "snapshot rng",
-            rng.shape(),
-            &[n, crate::env::batch::RNG_BYTES],
-        )?;
+        check_shape("snapshot rng", rng.shape(), &[n, RNG_BYTES])?;
         let steps: PyReadonlyArray1<'_, u64> = get("steps")?.extract()?;
         let ended: PyReadonlyArray1<'_, bool> = get("ended")?.extract()?;
-        let rng_rows = rng
-            .as_array()
-            .rows()
-            .into_iter()
-            .map(|r| {
-                let mut b = [0u8; crate::env::batch::RNG_BYTES];
-                for (x, y) in b.iter_mut().zip(r.iter()) {
-                    *x = *y;
-                }
-                b
-            })
-            .collect();
+        let rng_rows = |a: &PyReadonlyArray2<'_, u8>| -> Vec<[u8; RNG_BYTES]> {
+            a.as_array()
+                .rows()
+                .into_iter()
+                .map(|r| {
+                    let mut b = [0u8; RNG_BYTES];
+                    for (x, y) in b.iter_mut().zip(r.iter()) {
+                        *x = *y;
+                    }
+                    b
+                })
+                .collect()
+        };
+        let floats = |value: Bound<'_, PyAny>| -> PyResult<Vec<f64>> {
+            let a: PyReadonlyArray1<'_, f64> = value.extract()?;
+            Ok(a.as_array().to_vec())
+        };
+        let param_rng: PyReadonlyArray2<'_, u8> = get("param_rng")?.extract()?;
+        let noise_rng: PyReadonlyArray2<'_, u8> = get("noise_rng")?.extract()?;
+        let env_params = get("env_params")?;
+        let param = |key: &str| floats(env_params.get_item(key)?);
+        let mut params = EnvParams::empty(self.batch.n_links());
+        params.cart_mass = param("cart_mass")?;
+        params.link_masses = param("link_masses")?;
+        params.link_lengths = param("link_lengths")?;
+        params.gravity = param("gravity")?;
         let snap = Snapshot {
             states: states.as_array().iter().copied().collect(),
-            rng: rng_rows,
+            rng: rng_rows(&rng),
             steps: steps.as_array().to_vec(),
             ended: ended.as_array().to_vec(),
+            param_rng: rng_rows(&param_rng),
+            noise_rng: rng_rows(&noise_rng),
+            params,
+            noisy_obs: floats(get("noisy_obs")?)?,
+            action_queue: floats(get("action_queue")?)?,
+            last_force: floats(get("last_force")?)?,
         };
         Ok(self.batch.restore(&snap)?)
     }

@@ -6,6 +6,7 @@
 mod convert;
 mod env;
 mod model;
+mod reality;
 mod render;
 
 use pyo3::prelude::*;
@@ -49,5 +50,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("EVENT_RESET", crate::env::event::RESET)?;
     m.add("RNG_BYTES", crate::env::batch::RNG_BYTES)?;
+    m.add("REALITY_KEYS", reality::keys_table(py)?)?;
     Ok(())
 }

@@ -2,7 +2,9 @@
 //! counting allocator sees every thread, so no other test may run beside it).
 
 use chaincart::batch::CHUNK;
-use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs, TaskConfig};
+use chaincart::env::{
+    AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
+};
 use chaincart::{ChainParams, SpatialChain, StepOptions};
 #[path = "../common/alloc_counter.rs"]
 mod alloc_counter;
@@ -19,12 +21,27 @@ fn env_steps_and_resets_allocate_nothing() {
         AutoresetMode::SameStep,
         AutoresetMode::Disabled,
     ] {
-        for n in [1, CHUNK, 8 * CHUNK] {
+        for (n, reality) in [1, CHUNK, 8 * CHUNK]
+            .into_iter()
+            .flat_map(|n| [(n, false), (n, true)])
+        {
             let mut task = TaskConfig::new(vec![-1.0; 3], 0.01, StepOptions::default());
             // Short episodes and a narrow track: every kind of episode end happens.
             task.max_episode_steps = 3;
             task.track_limit = 0.05;
             task.start_noise = 0.1;
+            if reality {
+                // Per-env parameters drawn at every reset, noise, delay, rate limit.
+                let scale = Some(ParamRandomization {
+                    distribution: Distribution::relative(0.3),
+                    per_link: true,
+                });
+                task.reality.randomize.link_masses = scale;
+                task.reality.randomize.cart_mass = scale;
+                task.reality.obs_noise = vec![0.01];
+                task.reality.action_delay = 2;
+                task.reality.force_rate_limit = 200.0;
+            }
             let chain = SpatialChain::new(ChainParams::uniform(3, 1.0, 0.1, 0.3, 9.81).unwrap());
             let mut batch = EnvBatch::new(chain, task, n, 1, mode, true).unwrap();
             let d = batch.state_dim();
@@ -54,8 +71,10 @@ fn env_steps_and_resets_allocate_nothing() {
             run(&mut batch);
             let (after, after_here) = counts();
             let (during, here) = (after - before, after_here - before_here);
-            eprintln!("{mode:?} N = {n}: {during} allocations ({here} on the calling thread)");
-            assert_eq!(here, 0, "{mode:?} N = {n}");
+            eprintln!(
+                "{mode:?} N = {n} reality {reality}: {during} allocations ({here} on the calling thread)"
+            );
+            assert_eq!(here, 0, "{mode:?} N = {n} reality {reality}");
             // A stray allocation or two can come from the harness's other threads;
             // anything that scaled with N would show far more.
             assert!(during <= 5, "{mode:?} N = {n}: {during} allocations");

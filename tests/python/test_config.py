@@ -9,6 +9,10 @@ import numpy as np
 import pytest
 
 from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartError, RewardWeights
+from chaincart_env import _core
+from chaincart_env.config import REALITY_KEYS
+
+REALITY_NAMES = [k[0] for k in REALITY_KEYS]
 
 KEYWORDS = [
     "n_links", "cart_mass", "link_masses", "link_lengths", "gravity", "planar", "target", "start",
@@ -20,8 +24,9 @@ KEYWORDS = [
 def test_the_config_has_the_agreed_keyword_names() -> None:
     names = [f.name for f in dataclasses.fields(ChainCartConfig) if f.init]
     assert names[: len(KEYWORDS)] == KEYWORDS
-    # The only extras: success tolerances and the diagnostics switch.
-    assert names[len(KEYWORDS) :] == ["success_tolerances", "diagnostics"]
+    # The only extras: success tolerances, the diagnostics switch and the reality-gap
+    # keywords, exactly those the core defines, in its order.
+    assert names[len(KEYWORDS) :] == ["success_tolerances", "diagnostics", *(k[0] for k in REALITY_KEYS)]
 
 
 def test_default_scene_values() -> None:
@@ -41,6 +46,9 @@ def test_every_scene_resolves_and_validates(scene: str) -> None:
     assert c.scene == scene
     for key, value in SCENES[scene].items():
         got = getattr(c, key)
+        if key in REALITY_NAMES:
+            # Reality-gap values are kept in the core's canonical form.
+            value = _core.EnvBatch(c.make_model(), 1, **{key: value}).task[key]
         assert got == value or (isinstance(value, str) and np.dtype(value).name == got)
 
 

@@ -1,0 +1,587 @@
+//! How the simulated "real" system differs from the nominal model, and how it is
+//! sensed and actuated: fixed parameter mismatch, domain randomisation at reset,
+//! Gaussian observation noise, a control delay and a force-rate limit. Everything
+//! is off by default and then costs nothing.
+//!
+//! **Parameters.** The nominal parameters are the model's (what a controller
+//! designer knows). The env's *true* parameters are the nominal ones with
+//! [`RealityGap::params`] put in their place and then multiplied by
+//! [`RealityGap::mismatch`]; with [`RealityGap::randomize`] each reset draws new
+//! parameters around the true ones.
+//!
+//! **Random streams.** Every env's generator is ChaCha8 seeded with the env's seed;
+//! the start state uses its stream 0 (as without any of this), parameter draws its
+//! stream [`PARAM_STREAM`] and observation noise its stream [`NOISE_STREAM`]. Turning
+//! randomisation or noise on or off therefore changes no start state, and each feature
+//! is reproducible on its own.
+//!
+//! **Draw order at a reset** (only for the parameters that are randomised): the cart
+//! mass, the link masses (one number per link, or one shared), the link lengths
+//! (likewise), gravity. Each draw is `u` uniform in `[0, 1)` mapped as
+//! [`Distribution::sample`] says.
+
+use crate::error::{ChainError, Result};
+use crate::params::ChainParams;
+use rand::Rng;
+
+/// ChaCha8 stream number of the parameter draws of an env.
+pub const PARAM_STREAM: u64 = 1;
+/// ChaCha8 stream number of the observation noise of an env.
+pub const NOISE_STREAM: u64 = 2;
+
+/// A physical parameter that can be mismatched or randomised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Param {
+    CartMass,
+    LinkMasses,
+    LinkLengths,
+    Gravity,
+}
+
+impl Param {
+    pub const ALL: [Param; 4] = [
+        Param::CartMass,
+        Param::LinkMasses,
+        Param::LinkLengths,
+        Param::Gravity,
+    ];
+    pub const NAMES: &'static str = "\"cart_mass\", \"link_masses\", \"link_lengths\", \"gravity\"";
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Param::CartMass => "cart_mass",
+            Param::LinkMasses => "link_masses",
+            Param::LinkLengths => "link_lengths",
+            Param::Gravity => "gravity",
+        }
+    }
+
+    /// The parameter named `name`; `kind` (e.g. `"randomize"`) goes into the error.
+    pub fn from_name(kind: &'static str, name: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|p| p.name() == name)
+            .ok_or_else(|| ChainError::UnknownName {
+                kind,
+                name: name.to_string(),
+                expected: Self::NAMES,
+            })
+    }
+
+    /// One value per link (masses, lengths) rather than one number.
+    pub fn is_per_link(self) -> bool {
+        matches!(self, Param::LinkMasses | Param::LinkLengths)
+    }
+
+    /// `"<kind>.<name>"` as a static string, for error messages.
+    fn qualified(self, kind: Kind) -> &'static str {
+        match (kind, self) {
+            (Kind::Randomize, Param::CartMass) => "randomize.cart_mass",
+            (Kind::Randomize, Param::LinkMasses) => "randomize.link_masses",
+            (Kind::Randomize, Param::LinkLengths) => "randomize.link_lengths",
+            (Kind::Randomize, Param::Gravity) => "randomize.gravity",
+            (Kind::Params, Param::CartMass) => "params.cart_mass",
+            (Kind::Params, Param::LinkMasses) => "params.link_masses",
+            (Kind::Params, Param::LinkLengths) => "params.link_lengths",
+            (Kind::Params, Param::Gravity) => "params.gravity",
+            (Kind::Mismatch, Param::CartMass) => "mismatch.cart_mass",
+            (Kind::Mismatch, Param::LinkMasses) => "mismatch.link_masses",
+            (Kind::Mismatch, Param::LinkLengths) => "mismatch.link_lengths",
+            (Kind::Mismatch, Param::Gravity) => "mismatch.gravity",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    Randomize,
+    Params,
+    Mismatch,
+}
+
+/// How one parameter is drawn at a reset; `u` is uniform in `[0, 1)` and `p` the
+/// env's true (pre-randomisation) value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Distribution {
+    /// `p * (low + (high - low) u)`: a uniform relative scale. The number form `h`
+    /// of the `randomize` keyword is `Scale { low: 1 - h, high: 1 + h }`.
+    Scale { low: f64, high: f64 },
+    /// `p * exp(ln low + (ln high - ln low) u)`: a log-uniform relative scale.
+    LogScale { low: f64, high: f64 },
+    /// `low + (high - low) u`: a uniform absolute range (the nominal value is ignored).
+    Range { low: f64, high: f64 },
+    /// `exp(ln low + (ln high - ln low) u)`: a log-uniform absolute range.
+    LogRange { low: f64, high: f64 },
+}
+
+impl Distribution {
+    /// The `[1 - h, 1 + h]` scale of a relative half-width `h`.
+    pub fn relative(half_width: f64) -> Self {
+        Self::Scale {
+            low: 1.0 - half_width,
+            high: 1.0 + half_width,
+        }
+    }
+
+    /// `(low, high)` of the form.
+    pub fn bounds(self) -> (f64, f64) {
+        match self {
+            Self::Scale { low, high }
+            | Self::LogScale { low, high }
+            | Self::Range { low, high }
+            | Self::LogRange { low, high } => (low, high),
+        }
+    }
+
+    /// The value for the uniform number `u` in `[0, 1)` around the true value `p`.
+    #[inline]
+    pub fn sample(self, p: f64, u: f64) -> f64 {
+        let lerp = |a: f64, b: f64| a + (b - a) * u;
+        match self {
+            Self::Scale { low, high } => p * lerp(low, high),
+            Self::LogScale { low, high } => p * lerp(low.ln(), high.ln()).exp(),
+            Self::Range { low, high } => lerp(low, high),
+            Self::LogRange { low, high } => lerp(low.ln(), high.ln()).exp(),
+        }
+    }
+
+    fn validate(self, name: &'static str) -> Result<()> {
+        let (low, high) = self.bounds();
+        let expected = match self {
+            Self::Scale { .. } | Self::LogScale { .. } => {
+                "0 < low <= high, finite (a relative half-width must be in [0, 1): \
+                 a scale of 0 or less would make the parameter non-positive)"
+            }
+            Self::Range { .. } | Self::LogRange { .. } => {
+                "0 < low <= high, finite (a range reaching 0 or below could make the \
+                 parameter non-positive)"
+            }
+        };
+        if low.is_finite() && high.is_finite() && low > 0.0 && low <= high {
+            Ok(())
+        } else {
+            Err(ChainError::InvalidRange {
+                name,
+                low,
+                high,
+                expected,
+            })
+        }
+    }
+}
+
+/// The randomisation of one parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamRandomization {
+    pub distribution: Distribution,
+    /// Link masses and lengths: one draw per link (true) or one draw shared by all
+    /// links (false). Ignored for the cart mass and gravity.
+    pub per_link: bool,
+}
+
+/// Which parameters are redrawn at every reset (`None`: kept at the true value).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Randomization {
+    pub cart_mass: Option<ParamRandomization>,
+    pub link_masses: Option<ParamRandomization>,
+    pub link_lengths: Option<ParamRandomization>,
+    pub gravity: Option<ParamRandomization>,
+}
+
+impl Randomization {
+    pub fn get(&self, p: Param) -> Option<ParamRandomization> {
+        match p {
+            Param::CartMass => self.cart_mass,
+            Param::LinkMasses => self.link_masses,
+            Param::LinkLengths => self.link_lengths,
+            Param::Gravity => self.gravity,
+        }
+    }
+    pub fn set(&mut self, p: Param, value: Option<ParamRandomization>) {
+        match p {
+            Param::CartMass => self.cart_mass = value,
+            Param::LinkMasses => self.link_masses = value,
+            Param::LinkLengths => self.link_lengths = value,
+            Param::Gravity => self.gravity = value,
+        }
+    }
+    /// Nothing is randomised.
+    pub fn is_off(&self) -> bool {
+        Param::ALL.iter().all(|&p| self.get(p).is_none())
+    }
+    pub fn validate(&self) -> Result<()> {
+        for p in Param::ALL {
+            if let Some(r) = self.get(p) {
+                r.distribution.validate(p.qualified(Kind::Randomize))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Some physical parameters, each a number or (masses, lengths) one number per link
+/// or a single number for all links. Used both for absolute values
+/// ([`RealityGap::params`]) and for scale factors ([`RealityGap::mismatch`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ParamValues {
+    pub cart_mass: Option<f64>,
+    pub link_masses: Option<Vec<f64>>,
+    pub link_lengths: Option<Vec<f64>>,
+    pub gravity: Option<f64>,
+}
+
+impl ParamValues {
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// Sets one parameter from a list of numbers (one number for the cart mass and
+    /// gravity; one or one per link for the link parameters).
+    pub fn set(&mut self, p: Param, values: Vec<f64>) {
+        match p {
+            Param::CartMass => self.cart_mass = values.first().copied(),
+            Param::LinkMasses => self.link_masses = Some(values),
+            Param::LinkLengths => self.link_lengths = Some(values),
+            Param::Gravity => self.gravity = values.first().copied(),
+        }
+    }
+
+    fn validate(&self, kind: Kind, n: usize) -> Result<()> {
+        let positive = |name, value: f64| {
+            if value.is_finite() && value > 0.0 {
+                Ok(())
+            } else {
+                Err(ChainError::InvalidParameter {
+                    name,
+                    value,
+                    expected: "a finite number > 0",
+                })
+            }
+        };
+        if let Some(v) = self.cart_mass {
+            positive(Param::CartMass.qualified(kind), v)?;
+        }
+        if let Some(v) = self.gravity {
+            positive(Param::Gravity.qualified(kind), v)?;
+        }
+        for (p, values) in [
+            (Param::LinkMasses, &self.link_masses),
+            (Param::LinkLengths, &self.link_lengths),
+        ] {
+            let Some(values) = values else { continue };
+            let name = p.qualified(kind);
+            if values.len() != 1 && values.len() != n {
+                return Err(ChainError::LengthMismatch {
+                    name,
+                    got: values.len(),
+                    expected: n,
+                });
+            }
+            for (link, &value) in values.iter().enumerate() {
+                if !(value.is_finite() && value > 0.0) {
+                    return Err(ChainError::InvalidLinkParameter {
+                        name,
+                        link,
+                        value,
+                        expected: "a finite number > 0",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Link value `i` of a one-or-per-link list.
+fn link_value(values: &[f64], i: usize) -> f64 {
+    if values.len() == 1 {
+        values[0]
+    } else {
+        values[i]
+    }
+}
+
+/// How the env's true system, its sensors and its actuator differ from the nominal
+/// model. The default is the nominal model, sensed exactly, actuated at once.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RealityGap {
+    /// True parameter values replacing the nominal ones (absent: nominal).
+    pub params: ParamValues,
+    /// Factors multiplying the (replaced) parameters (absent: 1).
+    pub mismatch: ParamValues,
+    /// Parameters redrawn at every reset around the true values.
+    pub randomize: Randomization,
+    /// Standard deviation of the Gaussian noise added to each observation component:
+    /// empty (none), one number for every component, or one per component.
+    pub obs_noise: Vec<f64>,
+    /// The force applied at step t is the action of step `t - action_delay` (zero
+    /// force for the first `action_delay` steps of an episode).
+    pub action_delay: usize,
+    /// Largest change of the applied force per second, per cart axis (N/s);
+    /// `f64::INFINITY` is no limit.
+    pub force_rate_limit: f64,
+}
+
+impl Default for RealityGap {
+    fn default() -> Self {
+        Self {
+            params: ParamValues::default(),
+            mismatch: ParamValues::default(),
+            randomize: Randomization::default(),
+            obs_noise: Vec::new(),
+            action_delay: 0,
+            force_rate_limit: f64::INFINITY,
+        }
+    }
+}
+
+impl RealityGap {
+    /// Checks every field for a chain of `n` links whose state has `state_dim` numbers.
+    pub fn validate(&self, n: usize, state_dim: usize) -> Result<()> {
+        self.params.validate(Kind::Params, n)?;
+        self.mismatch.validate(Kind::Mismatch, n)?;
+        self.randomize.validate()?;
+        if self.obs_noise.len() > 1 && self.obs_noise.len() != state_dim {
+            return Err(ChainError::LengthMismatch {
+                name: "obs_noise",
+                got: self.obs_noise.len(),
+                expected: state_dim,
+            });
+        }
+        for (index, &value) in self.obs_noise.iter().enumerate() {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ChainError::InvalidLinkParameter {
+                    name: "obs_noise",
+                    link: index,
+                    value,
+                    expected: "a finite standard deviation >= 0",
+                });
+            }
+        }
+        if !(self.force_rate_limit > 0.0) {
+            return Err(ChainError::InvalidParameter {
+                name: "force_rate_limit",
+                value: self.force_rate_limit,
+                expected: "a number > 0 (N/s), or none for no limit",
+            });
+        }
+        Ok(())
+    }
+
+    /// A control delay given as a signed integer (as it arrives from a config).
+    pub fn delay_from(value: i64) -> Result<usize> {
+        usize::try_from(value).map_err(|_| ChainError::InvalidParameter {
+            name: "action_delay",
+            value: value as f64,
+            expected: "an integer >= 0 (control periods)",
+        })
+    }
+
+    /// Observation noise is on (some component has a scale > 0).
+    pub fn has_obs_noise(&self) -> bool {
+        self.obs_noise.iter().any(|&s| s > 0.0)
+    }
+
+    /// The noise scale of observation component `k`.
+    #[inline]
+    pub fn noise_scale(&self, k: usize) -> f64 {
+        link_value(&self.obs_noise, k)
+    }
+
+    /// A force-rate limit is set.
+    pub fn has_rate_limit(&self) -> bool {
+        self.force_rate_limit.is_finite()
+    }
+
+    /// The true system differs from the nominal one before any randomisation.
+    pub fn has_mismatch(&self) -> bool {
+        !self.params.is_empty() || !self.mismatch.is_empty()
+    }
+
+    /// The env's true (pre-randomisation) parameters for the `nominal` ones.
+    pub fn true_params(&self, nominal: &ChainParams) -> Result<ChainParams> {
+        let n = nominal.n_links();
+        self.params.validate(Kind::Params, n)?;
+        self.mismatch.validate(Kind::Mismatch, n)?;
+        let (p, s) = (&self.params, &self.mismatch);
+        let scalar = |value: Option<f64>, nominal: f64, factor: Option<f64>| {
+            value.unwrap_or(nominal) * factor.unwrap_or(1.0)
+        };
+        let links = |values: &Option<Vec<f64>>, nominal: &[f64], factors: &Option<Vec<f64>>| {
+            (0..n)
+                .map(|i| {
+                    let v = values.as_deref().map_or(nominal[i], |v| link_value(v, i));
+                    v * factors.as_deref().map_or(1.0, |f| link_value(f, i))
+                })
+                .collect::<Vec<f64>>()
+        };
+        ChainParams::new(
+            scalar(p.cart_mass, nominal.cart_mass(), s.cart_mass),
+            &links(&p.link_masses, nominal.masses(), &s.link_masses),
+            &links(&p.link_lengths, nominal.lengths(), &s.link_lengths),
+            scalar(p.gravity, nominal.gravity(), s.gravity),
+        )
+    }
+}
+
+/// One env's parameters inside [`EnvParams`]: mutable views of its rows.
+pub struct ParamRow<'a> {
+    pub cart_mass: &'a mut f64,
+    pub link_masses: &'a mut [f64],
+    pub link_lengths: &'a mut [f64],
+    pub gravity: &'a mut f64,
+}
+
+impl ParamRow<'_> {
+    /// Draws new values around `truth` from `rng`, in the documented order.
+    pub fn sample<R: Rng>(&mut self, r: &Randomization, truth: &ChainParams, rng: &mut R) {
+        *self.cart_mass = match r.cart_mass {
+            Some(d) => d.distribution.sample(truth.cart_mass(), rng.random()),
+            None => truth.cart_mass(),
+        };
+        sample_links(r.link_masses, truth.masses(), self.link_masses, rng);
+        sample_links(r.link_lengths, truth.lengths(), self.link_lengths, rng);
+        *self.gravity = match r.gravity {
+            Some(d) => d.distribution.sample(truth.gravity(), rng.random()),
+            None => truth.gravity(),
+        };
+    }
+}
+
+fn sample_links<R: Rng>(
+    r: Option<ParamRandomization>,
+    truth: &[f64],
+    out: &mut [f64],
+    rng: &mut R,
+) {
+    match r {
+        None => out.copy_from_slice(truth),
+        Some(d) if d.per_link => {
+            for (o, &p) in out.iter_mut().zip(truth) {
+                *o = d.distribution.sample(p, rng.random());
+            }
+        }
+        Some(d) => {
+            let u: f64 = rng.random();
+            for (o, &p) in out.iter_mut().zip(truth) {
+                *o = d.distribution.sample(p, u);
+            }
+        }
+    }
+}
+
+/// Per-env physical parameters, struct of arrays: one contiguous vector per parameter
+/// across the envs of a batch (`cart_mass[i]`, `link_masses[i*n..(i+1)*n]`, ...), so
+/// that a kernel stepping several envs at once can load them lane by lane.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnvParams {
+    n_links: usize,
+    pub cart_mass: Vec<f64>,
+    pub link_masses: Vec<f64>,
+    pub link_lengths: Vec<f64>,
+    pub gravity: Vec<f64>,
+}
+
+impl EnvParams {
+    /// `n_envs` copies of `p`.
+    pub fn filled(p: &ChainParams, n_envs: usize) -> Self {
+        Self {
+            n_links: p.n_links(),
+            cart_mass: vec![p.cart_mass(); n_envs],
+            link_masses: p.masses().repeat(n_envs),
+            link_lengths: p.lengths().repeat(n_envs),
+            gravity: vec![p.gravity(); n_envs],
+        }
+    }
+    /// No per-env storage (the batch shares one parameter set).
+    pub fn empty(n_links: usize) -> Self {
+        Self {
+            n_links,
+            cart_mass: Vec::new(),
+            link_masses: Vec::new(),
+            link_lengths: Vec::new(),
+            gravity: Vec::new(),
+        }
+    }
+    pub fn n_links(&self) -> usize {
+        self.n_links
+    }
+    /// Number of envs stored (0 when shared).
+    pub fn n_envs(&self) -> usize {
+        self.cart_mass.len()
+    }
+    /// Env `i`'s parameters as a checked [`ChainParams`].
+    pub fn get(&self, i: usize) -> Result<ChainParams> {
+        let n = self.n_links;
+        ChainParams::new(
+            self.cart_mass[i],
+            &self.link_masses[i * n..(i + 1) * n],
+            &self.link_lengths[i * n..(i + 1) * n],
+            self.gravity[i],
+        )
+    }
+}
+
+/// The default value of a configuration keyword.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum KeyDefault {
+    /// Absent (the feature is off).
+    None,
+    /// An integer.
+    Int(i64),
+}
+
+/// One configuration keyword of the reality gap: the single definition of its name,
+/// default and help that the Python configuration and its documentation read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KeySpec {
+    pub name: &'static str,
+    pub default: KeyDefault,
+    pub help: &'static str,
+}
+
+/// The keywords of [`RealityGap`], in documentation order.
+pub const KEYS: [KeySpec; 6] = [
+    KeySpec {
+        name: "randomize",
+        default: KeyDefault::None,
+        help: "Domain randomisation at every reset: a dict mapping cart_mass, link_masses, \
+               link_lengths, gravity to a relative half-width h (value times U[1-h, 1+h], \
+               0 <= h < 1) or to a dict with one of \"scale\": h or [low, high], \
+               \"log_scale\": [low, high], \"range\": [low, high] (absolute), \
+               \"log_range\": [low, high] (absolute, log-uniform), and optionally \
+               \"per_link\": false to draw one number shared by all links.",
+    },
+    KeySpec {
+        name: "params",
+        default: KeyDefault::None,
+        help: "The true physical parameters when they differ from the model's: a dict \
+               with some of cart_mass, link_masses, link_lengths, gravity (a number, or \
+               one number per link), or a ChainCart. The env's model stays nominal.",
+    },
+    KeySpec {
+        name: "mismatch",
+        default: KeyDefault::None,
+        help: "Scale factors from the nominal (or params) values to the true ones: a \
+               dict with some of cart_mass, link_masses, link_lengths, gravity (a factor, \
+               or one factor per link).",
+    },
+    KeySpec {
+        name: "obs_noise",
+        default: KeyDefault::None,
+        help: "Standard deviation of Gaussian noise added to every observation: one \
+               number for all components or one per component (state units).",
+    },
+    KeySpec {
+        name: "action_delay",
+        default: KeyDefault::Int(0),
+        help: "Control delay in control periods: the force of step t comes from the \
+               action of step t - action_delay (zero force before that).",
+    },
+    KeySpec {
+        name: "force_rate_limit",
+        default: KeyDefault::None,
+        help: "Largest change of the applied force per second, per cart axis (N/s); \
+               None for no limit.",
+    },
+];

@@ -1,0 +1,598 @@
+//! One control period of a range of envs: named per-env views of the batch's arrays,
+//! the reset of one env and the step of one env (actuation, physics, scoring,
+//! sensing). The batch splits its envs into fixed chunks of [`CHUNK`] envs, each with
+//! its own [`Worker`]; chunks run in parallel, and no env reads another's data, so the
+//! split never changes a result.
+
+use super::batch::{event, Real, DIAGNOSTICS};
+use super::config::{AutoresetMode, TaskConfig};
+use super::reality::{EnvParams, ParamRow, RealityGap};
+use super::start::perturb;
+use crate::batch::{GuardedStepper, CHUNK};
+use crate::geometry::{Geometry, Layout, Vector};
+use crate::model::Chain;
+use crate::params::ChainParams;
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+/// Per-env bookkeeping besides the state.
+#[derive(Debug, Clone)]
+pub(super) struct Slot {
+    /// Stream 0 of the env's generator: start states.
+    pub rng: ChaCha8Rng,
+    pub steps: u64,
+    /// The episode has ended and the env has not been reset since.
+    pub ended: bool,
+}
+
+/// Numbers per env of each per-env array (0 for a feature that is off).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Widths {
+    /// State (and observation) length.
+    pub state: usize,
+    /// Action length.
+    pub force: usize,
+    /// Links stored per env in [`EnvParams`] (0: parameters shared).
+    pub param_links: usize,
+    /// 1 when each env stores its own scalar parameters and parameter stream.
+    pub param_scalars: usize,
+    /// Delayed actions per env (`action_delay * force`).
+    pub queue: usize,
+    /// Noisy observation per env (`state` when noise is on).
+    pub noisy: usize,
+    /// Last applied force per env (`force` with a rate limit).
+    pub last_force: usize,
+    /// 1 when each env has an observation-noise stream.
+    pub noise_rng: usize,
+}
+
+impl Widths {
+    pub fn new<G: Geometry>(chain: &Chain<G>, reality: &RealityGap) -> Self {
+        let (d, f) = (chain.state_dim(), chain.force_dim());
+        let randomized = !reality.randomize.is_off();
+        let noise = reality.has_obs_noise();
+        Self {
+            state: d,
+            force: f,
+            param_links: if randomized { chain.n_links() } else { 0 },
+            param_scalars: randomized as usize,
+            queue: reality.action_delay * f,
+            noisy: if noise { d } else { 0 },
+            last_force: if reality.has_rate_limit() { f } else { 0 },
+            noise_rng: noise as usize,
+        }
+    }
+}
+
+/// The evolving per-env data of a batch, each a contiguous array over the envs
+/// (empty for a feature that is off).
+#[derive(Debug, Clone)]
+pub(super) struct EnvData {
+    pub states: Vec<f64>,
+    pub slots: Vec<Slot>,
+    pub params: EnvParams,
+    /// Parameter stream of each env's generator (randomisation on).
+    pub param_rngs: Vec<ChaCha8Rng>,
+    /// Observation-noise stream of each env's generator (noise on).
+    pub noise_rngs: Vec<ChaCha8Rng>,
+    /// The last observation each env emitted (noise on).
+    pub noisy_obs: Vec<f64>,
+    /// Actions waiting to be applied, a ring of `action_delay` per env.
+    pub queue: Vec<f64>,
+    /// The force applied on the last step (rate limit on).
+    pub last_force: Vec<f64>,
+}
+
+impl EnvData {
+    pub fn view(&mut self) -> DataRange<'_> {
+        DataRange {
+            states: &mut self.states,
+            slots: &mut self.slots,
+            cart_mass: &mut self.params.cart_mass,
+            link_masses: &mut self.params.link_masses,
+            link_lengths: &mut self.params.link_lengths,
+            gravity: &mut self.params.gravity,
+            param_rngs: &mut self.param_rngs,
+            noise_rngs: &mut self.noise_rngs,
+            noisy_obs: &mut self.noisy_obs,
+            queue: &mut self.queue,
+            last_force: &mut self.last_force,
+        }
+    }
+}
+
+/// Splits `s` after `at` envs of `width` numbers each (an empty array splits into
+/// two empty halves).
+fn cut<S>(s: &mut [S], at: usize, width: usize) -> (&mut [S], &mut [S]) {
+    let at = (at * width).min(s.len());
+    s.split_at_mut(at)
+}
+
+/// Env `k`'s row of `width` numbers.
+fn row<S>(s: &mut [S], k: usize, width: usize) -> &mut [S] {
+    &mut s[k * width..(k + 1) * width]
+}
+
+/// The evolving data of a contiguous range of envs.
+pub(super) struct DataRange<'a> {
+    states: &'a mut [f64],
+    slots: &'a mut [Slot],
+    cart_mass: &'a mut [f64],
+    link_masses: &'a mut [f64],
+    link_lengths: &'a mut [f64],
+    gravity: &'a mut [f64],
+    param_rngs: &'a mut [ChaCha8Rng],
+    noise_rngs: &'a mut [ChaCha8Rng],
+    noisy_obs: &'a mut [f64],
+    queue: &'a mut [f64],
+    last_force: &'a mut [f64],
+}
+
+impl<'a> DataRange<'a> {
+    fn split_at(self, at: usize, w: &Widths) -> (Self, Self) {
+        let (states, states2) = cut(self.states, at, w.state);
+        let (slots, slots2) = cut(self.slots, at, 1);
+        let (cart_mass, cart_mass2) = cut(self.cart_mass, at, w.param_scalars);
+        let (link_masses, link_masses2) = cut(self.link_masses, at, w.param_links);
+        let (link_lengths, link_lengths2) = cut(self.link_lengths, at, w.param_links);
+        let (gravity, gravity2) = cut(self.gravity, at, w.param_scalars);
+        let (param_rngs, param_rngs2) = cut(self.param_rngs, at, w.param_scalars);
+        let (noise_rngs, noise_rngs2) = cut(self.noise_rngs, at, w.noise_rng);
+        let (noisy_obs, noisy_obs2) = cut(self.noisy_obs, at, w.noisy);
+        let (queue, queue2) = cut(self.queue, at, w.queue);
+        let (last_force, last_force2) = cut(self.last_force, at, w.last_force);
+        (
+            Self {
+                states,
+                slots,
+                cart_mass,
+                link_masses,
+                link_lengths,
+                gravity,
+                param_rngs,
+                noise_rngs,
+                noisy_obs,
+                queue,
+                last_force,
+            },
+            DataRange {
+                states: states2,
+                slots: slots2,
+                cart_mass: cart_mass2,
+                link_masses: link_masses2,
+                link_lengths: link_lengths2,
+                gravity: gravity2,
+                param_rngs: param_rngs2,
+                noise_rngs: noise_rngs2,
+                noisy_obs: noisy_obs2,
+                queue: queue2,
+                last_force: last_force2,
+            },
+        )
+    }
+
+    fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// The named view of env `k` of the range.
+    pub fn env(&mut self, k: usize, w: &Widths) -> EnvMut<'_> {
+        let params = (w.param_scalars == 1).then(|| ParamRow {
+            cart_mass: &mut self.cart_mass[k],
+            link_masses: row(self.link_masses, k, w.param_links),
+            link_lengths: row(self.link_lengths, k, w.param_links),
+            gravity: &mut self.gravity[k],
+        });
+        EnvMut {
+            y: row(self.states, k, w.state),
+            slot: &mut self.slots[k],
+            params,
+            param_rng: self.param_rngs.get_mut(k),
+            noise_rng: self.noise_rngs.get_mut(k),
+            noisy_obs: row(self.noisy_obs, k, w.noisy),
+            queue: row(self.queue, k, w.queue),
+            last_force: row(self.last_force, k, w.last_force),
+        }
+    }
+}
+
+/// Everything that evolves in one env.
+pub(super) struct EnvMut<'a> {
+    pub y: &'a mut [f64],
+    pub slot: &'a mut Slot,
+    /// The env's own parameters (randomisation on), else the batch's shared set.
+    pub params: Option<ParamRow<'a>>,
+    pub param_rng: Option<&'a mut ChaCha8Rng>,
+    pub noise_rng: Option<&'a mut ChaCha8Rng>,
+    pub noisy_obs: &'a mut [f64],
+    pub queue: &'a mut [f64],
+    pub last_force: &'a mut [f64],
+}
+
+/// The caller's actions and the output arrays of a contiguous range of envs.
+pub(super) struct OutRange<'a, T: Real, A: Real> {
+    pub actions: &'a [A],
+    pub obs: &'a mut [T],
+    pub rewards: &'a mut [f64],
+    pub terminated: &'a mut [bool],
+    pub truncated: &'a mut [bool],
+    pub events: &'a mut [u8],
+    pub errors: &'a mut [f64],
+    pub finals: &'a mut [f64],
+    pub diag: &'a mut [f64],
+}
+
+impl<'a, T: Real, A: Real> OutRange<'a, T, A> {
+    fn split_at(self, at: usize, w: &Widths) -> (Self, Self) {
+        let (actions, actions2) = self
+            .actions
+            .split_at((at * w.force).min(self.actions.len()));
+        let (obs, obs2) = cut(self.obs, at, w.state);
+        let (rewards, rewards2) = cut(self.rewards, at, 1);
+        let (terminated, terminated2) = cut(self.terminated, at, 1);
+        let (truncated, truncated2) = cut(self.truncated, at, 1);
+        let (events, events2) = cut(self.events, at, 1);
+        let (errors, errors2) = cut(self.errors, at, 2);
+        let (finals, finals2) = cut(self.finals, at, w.state);
+        let (diag, diag2) = cut(self.diag, at, DIAGNOSTICS.len());
+        (
+            Self {
+                actions,
+                obs,
+                rewards,
+                terminated,
+                truncated,
+                events,
+                errors,
+                finals,
+                diag,
+            },
+            OutRange {
+                actions: actions2,
+                obs: obs2,
+                rewards: rewards2,
+                terminated: terminated2,
+                truncated: truncated2,
+                events: events2,
+                errors: errors2,
+                finals: finals2,
+                diag: diag2,
+            },
+        )
+    }
+
+    fn env(&mut self, k: usize, w: &Widths) -> EnvOut<'_, T, A> {
+        let nd = DIAGNOSTICS.len();
+        EnvOut {
+            action: &self.actions[k * w.force..(k + 1) * w.force],
+            obs: row(self.obs, k, w.state),
+            reward: &mut self.rewards[k],
+            terminated: &mut self.terminated[k],
+            truncated: &mut self.truncated[k],
+            event: &mut self.events[k],
+            errors: row(self.errors, k, 2),
+            finals: row(self.finals, k, w.state),
+            diag: row(self.diag, k, nd),
+        }
+    }
+}
+
+/// One env's action and outputs.
+pub(super) struct EnvOut<'a, T: Real, A: Real> {
+    action: &'a [A],
+    obs: &'a mut [T],
+    reward: &'a mut f64,
+    terminated: &'a mut bool,
+    truncated: &'a mut bool,
+    event: &'a mut u8,
+    errors: &'a mut [f64],
+    finals: &'a mut [f64],
+    diag: &'a mut [f64],
+}
+
+/// Scratch of one chunk: the integrator and a chain that per-env parameters are
+/// loaded into.
+#[derive(Debug, Clone)]
+pub(super) struct Worker<G: Geometry> {
+    stepper: GuardedStepper<G>,
+    chain: Chain<G>,
+}
+
+impl<G: Geometry> Worker<G> {
+    pub fn new(chain: &Chain<G>) -> Self {
+        Self {
+            stepper: GuardedStepper::new(chain),
+            chain: chain.clone(),
+        }
+    }
+}
+
+/// Everything a step reads (shared by all chunks).
+pub(super) struct Ctx<'a, G: Geometry> {
+    /// The true system shared by all envs when parameters are not per env.
+    pub chain: &'a Chain<G>,
+    /// The true parameters randomisation draws around.
+    pub truth: &'a ChainParams,
+    pub task: &'a TaskConfig,
+    pub base: &'a [f64],
+    pub mode: AutoresetMode,
+    pub diagnostics: bool,
+    pub widths: Widths,
+}
+
+/// Steps every env of the range, splitting it at chunk boundaries and running the
+/// halves in parallel; a range of one chunk runs on this thread.
+pub(super) fn run_range<G: Geometry, T: Real, A: Real>(
+    ctx: &Ctx<'_, G>,
+    mut data: DataRange<'_>,
+    mut out: OutRange<'_, T, A>,
+    workers: &mut [Worker<G>],
+) {
+    let len = data.len();
+    if len <= CHUNK {
+        let worker = &mut workers[0];
+        for k in 0..len {
+            step_env(
+                ctx,
+                worker,
+                data.env(k, &ctx.widths),
+                out.env(k, &ctx.widths),
+            );
+        }
+        return;
+    }
+    let chunks = len.div_ceil(CHUNK);
+    let mid = chunks / 2 * CHUNK;
+    let (data_a, data_b) = data.split_at(mid, &ctx.widths);
+    let (out_a, out_b) = out.split_at(mid, &ctx.widths);
+    let (workers_a, workers_b) = workers.split_at_mut(chunks / 2);
+    rayon::join(
+        || run_range(ctx, data_a, out_a, workers_a),
+        || run_range(ctx, data_b, out_b, workers_b),
+    );
+}
+
+/// The chain env `e` steps with: the shared true chain, or the worker's scratch chain
+/// loaded with the env's own parameters.
+fn env_chain<'c, G: Geometry>(
+    ctx: &'c Ctx<'_, G>,
+    scratch: &'c mut Chain<G>,
+    params: &Option<ParamRow<'_>>,
+) -> &'c Chain<G> {
+    match params {
+        None => ctx.chain,
+        Some(p) => {
+            scratch.set_params_unchecked(*p.cart_mass, p.link_masses, p.link_lengths, *p.gravity);
+            scratch
+        }
+    }
+}
+
+/// Starts a new episode in env `e`: the start state (stream 0, as always), new
+/// parameters (randomisation on), an empty delay line and zero last force.
+pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
+    perturb(
+        ctx.chain.layout(),
+        ctx.base,
+        ctx.task.start_noise,
+        &mut e.slot.rng,
+        e.y,
+    );
+    e.slot.steps = 0;
+    e.slot.ended = false;
+    if let (Some(p), Some(rng)) = (e.params.as_mut(), e.param_rng.as_deref_mut()) {
+        p.sample(&ctx.task.reality.randomize, ctx.truth, rng);
+    }
+    e.queue.fill(0.0);
+    e.last_force.fill(0.0);
+}
+
+/// `dst = y + sigma * z` per component, `z` standard normal from `rng`.
+fn add_noise(reality: &RealityGap, y: &[f64], rng: &mut ChaCha8Rng, dst: &mut [f64]) {
+    for (k, (o, &v)) in dst.iter_mut().zip(y).enumerate() {
+        let z: f64 = rng.sample(StandardNormal);
+        *o = v + reality.noise_scale(k) * z;
+    }
+}
+
+/// With sensor noise on, takes a fresh noisy reading of env `e`'s state into
+/// `e.noisy_obs`, the env's current observation; without, does nothing.
+pub(super) fn sense(reality: &RealityGap, e: &mut EnvMut<'_>) {
+    if let Some(rng) = e.noise_rng.as_deref_mut() {
+        add_noise(reality, e.y, rng, e.noisy_obs);
+    }
+}
+
+/// Writes env `e`'s observation: its state, or a fresh noisy reading of it.
+pub(super) fn emit_obs<T: Real>(reality: &RealityGap, e: &mut EnvMut<'_>, obs: &mut [T]) {
+    if e.noise_rng.is_some() {
+        sense(reality, e);
+        write_obs(e.noisy_obs, obs);
+    } else {
+        write_obs(e.y, obs);
+    }
+}
+
+#[inline(always)]
+pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
+    for (o, &s) in obs.iter_mut().zip(y) {
+        *o = T::from_f64(s);
+    }
+}
+
+/// The force the actuator applies for `action` and the squared norm of the applied
+/// normalised action (for the reward): clip to `[-1, 1]`, delay by `action_delay`
+/// control periods, scale by `max_force`, limit the change per period to
+/// `force_rate_limit * dt` per axis.
+fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A]) -> ([f64; 3], f64) {
+    let f = action.len();
+    let mut a = [0.0; 3];
+    for (ak, x) in a.iter_mut().zip(action) {
+        *ak = x.to_f64().clamp(-1.0, 1.0);
+    }
+    let delay = task.reality.action_delay;
+    if delay > 0 {
+        // The ring slot of this step holds the action of `delay` steps ago.
+        let j = (e.slot.steps % delay as u64) as usize * f;
+        for (ak, queued) in a.iter_mut().zip(&mut e.queue[j..j + f]) {
+            std::mem::swap(ak, queued);
+        }
+    }
+    let mut force = [0.0; 3];
+    let mut a2 = 0.0;
+    for (fk, &ak) in force.iter_mut().zip(&a[..f]) {
+        a2 += ak * ak;
+        *fk = ak * task.max_force;
+    }
+    if !e.last_force.is_empty() {
+        let max_change = task.reality.force_rate_limit * task.dt;
+        a2 = 0.0;
+        for (k, (fk, last)) in force.iter_mut().zip(e.last_force.iter_mut()).enumerate() {
+            *fk = fk.clamp(*last - max_change, *last + max_change);
+            *last = *fk;
+            let applied = if task.max_force > 0.0 {
+                *fk / task.max_force
+            } else {
+                a[k]
+            };
+            a2 += applied * applied;
+        }
+    }
+    (force, a2)
+}
+
+/// `(sum |q_i - s_i e3|^2, sum |w_i|^2, e_q, e_w)`.
+#[inline(always)]
+pub(super) fn distances<G: Geometry>(lay: Layout<G>, y: &[f64], s: &[f64]) -> (f64, f64, f64, f64) {
+    let (mut q2, mut w2, mut e_q, mut e_w) = (0.0, 0.0, 0.0, 0.0);
+    for (i, &si) in s.iter().enumerate() {
+        let dq = (lay.load_q(y, i) - G::down_unit() * si).norm_squared();
+        let dw = lay.load_w(y, i).norm_squared();
+        q2 += dq;
+        w2 += dw;
+        e_q += dq.sqrt();
+        e_w += dw.sqrt();
+    }
+    (q2, w2, e_q, e_w)
+}
+
+fn write_diagnostics<G: Geometry>(chain: &Chain<G>, y: &[f64], diag: &mut [f64]) {
+    let e = chain.energy(y);
+    let r = chain.residuals(y);
+    diag.copy_from_slice(&[e.total(), e.kinetic, e.potential, r.unit_length, r.tangency]);
+}
+
+/// Next-step autoreset: the step after an episode ended resets the env instead.
+fn autoreset_step<G: Geometry, T: Real, A: Real>(
+    ctx: &Ctx<'_, G>,
+    scratch: &mut Chain<G>,
+    mut e: EnvMut<'_>,
+    o: EnvOut<'_, T, A>,
+) {
+    reset_env(ctx, &mut e);
+    emit_obs(&ctx.task.reality, &mut e, o.obs);
+    *o.reward = 0.0;
+    *o.terminated = false;
+    *o.truncated = false;
+    *o.event = event::RESET;
+    let (_, _, e_q, e_w) = distances(ctx.chain.layout(), e.y, &ctx.task.target);
+    o.errors.copy_from_slice(&[e_q, e_w]);
+    if ctx.diagnostics {
+        let chain = env_chain(ctx, scratch, &e.params);
+        write_diagnostics(chain, e.y, o.diag);
+    }
+}
+
+/// Reward, flags, errors and event bits of the state an env step reached.
+fn score<G: Geometry>(
+    ctx: &Ctx<'_, G>,
+    y: &[f64],
+    steps: u64,
+    failed: bool,
+    a2: f64,
+    o: &mut EnvOut<'_, impl Real, impl Real>,
+) -> u8 {
+    let task = ctx.task;
+    let lay = ctx.chain.layout();
+    let off_track = !failed
+        && y[lay.x()..lay.x() + G::Cart::DIM]
+            .iter()
+            .any(|x| x.abs() > task.track_limit);
+    let terminated = failed || off_track;
+    let truncated = steps >= task.max_episode_steps;
+    let (q2, w2, e_q, e_w) = distances(lay, y, &task.target);
+    let w = &task.reward;
+    *o.reward = if failed {
+        0.0
+    } else {
+        let x2 = lay.load_x(y).norm_squared();
+        let v2 = lay.load_xdot(y).norm_squared();
+        (-(w.q * q2 + w.w * w2 + w.x * x2 + w.v * v2 + w.u * a2)).exp()
+    };
+    *o.terminated = terminated;
+    *o.truncated = truncated;
+    o.errors.copy_from_slice(&[e_q, e_w]);
+    let mut ev = 0;
+    if terminated || truncated {
+        ev |= event::ENDED;
+        if !terminated && e_q <= task.success.e_q && e_w <= task.success.e_w {
+            ev |= event::SUCCESS;
+        }
+    }
+    if off_track {
+        ev |= event::OUT_OF_TRACK;
+    }
+    if failed {
+        ev |= event::NUMERICAL_FAILURE;
+    }
+    ev
+}
+
+/// One control period of one env (or its next-step autoreset).
+fn step_env<G: Geometry, T: Real, A: Real>(
+    ctx: &Ctx<'_, G>,
+    worker: &mut Worker<G>,
+    mut e: EnvMut<'_>,
+    mut o: EnvOut<'_, T, A>,
+) {
+    let Worker {
+        stepper,
+        chain: scratch,
+    } = worker;
+    if e.slot.ended {
+        // Next-step autoreset (the other modes never get here: same-step resets at
+        // once, disabled is refused before stepping).
+        autoreset_step(ctx, scratch, e, o);
+        return;
+    }
+    let task = ctx.task;
+    let (force, a2) = actuate(task, &mut e, o.action);
+    let chain = env_chain(ctx, scratch, &e.params);
+    let status = stepper.step(
+        chain,
+        e.y,
+        G::Cart::load(&force),
+        task.dt,
+        &task.step_options,
+        &task.guard,
+    );
+    e.slot.steps += 1;
+    let ev = score(ctx, e.y, e.slot.steps, status.is_failure(), a2, &mut o);
+    *o.event = ev;
+    if ctx.diagnostics {
+        write_diagnostics(chain, e.y, o.diag);
+    }
+    if ev & event::ENDED != 0 {
+        if ctx.mode == AutoresetMode::SameStep {
+            match e.noise_rng.as_deref_mut() {
+                None => o.finals.copy_from_slice(e.y),
+                Some(rng) => add_noise(&task.reality, e.y, rng, o.finals),
+            }
+            reset_env(ctx, &mut e);
+        } else {
+            e.slot.ended = true;
+        }
+    }
+    emit_obs(&task.reality, &mut e, o.obs);
+}

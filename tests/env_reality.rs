@@ -1,0 +1,491 @@
+//! The reality gap of the task layer: per-env parameters drawn at reset, fixed
+//! mismatch, observation noise, control delay and force-rate limit.
+
+use chaincart::batch::{Guard, GuardedStepper, CHUNK};
+use chaincart::env::{
+    AutoresetMode, Distribution, EnvBatch, Param, ParamRandomization, ParamValues, Randomization,
+    RealityGap, StepOutputs, TaskConfig,
+};
+use chaincart::geometry::{Geometry, Vector};
+use chaincart::{Chain, ChainError, ChainParams, Method, Planar, Spatial, StepOptions};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+fn nominal(n: usize) -> ChainParams {
+    ChainParams::new(1.0, &vec![0.1; n], &vec![0.5; n], 9.81).unwrap()
+}
+
+fn task(n: usize) -> TaskConfig {
+    let mut t = TaskConfig::new(vec![-1.0; n], 0.02, StepOptions::default());
+    t.max_episode_steps = 25;
+    t.start_noise = 0.1;
+    t.max_force = 20.0;
+    t
+}
+
+fn relative(h: f64) -> Option<ParamRandomization> {
+    Some(ParamRandomization {
+        distribution: Distribution::relative(h),
+        per_link: true,
+    })
+}
+
+/// +-30 % masses and cart, +-20 % lengths, gravity log-uniform in [9, 10.5].
+fn randomization() -> Randomization {
+    Randomization {
+        cart_mass: relative(0.3),
+        link_masses: relative(0.3),
+        link_lengths: relative(0.2),
+        gravity: Some(ParamRandomization {
+            distribution: Distribution::LogRange {
+                low: 9.0,
+                high: 10.5,
+            },
+            per_link: false,
+        }),
+    }
+}
+
+fn batch<G: Geometry>(t: TaskConfig, n_envs: usize, seed: u64, mode: AutoresetMode) -> EnvBatch<G> {
+    let n = t.target.len();
+    EnvBatch::new(Chain::new(nominal(n)), t, n_envs, seed, mode, false).unwrap()
+}
+
+/// Output buffers and a step with them.
+struct Out {
+    obs: Vec<f64>,
+    rewards: Vec<f64>,
+    terminated: Vec<bool>,
+    truncated: Vec<bool>,
+}
+
+impl Out {
+    fn new<G: Geometry>(b: &EnvBatch<G>) -> Self {
+        let n = b.n_envs();
+        Self {
+            obs: vec![0.0; n * b.state_dim()],
+            rewards: vec![0.0; n],
+            terminated: vec![false; n],
+            truncated: vec![false; n],
+        }
+    }
+    fn step<G: Geometry>(&mut self, b: &mut EnvBatch<G>, actions: &[f64]) {
+        b.step(
+            actions,
+            StepOutputs {
+                obs: &mut self.obs,
+                rewards: &mut self.rewards,
+                terminated: &mut self.terminated,
+                truncated: &mut self.truncated,
+            },
+        )
+        .unwrap();
+    }
+}
+
+fn actions(step: usize, n_envs: usize, f: usize, env0: usize) -> Vec<f64> {
+    (0..n_envs * f)
+        .map(|j| 1.5 * (0.3 * step as f64 + 0.9 * (env0 + j / f) as f64 + j as f64).sin())
+        .collect()
+}
+
+/// Per step: every env's observation, reward and parameters.
+fn history<G: Geometry>(b: &mut EnvBatch<G>, steps: usize, env0: usize) -> Vec<Vec<f64>> {
+    let mut out = Out::new(b);
+    let mut h = Vec::new();
+    for s in 0..steps {
+        out.step(b, &actions(s, b.n_envs(), b.force_dim(), env0));
+        let mut row = out.obs.clone();
+        row.extend(&out.rewards);
+        for k in 0..b.n_envs() {
+            let p = b.env_params(k).unwrap();
+            row.push(p.cart_mass());
+            row.extend(p.masses());
+            row.extend(p.lengths());
+            row.push(p.gravity());
+        }
+        h.push(row);
+    }
+    h
+}
+
+fn everything_on(n: usize) -> TaskConfig {
+    let mut t = task(n);
+    t.reality.randomize = randomization();
+    t.reality.obs_noise = vec![0.01];
+    t.reality.action_delay = 2;
+    t.reality.force_rate_limit = 400.0;
+    t.reality.mismatch.gravity = Some(1.02);
+    t
+}
+
+#[test]
+fn env_i_of_a_randomised_batch_is_the_single_env_seeded_seed_plus_i() {
+    let n_envs = 2 * CHUNK + 3;
+    let mut big = batch::<Spatial>(everything_on(2), n_envs, 100, AutoresetMode::SameStep);
+    let h_big = history(&mut big, 60, 0);
+    for env in [0, 1, CHUNK, 2 * CHUNK + 2] {
+        let mut one = batch::<Spatial>(
+            everything_on(2),
+            1,
+            100 + env as u64,
+            AutoresetMode::SameStep,
+        );
+        // The single env sees env `env`'s actions.
+        let mut out = Out::new(&one);
+        for (s, row) in h_big.iter().enumerate() {
+            let a = actions(s, n_envs, 2, 0);
+            out.step(&mut one, &a[2 * env..2 * env + 2]);
+            let d = one.state_dim();
+            assert_eq!(
+                &out.obs[..],
+                &row[env * d..(env + 1) * d],
+                "env {env} step {s}"
+            );
+            let p = one.env_params(0).unwrap();
+            let q = big.env_params(env).unwrap();
+            if s + 1 == h_big.len() {
+                assert_eq!(p, q);
+            }
+        }
+    }
+}
+
+#[test]
+fn randomised_runs_reproduce_for_any_thread_count() {
+    let n_envs = 4 * CHUNK + 1;
+    let go = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut b = batch::<Planar>(everything_on(3), n_envs, 7, AutoresetMode::NextStep);
+            history(&mut b, 70, 0)
+        })
+    };
+    let one = go(1);
+    assert_eq!(one, go(1), "same seed, same run");
+    for threads in [2, 5] {
+        assert!(go(threads) == one, "{threads} threads differ from 1");
+    }
+}
+
+#[test]
+fn randomisation_leaves_the_start_states_unchanged() {
+    let plain = batch::<Spatial>(task(3), 50, 3, AutoresetMode::NextStep);
+    let mut t = task(3);
+    t.reality.randomize = randomization();
+    let randomised = batch::<Spatial>(t, 50, 3, AutoresetMode::NextStep);
+    assert_eq!(plain.states(), randomised.states());
+    assert_ne!(
+        randomised.env_params(0).unwrap(),
+        randomised.env_params(1).unwrap()
+    );
+    assert!(plain.per_env_params().is_none());
+    assert_eq!(randomised.per_env_params().unwrap().n_envs(), 50);
+}
+
+/// Every env of a randomised batch (after several resets) steps bit for bit as a
+/// single chain built with that env's parameters.
+#[test]
+fn an_env_of_a_randomised_batch_steps_as_a_chain_with_its_parameters() {
+    let mut t = task(3);
+    t.reality.randomize = randomization();
+    t.max_episode_steps = 4;
+    t.step_options = StepOptions::new(Method::Variational, 2).unwrap();
+    let mut b = batch::<Spatial>(t.clone(), CHUNK + 2, 5, AutoresetMode::SameStep);
+    let mut out = Out::new(&b);
+    let d = b.state_dim();
+    let mut checked = 0;
+    for s in 0..20 {
+        let before = b.states().to_vec();
+        let params: Vec<ChainParams> = (0..b.n_envs()).map(|k| b.env_params(k).unwrap()).collect();
+        let a = actions(s, b.n_envs(), 2, 0);
+        out.step(&mut b, &a);
+        for (k, p) in params.iter().enumerate() {
+            if b.events()[k] != 0 {
+                continue; // ended and reset: the state is a new episode's
+            }
+            let chain = Chain::<Spatial>::new(p.clone());
+            let mut y = before[k * d..(k + 1) * d].to_vec();
+            let force: Vec<f64> = a[2 * k..2 * k + 2]
+                .iter()
+                .map(|x| x.clamp(-1.0, 1.0) * t.max_force)
+                .collect();
+            let status = GuardedStepper::new(&chain).step(
+                &chain,
+                &mut y,
+                <Spatial as Geometry>::Cart::load(&force),
+                t.dt,
+                &t.step_options,
+                &Guard::default(),
+            );
+            assert!(!status.is_failure());
+            assert_eq!(&y[..], &b.states()[k * d..(k + 1) * d], "env {k} step {s}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 200, "{checked}");
+}
+
+/// Samples of many resets: every one in its range; mean and extremes as the
+/// distribution says (fixed seed; tolerances stated below).
+#[test]
+fn sampled_parameters_lie_in_their_ranges_with_the_right_distribution() {
+    let n = 2;
+    let mut t = task(n);
+    t.reality.randomize = randomization();
+    t.reality.randomize.link_lengths = Some(ParamRandomization {
+        distribution: Distribution::Range {
+            low: 0.3,
+            high: 0.6,
+        },
+        per_link: false,
+    });
+    let n_envs = 4000;
+    let b = batch::<Planar>(t, n_envs, 123, AutoresetMode::NextStep);
+    let p = b.per_env_params().unwrap();
+    let (mut cart, mut mass, mut log_g) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..n_envs {
+        let c = p.cart_mass[k];
+        assert!((0.7..1.3).contains(&c), "cart_mass {c}");
+        cart.push(c);
+        for i in 0..n {
+            let m = p.link_masses[k * n + i];
+            assert!((0.07..0.13).contains(&m), "link_masses {m}");
+            mass.push(m);
+            let l = p.link_lengths[k * n + i];
+            assert!((0.3..0.6).contains(&l), "link_lengths {l}");
+        }
+        // Shared across links: one draw.
+        assert_eq!(p.link_lengths[k * n], p.link_lengths[k * n + 1]);
+        assert_ne!(p.link_masses[k * n], p.link_masses[k * n + 1]);
+        let g = p.gravity[k];
+        assert!((9.0..=10.5).contains(&g), "gravity {g}");
+        log_g.push(g.ln());
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    // Standard errors: cart 0.6/sqrt(12)/sqrt(4000) = 0.0027, link masses 0.0001,
+    // log g 0.154/sqrt(12)/sqrt(4000) = 0.0007; tolerances are about 4 of them.
+    assert!((mean(&cart) - 1.0).abs() < 0.011, "{}", mean(&cart));
+    assert!((mean(&mass) - 0.1).abs() < 0.0005, "{}", mean(&mass));
+    let mid = 0.5 * (9.0f64.ln() + 10.5f64.ln());
+    assert!((mean(&log_g) - mid).abs() < 0.003, "{}", mean(&log_g));
+    // The extremes of 4000 uniform draws lie within 0.5 % of the range of its ends
+    // (probability of failing about 4000 * exp(-20) per end).
+    let (lo, hi) = cart
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &c| (a.min(c), b.max(c)));
+    assert!(lo < 0.7 + 0.003 && hi > 1.3 - 0.003, "{lo} {hi}");
+}
+
+#[test]
+fn fixed_mismatch_changes_the_true_system_not_the_model() {
+    let mut t = task(2);
+    t.reality.params.link_lengths = Some(vec![0.4, 0.6]);
+    t.reality.mismatch = ParamValues {
+        cart_mass: Some(1.5),
+        link_masses: Some(vec![2.0]),
+        ..Default::default()
+    };
+    let mut b = batch::<Planar>(t.clone(), 2, 1, AutoresetMode::NextStep);
+    assert_eq!(b.chain().params(), &nominal(2));
+    let truth = ChainParams::new(1.5, &[0.2, 0.2], &[0.4, 0.6], 9.81).unwrap();
+    assert_eq!(b.true_params(), &truth);
+    assert_eq!(b.env_params(1).unwrap(), truth);
+    let before = b.state(0).to_vec();
+    Out::new(&b).step(&mut b, &[0.5, 0.5]);
+    let chain = Chain::<Planar>::new(truth);
+    let mut y = before;
+    GuardedStepper::new(&chain).step(
+        &chain,
+        &mut y,
+        0.5 * t.max_force,
+        t.dt,
+        &t.step_options,
+        &Guard::default(),
+    );
+    assert_eq!(&y[..], b.state(0));
+}
+
+/// The noise of each observation component is `sigma_k z` with `z` from the env's
+/// noise stream (stream 2 of its ChaCha8 generator), recomputed here independently.
+#[test]
+fn observation_noise_is_the_documented_gaussian() {
+    let mut t = task(1);
+    let sigma = [0.5, 0.0, 0.1, 0.2, 0.3];
+    t.reality.obs_noise = sigma.to_vec();
+    let seed = 77;
+    let mut b = batch::<Planar>(t, 1, seed, AutoresetMode::NextStep);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(2);
+    let mut obs = vec![0.0f64; 5];
+    b.write_obs(&mut obs).unwrap();
+    let mut out = Out::new(&b);
+    for step in 0..4 {
+        let y = b.states().to_vec();
+        for k in 0..5 {
+            let z: f64 = rng.sample(StandardNormal);
+            assert_eq!(obs[k], y[k] + sigma[k] * z, "step {step} component {k}");
+        }
+        out.step(&mut b, &[0.3]);
+        obs.copy_from_slice(&out.obs);
+    }
+    // The state itself is noise-free: the same as without noise.
+    let mut quiet = batch::<Planar>(task(1), 1, seed, AutoresetMode::NextStep);
+    let mut out_q = Out::new(&quiet);
+    for _ in 0..4 {
+        out_q.step(&mut quiet, &[0.3]);
+    }
+    assert_eq!(quiet.states(), b.states());
+}
+
+/// With a delay of k, step t applies the action of step t - k and zero force before.
+#[test]
+fn a_delay_applies_the_action_of_k_steps_before() {
+    for delay in [1, 3] {
+        let mut t = task(2);
+        t.max_episode_steps = 500;
+        t.reality.action_delay = delay;
+        let mut delayed = batch::<Spatial>(t, 1, 9, AutoresetMode::NextStep);
+        let mut plain = batch::<Spatial>(task(2), 1, 9, AutoresetMode::NextStep);
+        let (mut o1, mut o2) = (Out::new(&delayed), Out::new(&plain));
+        for s in 0..12 {
+            o1.step(&mut delayed, &actions(s, 1, 2, 0));
+            let shifted = if s >= delay {
+                actions(s - delay, 1, 2, 0)
+            } else {
+                vec![0.0, 0.0]
+            };
+            o2.step(&mut plain, &shifted);
+            assert_eq!(o1.obs, o2.obs, "delay {delay} step {s}");
+            assert_eq!(o1.rewards, o2.rewards, "delay {delay} step {s}");
+        }
+    }
+}
+
+/// max_force 10 N, 100 N/s at dt 0.02 s: the force rises by 2 N per step towards a
+/// full push, 2, 4, 6, 8, 10, 10 N, then falls by 2 N per step when released.
+#[test]
+fn the_force_rate_limit_ramps_the_force() {
+    let mut t = task(1);
+    t.max_force = 10.0;
+    t.max_episode_steps = 500;
+    t.reality.force_rate_limit = 100.0;
+    let mut b = batch::<Planar>(t.clone(), 1, 4, AutoresetMode::NextStep);
+    let chain = Chain::<Planar>::new(nominal(1));
+    let mut stepper = GuardedStepper::new(&chain);
+    let mut y = b.states().to_vec();
+    let mut out = Out::new(&b);
+    let pushes = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -1.0, 0.0];
+    let forces = [2.0, 4.0, 6.0, 8.0, 10.0, 10.0, 8.0, 6.0];
+    for (a, f) in pushes.iter().zip(forces) {
+        out.step(&mut b, &[*a]);
+        stepper.step(&chain, &mut y, f, t.dt, &t.step_options, &Guard::default());
+        assert_eq!(&y[..], b.states(), "force {f}");
+        // The reward's action term uses the applied force.
+        let lay = chain.layout();
+        let (x, v) = (lay.load_x(&y), lay.load_xdot(&y));
+        let q = lay.load_q(&y, 0);
+        let w = lay.load_w(&y, 0);
+        let dq = (q + <Planar as Geometry>::down_unit()).norm_squared();
+        let c = dq
+            + 0.1 * w.norm_squared()
+            + 0.1 * x * x
+            + 0.1 * v * v
+            + 0.01 * (f / 10.0) * (f / 10.0);
+        assert!((out.rewards[0] - (-c).exp()).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn snapshots_continue_identically_with_everything_on() {
+    let mut b = batch::<Spatial>(everything_on(2), CHUNK + 3, 2, AutoresetMode::SameStep);
+    history(&mut b, 13, 0);
+    let snap = b.snapshot();
+    let after = history(&mut b, 20, 0);
+    b.restore(&snap).unwrap();
+    assert_eq!(history(&mut b, 20, 0), after);
+}
+
+#[test]
+fn bad_reality_settings_are_errors_naming_them() {
+    let check = |spoil: &dyn Fn(&mut RealityGap), needle: &str| {
+        let mut t = task(2);
+        spoil(&mut t.reality);
+        let e = EnvBatch::<Spatial>::new(
+            Chain::new(nominal(2)),
+            t,
+            1,
+            0,
+            AutoresetMode::NextStep,
+            false,
+        )
+        .err()
+        .unwrap_or_else(|| panic!("{needle}: accepted"))
+        .to_string();
+        assert!(e.contains(needle), "{needle}: {e}");
+    };
+    let dist = |d| {
+        Some(ParamRandomization {
+            distribution: d,
+            per_link: true,
+        })
+    };
+    check(
+        &|r| r.randomize.link_masses = relative(1.2),
+        "randomize.link_masses range [-0.19",
+    );
+    check(
+        &|r| r.randomize.cart_mass = relative(-0.1),
+        "randomize.cart_mass range [1.1, 0.9]",
+    );
+    check(
+        &|r| {
+            r.randomize.gravity = dist(Distribution::Range {
+                low: 5.0,
+                high: 4.0,
+            })
+        },
+        "randomize.gravity range [5, 4]",
+    );
+    check(
+        &|r| {
+            r.randomize.link_lengths = dist(Distribution::LogRange {
+                low: -1.0,
+                high: 1.0,
+            })
+        },
+        "randomize.link_lengths",
+    );
+    check(&|r| r.obs_noise = vec![-0.1], "obs_noise[0] = -0.1");
+    check(
+        &|r| r.obs_noise = vec![0.1, 0.2],
+        "obs_noise has length 2, expected 16",
+    );
+    check(&|r| r.force_rate_limit = 0.0, "force_rate_limit = 0");
+    check(
+        &|r| r.params.cart_mass = Some(-1.0),
+        "params.cart_mass = -1",
+    );
+    check(
+        &|r| r.mismatch.link_lengths = Some(vec![1.0, 1.0, 1.0]),
+        "mismatch.link_lengths has length 3, expected 2",
+    );
+    check(
+        &|r| r.mismatch.link_masses = Some(vec![1.0, 0.0]),
+        "mismatch.link_masses[1] = 0",
+    );
+    let e = RealityGap::delay_from(-1).unwrap_err().to_string();
+    assert!(e.contains("action_delay = -1"), "{e}");
+    assert_eq!(
+        Param::from_name("randomize", "pole_mass").unwrap_err(),
+        ChainError::UnknownName {
+            kind: "randomize",
+            name: "pole_mass".into(),
+            expected: Param::NAMES,
+        }
+    );
+}
