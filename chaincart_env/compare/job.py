@@ -188,7 +188,8 @@ def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool
         curve_csv = seed_directory(out, seed) / "learning_curve.csv"
         if curve_csv.is_file():
             plot_learning_curve(seed_directory(out, seed) / "learning_curve.png", read_learning_curve(curve_csv),
-                                policy_label(settings["algo"], settings["trainer"]), summaries[-1])
+                                policy_label(settings["algo"], settings["trainer"]),
+                                next(s for s in summaries if s["policy"] == "LQR"))
     return summaries
 
 

@@ -21,7 +21,7 @@ from chaincart_env.compare.tables import write_csv, write_markdown
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TrainedPolicy", "describe", "evaluate_study", "lqr_baseline",
+    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "OracleLQR", "TrainedPolicy", "describe", "evaluate_study", "lqr_baseline",
     "policy_label", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
@@ -66,6 +66,36 @@ def lqr_baseline(config: ChainCartConfig) -> Any:
         return LQRPolicy.from_env(ChainCartEnv(config))
     except ValueError as error:
         raise ChainCartError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
+
+
+class _BatchView:
+    """What :class:`~chaincart_env.lqr.OracleLQRPolicy` reads of an env, for a native
+    batch: the config, the nominal model and every env's current true parameters."""
+
+    def __init__(self, batch: Any, config: ChainCartConfig) -> None:
+        self._batch, self.config, self.model = batch, config, config.make_model()
+
+    @property
+    def true_params(self) -> dict[str, Any]:
+        return dict(self._batch.param_arrays())
+
+
+class OracleLQR:
+    """The LQR designed, for each episode, on that episode's true parameters (an upper
+    bound: no real controller knows them). It binds to the batch an evaluation runs."""
+
+    def bind(self, batch: Any, config: ChainCartConfig) -> Any:
+        from chaincart_env.lqr import OracleLQRPolicy
+
+        return OracleLQRPolicy(_BatchView(batch, config))
+
+    def predict(self, *args: Any, **kwargs: Any) -> Any:
+        raise ChainCartError("the oracle LQR acts only inside an evaluation (it must see the true parameters)")
+
+
+def _has_parameter_gap(config: ChainCartConfig, sweeps: dict[str, Sequence[float]]) -> bool:
+    gap = any(getattr(config, key) is not None for key in ("randomize", "params", "mismatch"))
+    return gap or any(v > 0 for v in sweeps.get("mismatch", ()))
 
 
 @dataclass(frozen=True)
@@ -113,10 +143,10 @@ def _aggregate_rows(summaries: Sequence[dict[str, Any]], trained: Sequence[Train
 
 
 def _sweep(
-    trained: Sequence[TrainedPolicy], baseline: Any, config: ChainCartConfig, axis: str, values: Sequence[float],
-    seeds: Sequence[int],
+    trained: Sequence[TrainedPolicy], baselines: Sequence[tuple[str, Any]], config: ChainCartConfig, axis: str,
+    values: Sequence[float], seeds: Sequence[int],
 ) -> list[dict[str, Any]]:
-    named = [(t.name, t.policy) for t in trained] + [("LQR", baseline)]
+    named = [(t.name, t.policy) for t in trained] + list(baselines)
     rows = run_sweep(named, config, axis, values, seeds)
     owner = {t.name: t for t in trained}
     for row in rows:
@@ -138,12 +168,14 @@ def evaluate_study(
 ) -> list[dict[str, Any]]:
     """Evaluates the study in ``out`` (its seeds' agents and the LQR baseline) and writes
     :data:`EVALUATION_FILES` into ``into`` (default ``out``); returns the summaries of
-    the main comparison (one per policy and seed, the LQR last)."""
+    the main comparison (one per policy and seed, then the LQR, then the oracle LQR
+    where the true system can differ from the model)."""
     into = Path(out) if into is None else Path(into)
     into.mkdir(parents=True, exist_ok=True)
     starts = evaluation_seeds(eval_seed, eval_episodes)
     trained, baseline = trained_policies(out, seeds), lqr_baseline(config)
-    policies = [(t.name, t.policy) for t in trained] + [("LQR", baseline)]
+    baselines = [("LQR", baseline)] + ([("LQR oracle", OracleLQR())] if _has_parameter_gap(config, sweeps) else [])
+    policies = [(t.name, t.policy) for t in trained] + baselines
     runs, episodes, summaries = evaluate_policies(policies, config, starts)
     write_csv(into / "comparison.csv", summaries, METRIC_COLUMNS)
     write_csv(into / "episodes.csv", episodes, EPISODE_COLUMNS)
@@ -158,13 +190,13 @@ def evaluate_study(
         "first time after which e_q and e_w stay within these tolerances to the end (successful episodes only).",
     ]
     print(write_markdown(into / "comparison.md", f"{trained[0].label} vs LQR", summaries, notes))
-    first_and_lqr = [runs[0], runs[-1]]
+    first_and_lqr = [runs[0], runs[len(trained)]]
     plot_errors(into / "errors.png", first_and_lqr, config.success_tolerances)
     write_filmstrip(into / "filmstrip.png", first_and_lqr, config)
 
     sweep_rows, summaries_by_axis = [], {}
     for axis, values in sweeps.items():
-        rows = _sweep(trained, baseline, config, axis, values, starts)
+        rows = _sweep(trained, baselines, config, axis, values, starts)
         sweep_rows.extend(rows)
         summary = summarize_sweep(rows)
         summaries_by_axis[axis] = (SWEEP_AXES[axis].label, summary)
@@ -177,8 +209,9 @@ def evaluate_study(
         str(seed): read_evaluations(seed_directory(out, seed) / EVALUATIONS_FILE)
         for seed in seeds if (seed_directory(out, seed) / EVALUATIONS_FILE).is_file()
     }
-    plot_evaluation_curves(into / "evaluation_curve.png", curves, summaries[-1])
-    write_summary_figure(into / SUMMARY_FIGURE, curves=curves, baseline=summaries[-1], sweeps=summaries_by_axis,
+    lqr_summary = summaries[len(trained)]
+    plot_evaluation_curves(into / "evaluation_curve.png", curves, lqr_summary)
+    write_summary_figure(into / SUMMARY_FIGURE, curves=curves, baseline=lqr_summary, sweeps=summaries_by_axis,
                          errors=first_and_lqr, tolerances=config.success_tolerances, filmstrip=into / "filmstrip.png")
     seed_lines = [
         f"{row['policy']} over {row['seeds']} training seed(s): success {row['success_mean']:.2f}"

@@ -39,10 +39,30 @@ class SweepAxis:
     label: str
     apply: Callable[[ChainCartConfig, float], ChainCartConfig]
     minimum: float = 0.0
+    maximum: float = math.inf
+    integer: bool = False
 
 
 def _start_noise(config: ChainCartConfig, value: float) -> ChainCartConfig:
     return config.replace(start_noise=value)
+
+
+def _mismatch(config: ChainCartConfig, value: float) -> ChainCartConfig:
+    """The true cart mass, link masses and link lengths each drawn at every reset from
+    their nominal value times U[1 - p, 1 + p] (per link, from the env's own stream)."""
+    if value == 0:
+        return config.replace(randomize=None)
+    return config.replace(randomize={key: value for key in ("cart_mass", "link_masses", "link_lengths")})
+
+
+def _obs_noise(config: ChainCartConfig, value: float) -> ChainCartConfig:
+    return config.replace(obs_noise=value if value > 0 else None)
+
+
+def _delay(config: ChainCartConfig, value: float) -> ChainCartConfig:
+    if value != int(value):
+        raise ChainCartError(f"--sweep delay value {value!r}: expected a whole number of control periods")
+    return config.replace(action_delay=int(value))
 
 
 #: The axes ``compare --sweep AXIS=V1,V2,...`` accepts.
@@ -50,6 +70,9 @@ SWEEP_AXES: dict[str, SweepAxis] = {
     axis.name: axis
     for axis in (
         SweepAxis("start_noise", "start perturbation (half-width, rad and m)", _start_noise),
+        SweepAxis("mismatch", "model mismatch p (masses, lengths x U[1-p, 1+p])", _mismatch, maximum=0.95),
+        SweepAxis("obs_noise", "observation noise (std, state units)", _obs_noise),
+        SweepAxis("delay", "control delay (control periods)", _delay, integer=True),
     )
 }
 
@@ -80,8 +103,11 @@ def parse_sweep(text: str) -> tuple[str, list[float]]:
     if not numbers:
         raise ChainCartError(f"--sweep {text!r}: expected at least one value")
     for value in numbers:
-        if not math.isfinite(value) or value < axis.minimum:
-            raise ChainCartError(f"--sweep {name} value {value!r}: expected a finite number >= {axis.minimum}")
+        if not math.isfinite(value) or not axis.minimum <= value <= axis.maximum:
+            bound = f" and <= {axis.maximum}" if math.isfinite(axis.maximum) else ""
+            raise ChainCartError(f"--sweep {name} value {value!r}: expected a finite number >= {axis.minimum}{bound}")
+        if axis.integer and value != int(value):
+            raise ChainCartError(f"--sweep {name} value {value!r}: expected a whole number")
     return name, numbers
 
 

@@ -58,7 +58,11 @@ def test_one_seed_has_no_interval_and_equal_seeds_a_point() -> None:
 
 def test_sweep_option_is_parsed_and_checked() -> None:
     assert parse_sweep("start_noise=0.05,0.2") == ("start_noise", [0.05, 0.2])
-    for bad in ("start_noise", "speed=1", "start_noise=", "start_noise=a", "start_noise=-0.1", "start_noise=inf"):
+    assert parse_sweep("mismatch=0,0.3") == ("mismatch", [0.0, 0.3])
+    assert parse_sweep("delay=0,1,2") == ("delay", [0.0, 1.0, 2.0])
+    assert parse_sweep("obs_noise=0.01") == ("obs_noise", [0.01])
+    for bad in ("start_noise", "speed=1", "start_noise=", "start_noise=a", "start_noise=-0.1", "start_noise=inf",
+                "mismatch=1.5", "delay=0.5", "obs_noise=-1"):
         with pytest.raises(ChainCartError, match="sweep"):
             parse_sweep(bad)
 
@@ -171,3 +175,30 @@ def test_restore_without_a_checkpoint_names_what_is_missing(tmp_path) -> None:  
 
     with pytest.raises(ChainCartError, match="no checkpoint"):
         restore(tmp_path, PPO)
+
+
+def test_gap_axes_change_the_true_system_and_the_oracle_lqr_sees_it() -> None:
+    from chaincart_env.compare.study import OracleLQR
+
+    config = ChainCartConfig(scene="inverted-2", max_episode_steps=150, start_noise=0.1)
+    lqr = LQRPolicy.from_env(ChainCartEnv(config))
+    policies = [("LQR", lqr), ("oracle", OracleLQR())]
+    seeds = list(range(12))
+    rows = run_sweep(policies, config, "mismatch", [0.0, 0.4], seeds)
+    strip = lambda row: {k: v for k, v in row.items() if k != "policy"}  # noqa: E731
+    # No gap: the oracle's design is the nominal one, row for row.
+    assert strip(rows[0]) == strip(rows[1])
+    # A gap: the oracle designs on each env's true parameters, so it acts differently.
+    assert strip(rows[2]) != strip(rows[3])
+    base = run_sweep([("LQR", lqr)], config, "start_noise", [0.1], seeds)[0]
+    for axis in ("obs_noise", "delay"):
+        zero, some = run_sweep([("LQR", lqr)], config, axis, [0.0, 2.0 if axis == "delay" else 0.05], seeds)
+        assert strip(zero) | {"axis": "start_noise", "value": 0.1} == strip(base)
+        assert strip(some) != strip(zero)
+
+
+def test_the_oracle_lqr_is_only_usable_inside_an_evaluation() -> None:
+    from chaincart_env.compare.study import OracleLQR
+
+    with pytest.raises(ChainCartError, match="inside an evaluation"):
+        OracleLQR().predict(np.zeros(8))
