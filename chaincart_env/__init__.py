@@ -56,6 +56,9 @@ if ENV_ID not in gymnasium.registry:
         id=ENV_ID,
         entry_point="chaincart_env.env:ChainCartEnv",
         vector_entry_point="chaincart_env.vector:ChainCartVectorEnv",
+        # The default scene's episode length, so that gymnasium.make's TimeLimit and
+        # spec-reading wrappers (TimeAwareObservation, ...) agree with the env.
+        max_episode_steps=SCENES[DEFAULT_SCENE]["max_episode_steps"],
     )
 
 

@@ -12,7 +12,14 @@ import numpy.typing as npt
 
 from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.rendering.frames import ChainRenderer, check_render_mode, render_fps, steps_per_frame, tile_frames
+from chaincart_env.rendering.frames import (
+    RENDER_MODES,
+    ChainRenderer,
+    check_render_mode,
+    render_fps,
+    steps_per_frame,
+    tile_frames,
+)
 from chaincart_env.rendering.window import HumanWindow
 
 __all__ = ["EnvRendering", "check_shown_envs"]
@@ -48,8 +55,9 @@ class EnvRendering:
         shown: int = 1,
         tiled: bool = False,
         tracked: Optional[int] = None,
+        modes: Sequence[str] = RENDER_MODES,
     ) -> None:
-        self.mode = check_render_mode(render_mode)
+        self.mode = check_render_mode(render_mode, modes)
         self.renderer = ChainRenderer(config, width, height)  # validates the size in every mode
         self.shown = shown
         self.tiled = tiled
@@ -103,11 +111,16 @@ class EnvRendering:
             )
         return [self.renderer.frame(y, f) for y, f in zip(states, self.forces[first:])]
 
+    def image(self, states: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
+        """The frame of the first env (``tiled=False``) or the grid of the first
+        ``shown`` envs' frames."""
+        frames = self.frames(states[: self.shown])
+        return tile_frames(frames) if self.tiled else frames[0]
+
     def render(self, states: Sequence[np.ndarray] | np.ndarray) -> Optional[np.ndarray]:
         if self.mode is None:
             return None
-        frames = self.frames(states[: self.shown])
-        image = tile_frames(frames) if self.tiled else frames[0]
+        image = self.image(states)
         if self.window is not None:
             self.window.show(image)
             return None

@@ -18,6 +18,7 @@ from chaincart_env.config import ChainCartConfig
 
 __all__ = [
     "RENDER_MODES",
+    "VECTOR_RENDER_MODES",
     "DEFAULT_FRAME_SIZE",
     "MIN_FRAME_SIZE",
     "MAX_FRAME_SIZE",
@@ -33,6 +34,9 @@ __all__ = [
 
 #: The render modes every chaincart env accepts (besides ``None``).
 RENDER_MODES = ("rgb_array", "human")
+#: The native vector env's render modes: also ``rgb_array_list`` (every frame since
+#: the last ``render()``), which single envs get from ``gymnasium.make``.
+VECTOR_RENDER_MODES = ("rgb_array", "rgb_array_list", "human")
 #: ``(width, height)`` of one env's frame unless configured.
 DEFAULT_FRAME_SIZE = (480, 240)
 #: Bounds on either side of a frame, as the Rust renderer enforces them.
@@ -56,11 +60,11 @@ def steps_per_frame(dt: float) -> int:
     return max(1, round(1.0 / (dt * render_fps(dt))))
 
 
-def check_render_mode(render_mode: Any) -> Optional[str]:
-    """``render_mode`` itself if it is ``None`` or one of :data:`RENDER_MODES`."""
-    if render_mode is None or (isinstance(render_mode, str) and render_mode in RENDER_MODES):
+def check_render_mode(render_mode: Any, modes: Sequence[str] = RENDER_MODES) -> Optional[str]:
+    """``render_mode`` itself if it is ``None`` or one of ``modes``."""
+    if render_mode is None or (isinstance(render_mode, str) and render_mode in modes):
         return render_mode
-    raise ChainCartError(f"render_mode = {render_mode!r}: expected None or one of {list(RENDER_MODES)}")
+    raise ChainCartError(f"render_mode = {render_mode!r}: expected None or one of {list(modes)}")
 
 
 def check_frame_size(width: Any, height: Any) -> tuple[int, int]:
