@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from typing import Any, Mapping, Optional, Union
 
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
@@ -226,6 +227,8 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         self, actions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Steps every env; ``actions`` of shape ``(num_envs, force_dim)``."""
+        if not self._seeded:
+            raise ResetNeeded("ChainCartVectorEnv: call reset() before step()")
         obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
         if self.render_mode is not None:
             self._record_forces(actions)
