@@ -16,7 +16,14 @@ from typing import TYPE_CHECKING, Any
 
 import gymnasium
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import (
+    AnalysisError,
+    ChainCartError,
+    IntegrationError,
+    InvalidInputError,
+    InvalidTypeError,
+    MissingExtraError,
+)
 from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights
 from chaincart_env.env import ChainCartEnv
 from chaincart_env.model import ChainCart
@@ -28,7 +35,12 @@ if TYPE_CHECKING:
     from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
+    "AnalysisError",
     "ENV_ID",
+    "IntegrationError",
+    "InvalidInputError",
+    "InvalidTypeError",
+    "MissingExtraError",
     "ChainCart",
     "ChainCartConfig",
     "ChainCartEnv",

@@ -11,7 +11,7 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies
@@ -56,8 +56,10 @@ def episode_info(events: int, e_q: float, e_w: float) -> dict[str, Any]:
 
 
 def check_seed(seed: Any) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**64:
-        raise ChainCartError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise InvalidTypeError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
+    if not 0 <= int(seed) < 2**64:
+        raise InvalidInputError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
     return int(seed)
 
 
@@ -71,10 +73,10 @@ def start_state_option(options: Optional[dict[str, Any]]) -> Optional[np.ndarray
     if options is None:
         return None
     if not isinstance(options, dict):
-        raise ChainCartError(f"options = {options!r}: expected a dict (or None)")
+        raise InvalidTypeError(f"options = {options!r}: expected a dict (or None)")
     unknown = sorted(set(options) - set(RESET_OPTIONS))
     if unknown:
-        raise ChainCartError(f"options has unknown keys {unknown}: expected some of {list(RESET_OPTIONS)}")
+        raise InvalidInputError(f"options has unknown keys {unknown}: expected some of {list(RESET_OPTIONS)}")
     if "state" not in options:
         return None
     return np.asarray(options["state"], dtype=np.float64)

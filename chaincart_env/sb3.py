@@ -13,7 +13,7 @@ from gymnasium.error import ResetNeeded
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, episode_info, observation_space, start_state_option
 from chaincart_env.model import ChainCart
@@ -188,7 +188,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None:
-            raise ChainCartError("step_wait() without step_async(actions): expected actions first")
+            raise InvalidInputError("step_wait() without step_async(actions): expected actions first")
         if not self._seeded:
             self._actions = None
             raise ResetNeeded("ChainCartVecEnv: call reset() before step()")
@@ -248,7 +248,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         elif sorted(set(targets)) == list(range(self.num_envs)):
             setattr(self, attr_name, value)
         elif targets:
-            raise ChainCartError(
+            raise InvalidInputError(
                 f"set_attr({attr_name!r}) on envs {targets} only: {attr_name!r} is shared by all "
                 f"{self.num_envs} envs of the batch (expected indices=None)"
             )

@@ -16,7 +16,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.model import ChainCart
@@ -44,7 +44,7 @@ def autoreset_mode_of(mode: Union[AutoresetMode, str]) -> AutoresetMode:
         for m, native in _NATIVE_MODE.items():
             if mode in (m.value, native, m.name):
                 return m
-    raise ChainCartError(
+    raise InvalidInputError(
         f"autoreset_mode = {mode!r}: expected an AutoresetMode or one of 'next_step', 'same_step', 'disabled'"
     )
 
@@ -197,24 +197,28 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
                 seeds = [base + i for i in range(self.num_envs)]
         elif isinstance(seed, Sequence) and not isinstance(seed, str):
             if len(seed) != self.num_envs:
-                raise ChainCartError(f"seed has {len(seed)} entries, expected num_envs = {self.num_envs}")
+                raise InvalidInputError(f"seed has {len(seed)} entries, expected num_envs = {self.num_envs}")
             seeds = [None if s is None else check_seed(s) for s in seed]
         else:
-            raise ChainCartError(f"seed = {seed!r}: expected an int, a list of num_envs ints (or None), or None")
+            raise InvalidTypeError(f"seed = {seed!r}: expected an int, a list of num_envs ints (or None), or None")
         mask = None
         if options is not None and not isinstance(options, dict):
-            raise ChainCartError(f"options = {options!r}: expected a dict (or None)")
+            raise InvalidTypeError(f"options = {options!r}: expected a dict (or None)")
         unknown = sorted(set(options or {}) - {"reset_mask"})
         if unknown:
-            raise ChainCartError(f"options has unknown keys {unknown}: expected some of ['reset_mask']")
+            raise InvalidInputError(f"options has unknown keys {unknown}: expected some of ['reset_mask']")
         if options is not None and "reset_mask" in options:
             mask = options["reset_mask"]
-            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,)):
-                raise ChainCartError(
+            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_):
+                raise InvalidTypeError(
+                    f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},)"
+                )
+            if mask.shape != (self.num_envs,):
+                raise InvalidInputError(
                     f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},)"
                 )
             if not mask.any():
-                raise ChainCartError("options['reset_mask'] has no True entry: expected at least one env to reset")
+                raise InvalidInputError("options['reset_mask'] has no True entry: expected at least one env to reset")
         self._seeded = True
         obs = self._batch.reset(seeds, mask)
         if self.render_mode is not None:

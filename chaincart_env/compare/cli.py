@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.compare.scene_options import add_scene_options, config_from_options, parse_value
 
 __all__ = ["DEFAULT_TIMESTEPS", "add_commands", "compare_main"]
@@ -78,7 +78,7 @@ def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
 def _algo_kwarg(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep or not key.strip().isidentifier():
-        raise ChainCartError(f"--algo-kwarg {text!r}: expected KEY=VALUE, e.g. --algo-kwarg n_steps=256")
+        raise InvalidInputError(f"--algo-kwarg {text!r}: expected KEY=VALUE, e.g. --algo-kwarg n_steps=256")
     return key.strip(), parse_value(value)
 
 

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 from typing import Any, Optional
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, evaluate_policies, evaluation_seeds
 from chaincart_env.compare.filmstrip import write_filmstrip
 from chaincart_env.compare.learning_curve import LEARNING_CURVE_COLUMNS, learning_curve, read_training_episodes
@@ -45,7 +45,7 @@ def lqr_baseline(config: ChainCartConfig) -> Any:
     try:
         return LQRPolicy.from_env(ChainCartEnv(config))
     except ValueError as error:
-        raise ChainCartError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
+        raise InvalidInputError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
 
 
 def _evaluate_and_report(

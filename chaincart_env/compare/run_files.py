@@ -11,7 +11,7 @@ from typing import Any
 
 from stable_baselines3.common.base_class import BaseAlgorithm
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.compare.training import algorithm_class
 from chaincart_env.config import ChainCartConfig
 
@@ -39,10 +39,10 @@ def save_run(directory: Path, model: BaseAlgorithm, config: ChainCartConfig, inf
 
 def _json(path: Path) -> dict[str, Any]:
     if not path.is_file():
-        raise ChainCartError(f"{path} does not exist: expected the {path.name} that compare writes beside the model")
+        raise InvalidInputError(f"{path} does not exist: expected the {path.name} that compare writes beside the model")
     data = json.loads(path.read_text())
     if not isinstance(data, dict):
-        raise ChainCartError(f"{path} holds {type(data).__name__}: expected a JSON object")
+        raise InvalidInputError(f"{path} holds {type(data).__name__}: expected a JSON object")
     return data
 
 
@@ -54,9 +54,9 @@ def load_run(path: Path) -> SavedRun:
     elif path.suffix == ".zip":
         directory, model_path = path.parent, path
     else:
-        raise ChainCartError(f"model {str(path)!r}: expected a run directory or a .zip model file that exists")
+        raise InvalidInputError(f"model {str(path)!r}: expected a run directory or a .zip model file that exists")
     if not model_path.is_file():
-        raise ChainCartError(f"{model_path} does not exist: expected an SB3 model saved by compare")
+        raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
     info = _json(directory / RUN_FILE)
     config = ChainCartConfig(**_json(directory / CONFIG_FILE))
     model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")

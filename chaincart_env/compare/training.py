@@ -14,7 +14,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecMonitor
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.sb3 import ChainCartVecEnv
 
@@ -47,7 +47,7 @@ def algorithm_class(name: str) -> type[BaseAlgorithm]:
     try:
         return ALGORITHMS[name.lower()]
     except (KeyError, AttributeError):
-        raise ChainCartError(f"unknown algorithm {name!r}: expected one of {sorted(ALGORITHMS)}") from None
+        raise InvalidInputError(f"unknown algorithm {name!r}: expected one of {sorted(ALGORITHMS)}") from None
 
 
 class EpisodeCsvLogger(BaseCallback):
@@ -120,13 +120,13 @@ def train(
     ``episodes_csv``."""
     cls = algorithm_class(algo)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
-        raise ChainCartError(f"timesteps = {timesteps!r}: expected an integer >= 1")
+        raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     kwargs = {**DEFAULT_HYPERPARAMETERS[algo.lower()], **(hyperparameters or {})}
     venv = VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed))
     try:
         model = cls("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
     except TypeError as error:  # an unknown or ill-typed keyword
-        raise ChainCartError(f"{algo} keywords {kwargs}: {error}") from None
+        raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
     logger = EpisodeCsvLogger(episodes_csv)
     start = time.perf_counter()
     model.learn(total_timesteps=timesteps, callback=logger, progress_bar=progress_bar)

@@ -10,7 +10,7 @@ from typing import Any, Optional
 import numpy as np
 import numpy.typing as npt
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.rendering.frames import (
     RENDER_MODES,
@@ -30,10 +30,9 @@ def check_shown_envs(render_envs: Any, num_envs: int) -> int:
     num_envs]) or, for ``None``, ``min(num_envs, 4)``."""
     if render_envs is None:
         return min(num_envs, 4)
-    if isinstance(render_envs, bool) or not isinstance(render_envs, (int, np.integer)) or not (
-        1 <= render_envs <= num_envs
-    ):
-        raise ChainCartError(f"render_envs = {render_envs!r}: expected an integer in [1, num_envs = {num_envs}]")
+    wrong_type = isinstance(render_envs, bool) or not isinstance(render_envs, (int, np.integer))
+    if wrong_type or not 1 <= render_envs <= num_envs:
+        raise (InvalidTypeError if wrong_type else InvalidInputError)(f"render_envs = {render_envs!r}: expected an integer in [1, num_envs = {num_envs}]")
     return int(render_envs)
 
 
@@ -105,7 +104,7 @@ class EnvRendering:
         """Frames of the states (model layout) of envs ``first, first + 1, ...``, each
         with its env's last force."""
         if first + len(states) > len(self.forces):
-            raise ChainCartError(
+            raise InvalidInputError(
                 f"states of envs {first}..{first + len(states) - 1} to draw: forces are tracked for "
                 f"envs 0..{len(self.forces) - 1} only"
             )

@@ -13,7 +13,7 @@ from typing import Any, Optional
 import numpy as np
 from gymnasium import logger
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError
 
 __all__ = ["RenderUnavailable", "HumanWindow", "check_display"]
 
