@@ -16,7 +16,11 @@ from typing import TYPE_CHECKING, Any
 
 import gymnasium
 
-from chaincart_env.errors import (
+from chaincart_env._native import load_native_module
+
+load_native_module()
+
+from chaincart_env.errors import (  # noqa: E402
     AnalysisError,
     ChainCartError,
     IntegrationError,
@@ -24,10 +28,10 @@ from chaincart_env.errors import (
     InvalidTypeError,
     MissingExtraError,
 )
-from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights
-from chaincart_env.env import ChainCartEnv
-from chaincart_env.model import ChainCart
-from chaincart_env.vector import ChainCartVectorEnv
+from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
+from chaincart_env.env import ChainCartEnv  # noqa: E402
+from chaincart_env.model import ChainCart  # noqa: E402
+from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
     from chaincart_env.lqr import LQRPolicy
@@ -77,6 +81,9 @@ if ENV_ID not in gymnasium.registry:
 def __getattr__(name: str) -> Any:
     # Lazy: stable-baselines3 (and torch) load only when the SB3 VecEnv is used.
     if name == "ChainCartVecEnv":
+        from chaincart_env.extras import require
+
+        require("ChainCartVecEnv", {"sb3": ("stable_baselines3",)})
         from chaincart_env.sb3 import ChainCartVecEnv
 
         return ChainCartVecEnv

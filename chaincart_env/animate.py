@@ -193,11 +193,12 @@ def _check_output(path: Path) -> str:
         return "gif"
     if suffix == ".mp4":
         try:
+            import imageio  # noqa: F401
             import imageio_ffmpeg  # noqa: F401
         except ImportError as e:
             raise MissingExtraError(
-                f"writing {path.name} needs imageio-ffmpeg (pip install imageio-ffmpeg), which is not "
-                "installed: write a .gif instead"
+                f"writing {path.name} needs imageio and imageio-ffmpeg, not installed: "
+                "pip install 'chaincart-env[plot]' (or write a .gif)"
             ) from e
         return "mp4"
     raise InvalidInputError(f"--out {str(path)!r}: expected a file name ending in .gif or .mp4")

@@ -116,7 +116,8 @@ def run_compare(
     )
     save_run(out, result.model, config, info)
     summaries = _evaluate_and_report(result.model, algo, config, out, eval_seed, eval_episodes)
-    curve = learning_curve(read_training_episodes(out / "training_episodes.csv"), timesteps)
+    # Binned over the steps actually trained (SB3 rounds up to whole rollouts).
+    curve = learning_curve(read_training_episodes(out / "training_episodes.csv"), int(result.model.num_timesteps))
     write_csv(out / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
     plot_learning_curve(out / "learning_curve.png", curve, algo.upper(), summaries[1])
     total = time.perf_counter() - start

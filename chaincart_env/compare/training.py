@@ -20,6 +20,7 @@ from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
     "ALGORITHMS",
+    "steps_trained",
     "DEFAULT_HYPERPARAMETERS",
     "TRAINING_EPISODE_COLUMNS",
     "EpisodeCsvLogger",
@@ -104,6 +105,21 @@ class TrainingResult:
     hyperparameters: dict[str, Any]
 
 
+def steps_trained(model: BaseAlgorithm, timesteps: int) -> tuple[int, str]:
+    """The env steps ``model.learn(total_timesteps=timesteps)`` takes (SB3 collects
+    whole rollouts: ``n_steps`` per env for on-policy algorithms, ``train_freq`` steps
+    per env for off-policy ones) and the unit it rounds to, in words."""
+    n_envs = model.n_envs
+    if hasattr(model, "n_steps"):  # on-policy (PPO, A2C)
+        unit, words = int(model.n_steps) * n_envs, f"rollouts of n_steps x num_envs = {model.n_steps} x {n_envs}"
+    else:
+        freq = getattr(model, "train_freq", None)
+        if freq is None or getattr(freq.unit, "value", "step") != "step":
+            return timesteps, "whole episodes"  # not known in advance
+        unit, words = int(freq.frequency) * n_envs, f"collections of train_freq x num_envs = {freq.frequency} x {n_envs}"
+    return -(-timesteps // unit) * unit, f"whole {words} = {unit} steps"
+
+
 def train(
     config: ChainCartConfig,
     *,
@@ -127,7 +143,10 @@ def train(
         model = cls("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
     except TypeError as error:  # an unknown or ill-typed keyword
         raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
+    planned, unit = steps_trained(model, timesteps)
+    if planned != timesteps:  # said before training, so the progress bar's total is no surprise
+        print(f"{algo.upper()} trains in {unit}: {timesteps} timesteps asked, {planned} trained")
     logger = EpisodeCsvLogger(episodes_csv)
     start = time.perf_counter()
-    model.learn(total_timesteps=timesteps, callback=logger, progress_bar=progress_bar)
+    model.learn(total_timesteps=planned, callback=logger, progress_bar=progress_bar)
     return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs)
