@@ -16,11 +16,22 @@ from typing import TYPE_CHECKING, Any
 
 import gymnasium
 
-from chaincart_env._core import ChainCartError
-from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights
-from chaincart_env.env import ChainCartEnv
-from chaincart_env.model import ChainCart
-from chaincart_env.vector import ChainCartVectorEnv
+from chaincart_env._native import load_native_module
+
+load_native_module()
+
+from chaincart_env.errors import (  # noqa: E402
+    AnalysisError,
+    ChainCartError,
+    IntegrationError,
+    InvalidInputError,
+    InvalidTypeError,
+    MissingExtraError,
+)
+from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
+from chaincart_env.env import ChainCartEnv  # noqa: E402
+from chaincart_env.model import ChainCart  # noqa: E402
+from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
     from chaincart_env.lqr import LQRPolicy
@@ -28,7 +39,12 @@ if TYPE_CHECKING:
     from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
+    "AnalysisError",
     "ENV_ID",
+    "IntegrationError",
+    "InvalidInputError",
+    "InvalidTypeError",
+    "MissingExtraError",
     "ChainCart",
     "ChainCartConfig",
     "ChainCartEnv",
@@ -56,12 +72,18 @@ if ENV_ID not in gymnasium.registry:
         id=ENV_ID,
         entry_point="chaincart_env.env:ChainCartEnv",
         vector_entry_point="chaincart_env.vector:ChainCartVectorEnv",
+        # The default scene's episode length, so that gymnasium.make's TimeLimit and
+        # spec-reading wrappers (TimeAwareObservation, ...) agree with the env.
+        max_episode_steps=SCENES[DEFAULT_SCENE]["max_episode_steps"],
     )
 
 
 def __getattr__(name: str) -> Any:
     # Lazy: stable-baselines3 (and torch) load only when the SB3 VecEnv is used.
     if name == "ChainCartVecEnv":
+        from chaincart_env.extras import require
+
+        require("ChainCartVecEnv", {"sb3": ("stable_baselines3",)})
         from chaincart_env.sb3 import ChainCartVecEnv
 
         return ChainCartVecEnv

@@ -43,8 +43,32 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     add_animate_command(commands)  # animate: sets args.handler
 
     args = parser.parse_args(argv)
+    from chaincart_env.errors import InvalidInputError, MissingExtraError
+    from chaincart_env.extras import command_needs, require
+
+    try:
+        require(args.command, command_needs(args.command, args))
+    except MissingExtraError as error:
+        print(f"{parser.prog} {args.command}: error: {error}", file=sys.stderr)
+        return 1
     if getattr(args, "handler", None) is not None:
         return int(args.handler(args, parser))
+    try:
+        return _run_builtin(args, bench)
+    except InvalidInputError as error:  # a bad scene, count, ...: one line, exit status 2
+        print(f"{parser.prog} {args.command}: error: {error}", file=sys.stderr)
+        return 2
+
+
+def _run_builtin(args: argparse.Namespace, bench: argparse.ArgumentParser) -> int:
+    from chaincart_env.errors import InvalidInputError
+
+    if args.command in ("demo", "soak"):
+        least = 0 if args.command == "demo" else 1
+        for name in ("steps", "num_envs"):
+            value = getattr(args, name, None)
+            if value is not None and value < least:
+                raise InvalidInputError(f"--{name.replace('_', '-')} {value}: expected an integer >= {least}")
     if args.command == "soak":
         from chaincart_env.soak import main as soak_main
 

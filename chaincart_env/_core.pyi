@@ -1,8 +1,11 @@
 """The native extension of chaincart_env (Rust, PyO3): the physics model and the env batch.
 
 Arrays are NumPy; inputs accept any array-like (converted to float64), outputs are
-fresh arrays. Every invalid input raises :class:`ChainCartError` (a ``ValueError``)
-whose message names the value and what was expected.
+fresh arrays. Invalid input raises :class:`InvalidInputError` (a ``ValueError``; of a
+wrong type: :class:`InvalidTypeError`, also a ``TypeError``) whose message names the
+value and what was expected; a failed integration :class:`IntegrationError` (a
+``RuntimeError``), a failed analysis :class:`AnalysisError` (all from
+``chaincart_env.errors``, subclasses of :class:`ChainCartError`).
 """
 
 from collections.abc import Sequence
@@ -14,9 +17,16 @@ from typing_extensions import Self, disjoint_base
 
 __all__ = [
     "ChainCartError",
+    "InvalidInputError",
+    "InvalidTypeError",
+    "IntegrationError",
+    "AnalysisError",
     "ChainCart",
     "EnvBatch",
     "num_threads",
+    "time_scaling",
+    "MAX_LINKS",
+    "MAX_STATE_VALUES",
     "render_frame",
     "target_signs",
     "paper_initial_condition",
@@ -50,11 +60,20 @@ EVENT_RESET: int
 RNG_BYTES: int
 #: ``(name, default, help)`` of each reality-gap keyword of ``EnvBatch``.
 REALITY_KEYS: tuple[tuple[str, Any, str], ...]
+#: Most links a chain may have.
+MAX_LINKS: int
+#: Most float64 numbers in one batch state array or one simulated trajectory.
+MAX_STATE_VALUES: int
 
 _Signs = Union[str, Sequence[float]]
 
-class ChainCartError(ValueError):
-    """Invalid input for chaincart (a ValueError); the message names the value and what was expected."""
+from chaincart_env.errors import (
+    AnalysisError as AnalysisError,
+    ChainCartError as ChainCartError,
+    IntegrationError as IntegrationError,
+    InvalidInputError as InvalidInputError,
+    InvalidTypeError as InvalidTypeError,
+)
 
 @disjoint_base
 class ChainCart:
@@ -295,6 +314,10 @@ def render_frame(
 ) -> npt.NDArray[np.uint8]:
     """One ``(height, width, 3)`` uint8 frame of a spatial state: side view (gravity
     down) and optionally a top view, the target faintly, the force as an arrow."""
+
+def time_scaling(form: str, n_links: int, min_time: float = 0.1) -> float:
+    """Seconds per call of ``form`` (``"fast"``, ``"dense"``, ``"fast_rk4_step"``) for a
+    uniform spatial chain of ``n_links``, timed in Rust on one core."""
 
 def num_threads() -> int:
     """The core's number of worker threads (set ``RAYON_NUM_THREADS`` before the first parallel step)."""

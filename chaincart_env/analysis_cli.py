@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -48,9 +49,14 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 
 def _roa(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from chaincart_env.errors import InvalidInputError
     from chaincart_env.roa import run_roa
 
-    run_roa(args.out, scene=args.scene, sizes=args.sizes, starts=args.starts, seed=args.seed, start=args.start)
+    try:
+        run_roa(args.out, scene=args.scene, sizes=args.sizes, starts=args.starts, seed=args.seed, start=args.start)
+    except InvalidInputError as error:  # a bad scene or start: one line, exit status 2
+        print(f"{parser.prog} roa: error: {error}", file=sys.stderr)
+        return 2
     return 0
 
 

@@ -22,7 +22,7 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError, MissingExtraError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import ChainCartEnv
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE
@@ -73,7 +73,7 @@ def parse_settings(items: Sequence[str]) -> dict[str, Any]:
     for item in items:
         key, sep, text = item.partition("=")
         if not sep or not key.strip():
-            raise ChainCartError(f"--set {item!r}: expected KEY=VALUE, e.g. --set n_links=3")
+            raise InvalidInputError(f"--set {item!r}: expected KEY=VALUE, e.g. --set n_links=3")
         try:
             out[key.strip()] = ast.literal_eval(text.strip())
         except (ValueError, SyntaxError):
@@ -112,7 +112,7 @@ def saved_config(path: Path) -> Optional[dict[str, Any]]:
         return None
     data = json.loads(file.read_text())
     if not isinstance(data, dict):
-        raise ChainCartError(f"{file} holds {type(data).__name__}: expected a JSON object of env keywords")
+        raise InvalidInputError(f"{file} holds {type(data).__name__}: expected a JSON object of env keywords")
     return {k: v for k, v in data.items() if k not in ("algo", "algorithm")}
 
 
@@ -122,14 +122,14 @@ def load_sb3_model(path: Path) -> Any:
     the first of PPO, SAC, TD3, A2C, DDPG that loads the file."""
     model_path, folder = _model_files(Path(path))
     if not model_path.is_file():
-        raise ChainCartError(
+        raise InvalidInputError(
             f"policy {str(path)!r}: expected one of {list(POLICY_NAMES)}, an SB3 model .zip or a folder holding "
             "model.zip"
         )
     try:
         import stable_baselines3 as sb3
     except ImportError as e:
-        raise ChainCartError("loading a saved model needs stable-baselines3: pip install 'chaincart-env[sb3]'") from e
+        raise MissingExtraError("loading a saved model needs stable-baselines3: pip install 'chaincart-env[sb3]'") from e
     named = _algorithm_named(folder)
     candidates = [named.upper()] if named else list(SB3_ALGORITHMS)
     failures = []
@@ -142,13 +142,13 @@ def load_sb3_model(path: Path) -> Any:
             return algorithm.load(model_path, device="cpu")
         except Exception as e:  # a zip saved by another algorithm fails in its own way
             failures.append(f"{name}: {type(e).__name__}: {e}")
-    raise ChainCartError(f"could not load {model_path} as an SB3 model ({'; '.join(failures)})")
+    raise InvalidInputError(f"could not load {model_path} as an SB3 model ({'; '.join(failures)})")
 
 
 def _sb3_policy(model: Any, env: ChainCartEnv) -> Policy:
     expected = tuple(env.observation_space.shape or ())
     if tuple(model.observation_space.shape) != expected:
-        raise ChainCartError(
+        raise InvalidInputError(
             f"the model observes shape {tuple(model.observation_space.shape)} but this scene's observation has "
             f"shape {expected}: expected the scene the model was trained on (drop --scene, or pick it)"
         )
@@ -168,7 +168,7 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
         return lambda obs: env.action_space.sample()
     if name == "lqr":
         if env.config.max_force <= 0:
-            raise ChainCartError(
+            raise InvalidInputError(
                 f"--policy lqr on scene {env.config.scene!r} with max_force = {env.config.max_force}: "
                 "expected a scene with a force to control with (use --policy zero)"
             )
@@ -176,7 +176,7 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
 
         lqr = LQRPolicy.from_env(env)
         return lambda obs: lqr.predict(obs)[0]
-    raise ChainCartError(f"policy {name!r}: expected one of {list(POLICY_NAMES)} or a saved model")
+    raise InvalidInputError(f"policy {name!r}: expected one of {list(POLICY_NAMES)} or a saved model")
 
 
 # -- writing ---------------------------------------------------------------------------
@@ -189,18 +189,19 @@ def _check_output(path: Path) -> str:
         try:
             import PIL  # noqa: F401
         except ImportError as e:
-            raise ChainCartError("writing a GIF needs Pillow: pip install 'chaincart-env[plot]'") from e
+            raise MissingExtraError("writing a GIF needs Pillow: pip install 'chaincart-env[plot]'") from e
         return "gif"
     if suffix == ".mp4":
         try:
+            import imageio  # noqa: F401
             import imageio_ffmpeg  # noqa: F401
         except ImportError as e:
-            raise ChainCartError(
-                f"writing {path.name} needs imageio-ffmpeg (pip install imageio-ffmpeg), which is not "
-                "installed: write a .gif instead"
+            raise MissingExtraError(
+                f"writing {path.name} needs imageio and imageio-ffmpeg, not installed: "
+                "pip install 'chaincart-env[plot]' (or write a .gif)"
             ) from e
         return "mp4"
-    raise ChainCartError(f"--out {str(path)!r}: expected a file name ending in .gif or .mp4")
+    raise InvalidInputError(f"--out {str(path)!r}: expected a file name ending in .gif or .mp4")
 
 
 def _write_gif(path: Path, frames: Iterator[np.ndarray], fps: float) -> None:
@@ -277,17 +278,17 @@ def animate(
     out = Path(out)
     container = _check_output(out)
     if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
-        raise ChainCartError(f"fps = {fps!r}: expected a number > 0")
+        raise InvalidInputError(f"fps = {fps!r}: expected a number > 0")
     if seconds is not None and steps is not None:
-        raise ChainCartError("both seconds and steps given: expected at most one of them")
+        raise InvalidInputError("both seconds and steps given: expected at most one of them")
     if seconds is not None:
         if not (math.isfinite(seconds) and seconds > 0):
-            raise ChainCartError(f"seconds = {seconds!r}: expected a number > 0")
+            raise InvalidInputError(f"seconds = {seconds!r}: expected a number > 0")
         steps = max(1, round(seconds / config.dt))
     if steps is None:
         steps = config.max_episode_steps
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-        raise ChainCartError(f"steps = {steps!r}: expected an integer >= 1")
+        raise InvalidInputError(f"steps = {steps!r}: expected an integer >= 1")
     wanted = min(fps, MAX_GIF_FPS) if container == "gif" else fps
     stride = max(1, math.ceil(1.0 / (config.dt * wanted) - 1e-9))
     actual_fps = 1.0 / (config.dt * stride)

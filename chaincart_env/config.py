@@ -18,7 +18,7 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
 from chaincart_env.model import ChainCart
 
 __all__ = [
@@ -65,13 +65,13 @@ class RewardWeights:
             names = {f.name for f in fields(cls)}
             unknown = sorted(set(value) - names)
             if unknown:
-                raise ChainCartError(
+                raise InvalidInputError(
                     f"reward_weights has unknown keys {unknown}: expected some of {sorted(names)}"
                 )
             return cls(**{k: _number(f"reward_weights.{k}", v) for k, v in value.items()})
         if isinstance(value, Sequence) and not isinstance(value, str) and len(value) == 5:
             return cls(*(_number("reward_weights", v) for v in value))
-        raise ChainCartError(
+        raise InvalidTypeError(
             f"reward_weights = {value!r}: expected a RewardWeights, a mapping with keys q, w, x, v, u, "
             "or five numbers"
         )
@@ -183,7 +183,7 @@ Floats = Union[float, tuple[float, ...]]
 
 def _number(name: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ChainCartError(f"{name} = {value!r}: expected a number")
+        raise InvalidTypeError(f"{name} = {value!r}: expected a number")
     return float(value)
 
 
@@ -192,7 +192,7 @@ def _integer(name: str, value: Any) -> int:
         return int(value)
     if isinstance(value, numbers.Real) and not isinstance(value, bool) and float(value).is_integer():
         return int(float(value))
-    raise ChainCartError(f"{name} = {value!r}: expected an integer")
+    raise InvalidTypeError(f"{name} = {value!r}: expected an integer")
 
 
 def _per_link(name: str, value: Any) -> Floats:
@@ -200,7 +200,7 @@ def _per_link(name: str, value: Any) -> Floats:
         return float(value)
     if isinstance(value, (Sequence, np.ndarray)) and not isinstance(value, str):
         return tuple(_number(f"{name}[{i}]", v) for i, v in enumerate(value))
-    raise ChainCartError(f"{name} = {value!r}: expected a number or one number per link")
+    raise InvalidTypeError(f"{name} = {value!r}: expected a number or one number per link")
 
 
 def _name_or_numbers(name: str, value: Any) -> Union[str, tuple[float, ...]]:
@@ -208,7 +208,7 @@ def _name_or_numbers(name: str, value: Any) -> Union[str, tuple[float, ...]]:
         return value
     if isinstance(value, (Sequence, np.ndarray)):
         return tuple(_number(f"{name}[{i}]", v) for i, v in enumerate(value))
-    raise ChainCartError(f"{name} = {value!r}: expected a name or a sequence of numbers")
+    raise InvalidTypeError(f"{name} = {value!r}: expected a name or a sequence of numbers")
 
 
 @dataclass(frozen=True)
@@ -252,7 +252,7 @@ class ChainCartConfig:
     def __post_init__(self) -> None:
         scene = DEFAULT_SCENE if self.scene is None else self.scene
         if scene not in SCENES:
-            raise ChainCartError(f"unknown scene {scene!r}: expected one of {sorted(SCENES)}")
+            raise InvalidInputError(f"unknown scene {scene!r}: expected one of {sorted(SCENES)}")
         values = {f.name: getattr(self, f.name) for f in fields(self) if f.init and f.name != "scene"}
         for name, value in values.items():
             if value is None:
@@ -261,25 +261,25 @@ class ChainCartConfig:
         set_("scene", scene)
         set_("n_links", _integer("n_links", values["n_links"]))
         if self.n_links < 0:
-            raise ChainCartError(f"n_links = {self.n_links}: expected an integer >= 1")
+            raise InvalidInputError(f"n_links = {self.n_links}: expected an integer >= 1")
         for name in ("cart_mass", "gravity", "start_noise", "dt", "max_force", "track_limit"):
             set_(name, _number(name, values[name]))
         set_("link_masses", _per_link("link_masses", values["link_masses"]))
         set_("link_lengths", _per_link("link_lengths", values["link_lengths"]))
         if not isinstance(values["planar"], (bool, np.bool_)):
-            raise ChainCartError(f"planar = {values['planar']!r}: expected True or False")
+            raise InvalidTypeError(f"planar = {values['planar']!r}: expected True or False")
         set_("planar", bool(values["planar"]))
         set_("target", _name_or_numbers("target", values["target"]))
         set_("start", _name_or_numbers("start", values["start"]))
         if not isinstance(values["integrator"], str):
-            raise ChainCartError(
+            raise InvalidInputError(
                 f"integrator = {values['integrator']!r}: expected one of {list(_core.INTEGRATORS)}"
             )
         set_("integrator", values["integrator"])
         for name in ("substeps", "max_episode_steps"):
             v = _integer(name, values[name])
             if v < 1:
-                raise ChainCartError(f"{name} = {v}: expected an integer >= 1")
+                raise InvalidInputError(f"{name} = {v}: expected an integer >= 1")
             set_(name, v)
         set_("reward_weights", RewardWeights.coerce(values["reward_weights"]))
         try:
@@ -287,14 +287,14 @@ class ChainCartConfig:
         except TypeError:
             dtype = repr(values["obs_dtype"])
         if dtype not in ("float32", "float64"):
-            raise ChainCartError(f"obs_dtype = {values['obs_dtype']!r}: expected 'float32' or 'float64'")
+            raise InvalidInputError(f"obs_dtype = {values['obs_dtype']!r}: expected 'float32' or 'float64'")
         set_("obs_dtype", dtype)
         tol = values["success_tolerances"]
         if not (isinstance(tol, Sequence) and len(tol) == 2):
-            raise ChainCartError(f"success_tolerances = {tol!r}: expected two numbers (e_q, e_w)")
+            raise InvalidInputError(f"success_tolerances = {tol!r}: expected two numbers (e_q, e_w)")
         set_("success_tolerances", (_number("success_tolerances[0]", tol[0]), _number("success_tolerances[1]", tol[1])))
         if not isinstance(values["diagnostics"], (bool, np.bool_)):
-            raise ChainCartError(f"diagnostics = {values['diagnostics']!r}: expected True or False")
+            raise InvalidTypeError(f"diagnostics = {values['diagnostics']!r}: expected True or False")
         set_("diagnostics", bool(values["diagnostics"]))
         # Validation by the core: the physical parameters, then the task on a batch of one.
         model = ChainCart(
@@ -385,5 +385,5 @@ class ChainCartConfig:
         if isinstance(config, Mapping):
             return cls(**{**config, **kwargs})
         if not isinstance(config, ChainCartConfig):
-            raise ChainCartError(f"config = {config!r}: expected a ChainCartConfig or a dict of keywords")
+            raise InvalidTypeError(f"config = {config!r}: expected a ChainCartConfig or a dict of keywords")
         return config.replace(**kwargs) if kwargs else config

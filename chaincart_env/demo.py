@@ -35,7 +35,7 @@ def run_demo(
     scene: Optional[str] = None, policy: str = "lqr", seed: int = 0, max_steps: Optional[int] = None
 ) -> int:
     config = ChainCartConfig(scene=scene or DEFAULT_SCENE)
-    env = gym.make("ChainCart-v0", config=config)
+    env = gym.make("ChainCart-v0", config=config, max_episode_steps=config.max_episode_steps)
     base = env.unwrapped
     assert isinstance(base, ChainCartEnv)
     act = _policy(policy, base, seed)

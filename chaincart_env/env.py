@@ -11,11 +11,12 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering
+from chaincart_env.spec import JsonSpec
 
 __all__ = ["ChainCartEnv", "observation_space", "action_space", "episode_info"]
 
@@ -27,13 +28,13 @@ _FAILED = _core.EVENT_NUMERICAL_FAILURE
 
 def observation_space(config: ChainCartConfig) -> spaces.Box:
     """Box of one observation: link direction components in [-1, 1] (unbounded too
-    with ``obs_noise``), the rest any finite number of the observation dtype
-    (observations are never NaN or inf)."""
+    with ``obs_noise``), the rest unbounded (``-inf``/``inf``, Gymnasium's convention;
+    observations themselves are always finite)."""
     n, d = config.n_links, config.state_dim
     cart = 1 if config.planar else 2
     link = 2 if config.planar else 3
     dtype = np.dtype(config.obs_dtype)
-    high = np.full(d, np.finfo(dtype).max, dtype=dtype)
+    high = np.full(d, np.inf, dtype=dtype)
     if not any(config.obs_noise or ()):
         high[2 * cart : 2 * cart + link * n] = 1.0
     return spaces.Box(-high, high, dtype=dtype)
@@ -56,8 +57,10 @@ def episode_info(events: int, e_q: float, e_w: float) -> dict[str, Any]:
 
 
 def check_seed(seed: Any) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**64:
-        raise ChainCartError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise InvalidTypeError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
+    if not 0 <= int(seed) < 2**64:
+        raise InvalidInputError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
     return int(seed)
 
 
@@ -71,16 +74,16 @@ def start_state_option(options: Optional[dict[str, Any]]) -> Optional[np.ndarray
     if options is None:
         return None
     if not isinstance(options, dict):
-        raise ChainCartError(f"options = {options!r}: expected a dict (or None)")
+        raise InvalidTypeError(f"options = {options!r}: expected a dict (or None)")
     unknown = sorted(set(options) - set(RESET_OPTIONS))
     if unknown:
-        raise ChainCartError(f"options has unknown keys {unknown}: expected some of {list(RESET_OPTIONS)}")
+        raise InvalidInputError(f"options has unknown keys {unknown}: expected some of {list(RESET_OPTIONS)}")
     if "state" not in options:
         return None
     return np.asarray(options["state"], dtype=np.float64)
 
 
-class ChainCartEnv(NativeBatchCopies, gym.Env[np.ndarray, np.ndarray]):
+class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray]):
     """The chain pendulum on a cart (Lee, Leok & McClamroch, CDC 2012): stabilise an
     equilibrium of ``n`` links on a cart by pushing the cart.
 
@@ -110,13 +113,14 @@ class ChainCartEnv(NativeBatchCopies, gym.Env[np.ndarray, np.ndarray]):
 
     | Index               | Observation                                          | Min   | Max  |
     |---------------------|------------------------------------------------------|-------|------|
-    | 0, 1                | cart position ``x`` (m)                              | -MAX  | MAX  |
-    | 2, 3                | cart velocity ``xdot`` (m/s)                         | -MAX  | MAX  |
+    | 0, 1                | cart position ``x`` (m)                              | -inf  | inf  |
+    | 2, 3                | cart velocity ``xdot`` (m/s)                         | -inf  | inf  |
     | 4 + 3i .. 6 + 3i    | link i direction ``q_i`` (unit vector), i = 0..n-1   | -1    | 1    |
-    | 4 + 3n + 3i .. + 2  | link i angular velocity ``w_i`` (rad/s, normal to q_i) | -MAX | MAX  |
+    | 4 + 3n + 3i .. + 2  | link i angular velocity ``w_i`` (rad/s, normal to q_i) | -inf | inf  |
 
-    ``MAX`` is the largest finite number of the observation dtype: observations are
-    always finite (a state beyond float32 range saturates). Planar scenes observe only
+    Unbounded components have infinite bounds (Gymnasium's convention), but
+    observations are always finite: a state beyond the dtype's range saturates at its
+    largest finite number. Planar scenes observe only
     their planar state, length ``2 + 3n``: ``[x, xdot, (q_i . e1, q_i . e3) for each
     link, w_i . e2 for each link]``. The cart position stays within ``track_limit``
     (plus the last step's travel, when the episode terminates).

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
 
 __all__ = ["ChainCart", "Policy"]
 
@@ -47,12 +47,14 @@ class ChainCart(_core.ChainCart):
         """
         if callable(forces):
             if steps is None:
-                raise ChainCartError("simulate with a policy needs steps=: expected an integer >= 0")
-            if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
-                raise ChainCartError(f"steps = {steps!r}: expected an integer >= 0")
+                raise InvalidInputError("simulate with a policy needs steps=: expected an integer >= 0")
+            if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+                raise InvalidTypeError(f"steps = {steps!r}: expected an integer >= 0")
+            if steps < 0:
+                raise InvalidInputError(f"steps = {steps!r}: expected an integer >= 0")
             y = np.array(state, dtype=np.float64)
             if y.shape != (self.state_dim,):
-                raise ChainCartError(f"state has shape {y.shape}, expected ({self.state_dim},)")
+                raise InvalidInputError(f"state has shape {y.shape}, expected ({self.state_dim},)")
             traj = np.empty((int(steps) + 1, self.state_dim))
             traj[0] = y
             for k in range(int(steps)):
@@ -62,5 +64,5 @@ class ChainCart(_core.ChainCart):
         if steps is not None:
             f = np.asarray(forces)
             if f.ndim < 1 or f.shape[0] != steps:
-                raise ChainCartError(f"forces has {f.shape[0] if f.ndim else 0} rows but steps = {steps}")
+                raise InvalidInputError(f"forces has {f.shape[0] if f.ndim else 0} rows but steps = {steps}")
         return super().simulate(state, forces, dt, integrator, substeps)

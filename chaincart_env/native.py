@@ -6,15 +6,17 @@ from typing import Any
 
 import numpy as np
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 
 __all__ = ["NativeBatchCopies", "check_num_envs"]
 
 
 def check_num_envs(num_envs: Any) -> int:
     """``num_envs`` as an int >= 1, or a clear error."""
-    if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-        raise ChainCartError(f"num_envs = {num_envs!r}: expected an integer >= 1")
+    if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)):
+        raise InvalidTypeError(f"num_envs = {num_envs!r}: expected an integer >= 1")
+    if num_envs < 1:
+        raise InvalidInputError(f"num_envs = {num_envs!r}: expected an integer >= 1")
     return int(num_envs)
 
 

@@ -9,12 +9,13 @@ from typing import Any, Mapping, Optional
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.error import ResetNeeded
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.env import action_space, check_seed, episode_info, observation_space
+from chaincart_env.env import action_space, check_seed, episode_info, observation_space, start_state_option
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies, check_num_envs
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE, EnvRendering, check_shown_envs
@@ -24,20 +25,34 @@ __all__ = ["ChainCartVecEnv"]
 
 
 class _EnvView:
-    """What ``env_method`` and ``get_attr`` see as sub-env ``index``."""
+    """Sub-env ``index`` as ``get_attr``, ``set_attr`` and ``env_method`` see it: its
+    own ``state``, ``model_state``, ``elapsed_steps``, ``set_state``, ``render``, the
+    attributes set on it alone, and every attribute of the VecEnv (shared by all envs)."""
+
+    #: Attributes stored on the view itself (everything else set goes to the VecEnv).
+    _OWN = ("_vec", "_index")
 
     def __init__(self, vec: "ChainCartVecEnv", index: int) -> None:
-        self._vec = vec
-        self._index = index
+        object.__setattr__(self, "_vec", vec)
+        object.__setattr__(self, "_index", index)
 
     @property
     def model_state(self) -> np.ndarray:
         return self._vec._batch.states()[self._index]
 
+    @model_state.setter
+    def model_state(self, state: np.ndarray) -> None:
+        self.set_state(state)
+
     @property
     def state(self) -> np.ndarray:
         y = self.model_state
         return self._vec.model.to_spatial(y) if self._vec.config.planar else y
+
+    @state.setter
+    def state(self, state: np.ndarray) -> None:
+        y = np.asarray(state, dtype=np.float64)
+        self.set_state(self._vec.model.from_spatial(y) if self._vec.config.planar else y)
 
     @property
     def elapsed_steps(self) -> int:
@@ -57,6 +72,11 @@ class _EnvView:
     def get_wrapper_attr(self, name: str) -> Any:
         return getattr(self, name)
 
+    def set_wrapper_attr(self, name: str, value: Any, *, force: bool = True) -> bool:
+        """Sets ``name`` on this env alone, as ``set_attr`` with its index does."""
+        self._vec.set_attr(name, value, indices=[self._index])
+        return True
+
     def render(self) -> Optional[np.ndarray]:
         """This env's frame (``None`` without a render mode)."""
         vec = self._vec
@@ -65,8 +85,15 @@ class _EnvView:
         return vec._rendering.frames([vec._batch.states()[self._index]], first=self._index)[0]
 
     def __getattr__(self, name: str) -> Any:
-        # Everything else is shared by all envs of the batch.
+        # Not the view's own: shared by all envs of the batch. (Special and own names
+        # are never forwarded: unpickling looks some up before _vec exists.)
+        if name.startswith("__") or name in self._OWN:
+            raise AttributeError(name)
         return getattr(self._vec, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        # A property of the view (per-env state) or an attribute of this env alone.
+        object.__setattr__(self, name, value)
 
 
 class ChainCartVecEnv(NativeBatchCopies, VecEnv):
@@ -80,13 +107,17 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     ``is_success``, ``numerical_failure``, ``out_of_track``, ``e_q``, ``e_w``.
     Rewards are float32. Works with ``VecMonitor`` and ``VecNormalize``.
 
-    ``get_attr``/``env_method`` see each sub-env as a view with ``state``,
-    ``model_state``, ``elapsed_steps``, ``set_state``, ``true_params`` /
-    ``get_true_params()`` (the env's true physical parameters; with a parameter gap
-    also in ``reset_infos`` and, for the new episode, in a done env's info under
-    ``"params"``) and every attribute of this
-    VecEnv (``config``, ``model``, ``dt``, ...); ``set_attr`` sets an attribute shared
-    by all envs. No env is wrapped (``env_is_wrapped`` is all False).
+    ``get_attr``, ``set_attr`` and ``env_method`` take every index form SB3 takes
+    (``None`` for all envs, an int, negative ints counting from the end, a sequence)
+    and see each sub-env as a view with its own ``state``, ``model_state`` (both
+    settable), ``elapsed_steps``, ``set_state``, ``render``, ``set_wrapper_attr``,
+    ``true_params`` / ``get_true_params()`` (the env's true physical parameters; with a
+    parameter gap also in ``reset_infos`` and, for the new episode, in a done env's
+    info under ``"params"``) and every attribute of this VecEnv (``config``, ``model``,
+    ``dt``, ...). ``set_attr`` of an attribute the VecEnv has sets it for all envs (only
+    all envs at once: it is shared); any other name is set per env, on the envs given.
+    ``set_options`` reaches each env's next reset (``{"state": y}`` starts that env at
+    ``y``). No env is wrapped (``env_is_wrapped`` is all False).
 
     Rendering: ``render_mode`` ``"rgb_array"`` or ``"human"``, frames of
     ``render_width x render_height`` with each env's last force; ``render()`` tiles the
@@ -125,6 +156,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         self._diagnostics = self.config.diagnostics
         self._actions: Optional[np.ndarray] = None
         self._seeded = False
+        self._views = [_EnvView(self, i) for i in range(num_envs)]
         super().__init__(num_envs, observation_space(self.config), action_space(self.config))
         self.metadata["render_fps"] = self._rendering.fps  # type: ignore[assignment]  # SB3 types it as lists
         if seed is not None:
@@ -142,11 +174,16 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
 
     def reset(self) -> VecEnvObs:
         seeds: list[Optional[int]] = [None if s is None else check_seed(s) for s in self._seeds]
+        starts = [start_state_option(options or None) for options in self._options]
         if not self._seeded and all(s is None for s in seeds):
             base = entropy_seed()
             seeds = [base + i for i in range(self.num_envs)]
         self._seeded = True
         obs = self._batch.reset(seeds, None)
+        for i, start in enumerate(starts):
+            if start is not None:  # validated by the core, as in ChainCartEnv.reset
+                self._batch.set_state(i, start)
+                obs[i] = self._batch.states()[i]
         if self.render_mode is not None:
             self._rendering.clear_forces()
             if self._rendering.human_frame_due(reset=True):
@@ -164,7 +201,10 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None:
-            raise ChainCartError("step_wait() without step_async(actions): expected actions first")
+            raise InvalidInputError("step_wait() without step_async(actions): expected actions first")
+        if not self._seeded:
+            self._actions = None
+            raise ResetNeeded("ChainCartVecEnv: call reset() before step()")
         actions, self._actions = self._actions, None
         obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
         dones = terminated | truncated
@@ -172,7 +212,10 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
             self._rendering.record_forces(actions, fresh=dones)  # done envs show their new start
             if self._rendering.human_frame_due():
                 self.render()
-        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        # As DummyVecEnv: TimeLimit.truncated in every info.
+        infos: list[dict[str, Any]] = [
+            {"TimeLimit.truncated": bool(tr and not te)} for te, tr in zip(terminated, truncated)
+        ]
         if self._diagnostics:
             diag, errors = self._batch.diagnostics(), self._batch.errors()
             for k, info in enumerate(infos):
@@ -185,29 +228,51 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
                 info = infos[i]
                 info.update(episode_info(int(events[i]), errors[i, 0], errors[i, 1]))
                 info["terminal_observation"] = finals[i]
-                info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
                 if self.config.has_param_gap:
                     info["params"] = self._batch.env_params(int(i))  # of the new episode
         return obs, rewards.astype(np.float32), dones, infos
 
     def _indices(self, indices: VecEnvIndices) -> list[int]:
-        return list(self._get_indices(indices))
+        """Env indices in ``[0, num_envs)`` from every form SB3 accepts (negative ints
+        count from the end, as for DummyVecEnv's list of envs)."""
+        if indices is None:
+            return list(range(self.num_envs))
+        many = [indices] if isinstance(indices, (int, np.integer)) else indices
+        try:
+            items = list(many)  # type: ignore[arg-type]
+        except TypeError:
+            raise TypeError(f"indices = {indices!r}: expected None, an int or a sequence of ints") from None
+        out = []
+        for i in items:
+            if isinstance(i, bool) or not isinstance(i, (int, np.integer)):
+                raise TypeError(f"indices = {indices!r}: expected None, an int or a sequence of ints")
+            if not -self.num_envs <= i < self.num_envs:
+                raise IndexError(f"env index {i} out of range for num_envs = {self.num_envs}")
+            out.append(int(i) % self.num_envs)
+        return out
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        return [getattr(_EnvView(self, i), attr_name) for i in self._indices(indices)]
+        return [getattr(self._views[i], attr_name) for i in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        if len(self._indices(indices)) not in (0, self.num_envs):
-            raise ChainCartError(
-                f"set_attr({attr_name!r}) on some envs only: attributes are shared by all envs of the batch"
+        targets = self._indices(indices)
+        per_env = isinstance(getattr(_EnvView, attr_name, None), property) or not hasattr(self, attr_name)
+        if per_env:
+            for i in targets:
+                setattr(self._views[i], attr_name, value)
+        elif sorted(set(targets)) == list(range(self.num_envs)):
+            setattr(self, attr_name, value)
+        elif targets:
+            raise InvalidInputError(
+                f"set_attr({attr_name!r}) on envs {targets} only: {attr_name!r} is shared by all "
+                f"{self.num_envs} envs of the batch (expected indices=None)"
             )
-        setattr(self, attr_name, value)
 
     def env_method(
         self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
     ) -> list[Any]:
         return [
-            getattr(_EnvView(self, i), method_name)(*method_args, **method_kwargs) for i in self._indices(indices)
+            getattr(self._views[i], method_name)(*method_args, **method_kwargs) for i in self._indices(indices)
         ]
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:

@@ -11,16 +11,18 @@ from collections.abc import Sequence
 from typing import Any, Mapping, Optional, Union
 
 import numpy as np
+from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies, check_num_envs
-from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering, check_shown_envs
+from chaincart_env.rendering import DEFAULT_FRAME_SIZE, VECTOR_RENDER_MODES, EnvRendering, check_shown_envs
+from chaincart_env.spec import JsonSpec
 
 __all__ = ["ChainCartVectorEnv", "autoreset_mode_of"]
 
@@ -42,7 +44,7 @@ def autoreset_mode_of(mode: Union[AutoresetMode, str]) -> AutoresetMode:
         for m, native in _NATIVE_MODE.items():
             if mode in (m.value, native, m.name):
                 return m
-    raise ChainCartError(
+    raise InvalidInputError(
         f"autoreset_mode = {mode!r}: expected an AutoresetMode or one of 'next_step', 'same_step', 'disabled'"
     )
 
@@ -63,7 +65,7 @@ def episode_infos(batch: _core.EnvBatch) -> tuple[np.ndarray, dict[str, Any]]:
     return ended, info
 
 
-class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
+class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     """``num_envs`` copies of :class:`chaincart_env.ChainCartEnv` stepped together in
     Rust. Arguments as for the single env (a config and/or its keywords) plus
     ``num_envs`` and ``autoreset_mode`` (an ``AutoresetMode`` or ``"next_step"``,
@@ -93,14 +95,24 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
     enabled, are top-level arrays for every env each step (of the state the step
     reached, before a same-step reset).
 
-    Rendering (``render_mode="rgb_array"`` or ``"human"``): the first ``render_envs``
-    envs (default ``min(num_envs, 4)``), each drawn at ``render_width x render_height``
-    with the force of its last step, tiled row by row in the most nearly square grid
+    Rendering follows Gymnasium's ``VectorEnv.render``: each env is drawn at
+    ``render_width x render_height`` with the force of its last step, and
+
+    * ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` uint8 frames (what
+      ``gymnasium.wrappers.vector.HumanRendering`` and ``RecordVideo`` read);
+    * ``"rgb_array_list"``: ``render()`` returns a tuple of ``num_envs`` lists, each
+      env's frames since the last ``render()`` (one per reset and per step; a reset
+      starts the lists afresh);
+    * ``"human"``: every reset and step shows the first ``render_envs`` envs (default
+      ``min(num_envs, 4)``) tiled in a window; ``render()`` returns ``None``.
+
+    :meth:`render_tiled` returns that mosaic as an image: the first ``render_envs``
+    frames row by row in the most nearly square grid
     (:func:`chaincart_env.rendering.tile_frames`, 2 grey pixels between tiles).
     """
 
     metadata: dict[str, Any] = {
-        "render_modes": list(RENDER_MODES),
+        "render_modes": list(VECTOR_RENDER_MODES),
         "render_fps": 50,
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
@@ -128,8 +140,12 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
             render_height,
             shown=check_shown_envs(render_envs, self.num_envs),
             tiled=True,
+            tracked=self.num_envs,
+            modes=VECTOR_RENDER_MODES,
         )
         self.render_mode = self._rendering.mode
+        # rgb_array_list: per step, the tuple of every env's frame
+        self._frame_history: list[tuple[np.ndarray, ...]] = []
         self.metadata = {
             **type(self).metadata,
             "autoreset_mode": self.autoreset_mode,
@@ -188,30 +204,34 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
                 seeds = [base + i for i in range(self.num_envs)]
         elif isinstance(seed, Sequence) and not isinstance(seed, str):
             if len(seed) != self.num_envs:
-                raise ChainCartError(f"seed has {len(seed)} entries, expected num_envs = {self.num_envs}")
+                raise InvalidInputError(f"seed has {len(seed)} entries, expected num_envs = {self.num_envs}")
             seeds = [None if s is None else check_seed(s) for s in seed]
         else:
-            raise ChainCartError(f"seed = {seed!r}: expected an int, a list of num_envs ints (or None), or None")
+            raise InvalidTypeError(f"seed = {seed!r}: expected an int, a list of num_envs ints (or None), or None")
         mask = None
         if options is not None and not isinstance(options, dict):
-            raise ChainCartError(f"options = {options!r}: expected a dict (or None)")
+            raise InvalidTypeError(f"options = {options!r}: expected a dict (or None)")
         unknown = sorted(set(options or {}) - {"reset_mask"})
         if unknown:
-            raise ChainCartError(f"options has unknown keys {unknown}: expected some of ['reset_mask']")
+            raise InvalidInputError(f"options has unknown keys {unknown}: expected some of ['reset_mask']")
         if options is not None and "reset_mask" in options:
             mask = options["reset_mask"]
-            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,)):
-                raise ChainCartError(
+            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_):
+                raise InvalidTypeError(
+                    f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},)"
+                )
+            if mask.shape != (self.num_envs,):
+                raise InvalidInputError(
                     f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},)"
                 )
             if not mask.any():
-                raise ChainCartError("options['reset_mask'] has no True entry: expected at least one env to reset")
+                raise InvalidInputError("options['reset_mask'] has no True entry: expected at least one env to reset")
         self._seeded = True
         obs = self._batch.reset(seeds, mask)
         if self.render_mode is not None:
             self._rendering.clear_forces(mask)
-            if self._rendering.human_frame_due(reset=True):
-                self.render()
+            self._frame_history.clear()
+            self._after_transition(reset=True)
         info: dict[str, Any] = {}
         if self.config.has_param_gap:
             info["params"] = self.true_params
@@ -230,6 +250,8 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
         self, actions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Steps every env; ``actions`` of shape ``(num_envs, force_dim)``."""
+        if not self._seeded:
+            raise ResetNeeded("ChainCartVectorEnv: call reset() before step()")
         obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
         if self.render_mode is not None:
             self._record_forces(actions)
@@ -245,8 +267,13 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
         if self._same_step:
             fresh |= (events & _core.EVENT_ENDED) != 0
         self._rendering.record_forces(actions, fresh)
-        if self._rendering.human_frame_due():
-            self.render()
+        self._after_transition()
+
+    def _after_transition(self, reset: bool = False) -> None:
+        if self.render_mode == "rgb_array_list":
+            self._frame_history.append(self._frames())
+        elif self._rendering.human_frame_due(reset=reset):
+            self._rendering.render(self._batch.states())
 
     def _infos(self, n_ended: int) -> dict[str, Any]:
         info: dict[str, Any] = {}
@@ -281,16 +308,32 @@ class ChainCartVectorEnv(NativeBatchCopies, VectorEnv):
             info.update(episode)
         return info
 
-    def render(self) -> Optional[np.ndarray]:  # type: ignore[override]
-        """``rgb_array``: the tiled frames of the first ``render_envs`` envs (uint8);
-        ``human``: shows them (also done by every ``reset`` and ``step``) and returns
-        ``None``. No render mode: ``None``."""
-        if self.render_mode is None:
-            return None
-        return self._rendering.render(self._batch.states()[: self._rendering.shown])
+    def render(self) -> Optional[tuple[Any, ...]]:
+        """``rgb_array``: a tuple of every env's frame (uint8 ``(render_height,
+        render_width, 3)``); ``rgb_array_list``: a tuple of every env's frames since the
+        last call; ``human``: shows the tiled first ``render_envs`` envs (also done by
+        every ``reset`` and ``step``) and returns ``None``. No render mode: ``None``."""
+        if self.render_mode == "rgb_array":
+            return self._frames()
+        if self.render_mode == "rgb_array_list":
+            history, self._frame_history = self._frame_history, []
+            return tuple([frames[i] for frames in history] for i in range(self.num_envs))
+        if self.render_mode == "human":
+            self._rendering.render(self._batch.states())
+        return None
+
+    def render_tiled(self) -> np.ndarray:
+        """The current frames of the first ``render_envs`` envs tiled in one uint8
+        image (the picture human mode shows), in any render mode."""
+        return self._rendering.image(self._batch.states())
+
+    def _frames(self) -> tuple[np.ndarray, ...]:
+        return tuple(self._rendering.frames(self._batch.states()))
 
     def close_extras(self, **kwargs: Any) -> None:
-        self._rendering.close()
+        rendering = getattr(self, "_rendering", None)  # None: the constructor failed
+        if rendering is not None:
+            rendering.close()
 
     def _rebuild_batch(self) -> Any:
         return self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode])

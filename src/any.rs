@@ -3,7 +3,9 @@
 //! inputs and returns errors; nothing here panics on bad input.
 
 use crate::batch::{Batch, Guard, GuardedStepper, StepStatus};
-use crate::error::{check_finite, check_len, check_positive, ChainError, Result};
+use crate::error::{
+    check_finite, check_len, check_positive, ChainError, IntegrationFailure, Result,
+};
 use crate::geometry::{planar_to_spatial, spatial_to_planar, Planar, Spatial, Vector};
 use crate::integrate::StepOptions;
 use crate::invariants::{Energy, Residuals};
@@ -98,6 +100,7 @@ impl AnyChain {
         self.check_state(state)?;
         dispatch!(self, c, {
             let f = c.force_dim();
+            crate::limits::check_rows("steps", steps, c.state_dim())?;
             check_len("forces", forces, steps * f)?;
             check_finite("forces", forces)?;
             let mut stepper = GuardedStepper::new(c);
@@ -189,15 +192,17 @@ impl AnyChain {
     }
 }
 
-/// The error for a step that failed the guard.
+/// The error for step `k` (of `dt` each) that failed the guard.
 fn step_failure(status: StepStatus, k: usize, opts: &StepOptions, dt: f64) -> ChainError {
-    ChainError::NumericalFailure {
-        reason: format!(
-            "{} at step {k} ({} integrator, dt = {dt})",
-            status.describe(),
-            opts.method.name()
-        ),
-    }
+    ChainError::integration(
+        k as f64 * dt,
+        IntegrationFailure::Step {
+            step: k,
+            status: status.describe(),
+            method: opts.method.name(),
+            dt,
+        },
+    )
 }
 
 /// A batch in either scene.

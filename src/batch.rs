@@ -7,7 +7,7 @@
 //! its own data, so results are bit-identical whatever the thread count. Nothing
 //! is allocated in [`Batch::step`].
 
-use crate::error::{check_finite, check_len, check_positive, ChainError, Result};
+use crate::error::{check_finite, check_len, check_positive, InputError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::{Method, StepOptions, Stepper};
 use crate::model::Chain;
@@ -172,12 +172,14 @@ impl<G: Geometry> Batch<G> {
     /// `n_envs` copies of `initial` (or of the hanging equilibrium if `None`).
     pub fn new(chain: Chain<G>, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
         if n_envs == 0 {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name: "num_envs",
                 value: 0.0,
                 expected: "an integer >= 1",
-            });
+            }
+            .into());
         }
+        crate::limits::check_rows("n_envs", n_envs, chain.state_dim())?;
         check_positive("dt", dt)?;
         opts.validate()?;
         let dim = chain.state_dim();
@@ -238,11 +240,12 @@ impl<G: Geometry> Batch<G> {
     /// Overwrites env `env`'s state (validated: length, finiteness) and clears its status.
     pub fn set_state(&mut self, env: usize, state: &[f64]) -> Result<()> {
         if env >= self.n_envs {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name: "env index",
                 value: env as f64,
                 expected: "an index below num_envs",
-            });
+            }
+            .into());
         }
         let d = self.state_dim();
         check_len("state", state, d)?;

@@ -1,11 +1,19 @@
-//! One error type for the whole core. Variants carry the offending data so that
-//! messages can name the value and what was expected (the Python layer maps each
-//! to a `ValueError` subclass without rewording it).
+//! The core's errors in three layers, each carrying the offending data so that
+//! messages can name the value and what was expected:
+//!
+//! * [`InputError`]: an argument is not admissible (the caller's mistake);
+//! * [`ChainError::Integration`]: the model's integration failed, at a time, for an
+//!   [`IntegrationFailure`];
+//! * [`ChainError::Analysis`]: a linear-algebra analysis has no (stable) solution.
+//!
+//! The Python layer maps the three to `InvalidInputError` (a `ValueError`),
+//! `IntegrationError` (a `RuntimeError`) and `AnalysisError` without rewording them.
 
 use std::fmt;
 
+/// An inadmissible argument.
 #[derive(Debug, Clone, PartialEq)]
-pub enum ChainError {
+pub enum InputError {
     /// A scalar parameter outside its admissible set (e.g. a mass <= 0 or NaN).
     InvalidParameter {
         name: &'static str,
@@ -34,6 +42,12 @@ pub enum ChainError {
     },
     /// The number of links must be at least one.
     NoLinks,
+    /// A size (links, envs, steps, ...) beyond what can be allocated.
+    TooLarge {
+        name: &'static str,
+        value: usize,
+        limit: usize,
+    },
     /// A name (integrator, equilibrium, ...) that is not known.
     UnknownName {
         kind: &'static str,
@@ -48,8 +62,23 @@ pub enum ChainError {
     },
     /// An equilibrium sign tuple with an entry other than +1 or -1.
     InvalidSign { index: usize, value: f64 },
-    /// The integration produced a non-finite state or broke a constraint.
-    NumericalFailure { reason: String },
+}
+
+/// Why an integration failed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum IntegrationFailure {
+    /// A guarded control period failed: `status` says how (non-finite state,
+    /// constraint drift, under-resolved motion, solver failure).
+    Step {
+        step: usize,
+        status: &'static str,
+        method: &'static str,
+        dt: f64,
+    },
+    /// The adaptive integrator needed more than `limit` steps in one period.
+    TooManySteps { limit: usize },
+    /// The adaptive integrator's step size fell below what floating point resolves.
+    StepSizeUnderflow,
     /// An implicit solve did not converge.
     NoConvergence {
         method: &'static str,
@@ -57,46 +86,130 @@ pub enum ChainError {
         residual: f64,
         tolerance: f64,
     },
+}
+
+/// Every error of the core.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ChainError {
+    /// An inadmissible argument.
+    Input(InputError),
+    /// The integration failed in the step that began at `time` (s from the start
+    /// of the call; within a control period for the integrators' own errors).
+    Integration {
+        time: f64,
+        failure: IntegrationFailure,
+    },
     /// Linear-algebra failure in the analysis code (singular matrix, no stabilising solution...).
     Analysis { reason: String },
 }
 
-impl fmt::Display for ChainError {
+impl From<InputError> for ChainError {
+    fn from(e: InputError) -> Self {
+        ChainError::Input(e)
+    }
+}
+
+impl ChainError {
+    /// An integration failure at `time` seconds.
+    pub fn integration(time: f64, failure: IntegrationFailure) -> Self {
+        ChainError::Integration { time, failure }
+    }
+}
+
+impl fmt::Display for InputError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        use ChainError::*;
+        use InputError::*;
         match self {
-            InvalidParameter { name, value, expected } => {
+            InvalidParameter {
+                name,
+                value,
+                expected,
+            } => {
                 write!(f, "invalid {name} = {value}: expected {expected}")
             }
-            InvalidLinkParameter { name, link, value, expected } => {
+            InvalidLinkParameter {
+                name,
+                link,
+                value,
+                expected,
+            } => {
                 write!(f, "invalid {name}[{link}] = {value}: expected {expected}")
             }
-            InvalidRange { name, low, high, expected } => {
-                write!(f, "invalid {name} range [{low}, {high}]: expected {expected}")
+            InvalidRange {
+                name,
+                low,
+                high,
+                expected,
+            } => {
+                write!(
+                    f,
+                    "invalid {name} range [{low}, {high}]: expected {expected}"
+                )
             }
-            LengthMismatch { name, got, expected } => {
+            LengthMismatch {
+                name,
+                got,
+                expected,
+            } => {
                 write!(f, "{name} has length {got}, expected {expected}")
             }
             NoLinks => write!(f, "n_links = 0: expected at least one link"),
-            UnknownName { kind, name, expected } => {
+            TooLarge { name, value, limit } => {
+                write!(f, "{name} = {value} is too large: expected at most {limit}")
+            }
+            UnknownName {
+                kind,
+                name,
+                expected,
+            } => {
                 write!(f, "unknown {kind} {name:?}: expected one of {expected}")
             }
             NonFinite { name, index, value } => {
                 write!(f, "{name}[{index}] = {value}: expected a finite number")
             }
             InvalidSign { index, value } => {
-                write!(f, "s[{index}] = {value}: expected +1 (hanging link) or -1 (upright link)")
+                write!(
+                    f,
+                    "s[{index}] = {value}: expected +1 (hanging link) or -1 (upright link)"
+                )
             }
-            NumericalFailure { reason } => write!(f, "numerical failure: {reason}"),
-            NoConvergence { method, iterations, residual, tolerance } => write!(
-                f,
-                "{method} did not converge in {iterations} iterations: residual {residual:e} > tolerance {tolerance:e}"
-            ),
-            Analysis { reason } => write!(f, "{reason}"),
         }
     }
 }
 
+impl fmt::Display for IntegrationFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use IntegrationFailure::*;
+        match self {
+            Step { step, status, method, dt } => {
+                write!(f, "{status} at step {step} ({method} integrator, dt = {dt})")
+            }
+            TooManySteps { limit } => write!(
+                f,
+                "adaptive integrator took more than {limit} steps in one control period"
+            ),
+            StepSizeUnderflow => write!(f, "adaptive step size underflow"),
+            NoConvergence { method, iterations, residual, tolerance } => write!(
+                f,
+                "{method} did not converge in {iterations} iterations: residual {residual:e} > tolerance {tolerance:e}"
+            ),
+        }
+    }
+}
+
+impl fmt::Display for ChainError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ChainError::Input(e) => e.fmt(f),
+            ChainError::Integration { time, failure } => {
+                write!(f, "numerical failure at t = {time} s: {failure}")
+            }
+            ChainError::Analysis { reason } => write!(f, "{reason}"),
+        }
+    }
+}
+
+impl std::error::Error for InputError {}
 impl std::error::Error for ChainError {}
 
 pub type Result<T> = std::result::Result<T, ChainError>;
@@ -104,11 +217,12 @@ pub type Result<T> = std::result::Result<T, ChainError>;
 /// Rejects NaN/inf in an input vector, naming the first bad entry.
 pub fn check_finite(name: &'static str, values: &[f64]) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(ChainError::NonFinite {
+        Some(index) => Err(InputError::NonFinite {
             name,
             index,
             value: values[index],
-        }),
+        }
+        .into()),
         None => Ok(()),
     }
 }
@@ -118,11 +232,12 @@ pub fn check_positive(name: &'static str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {
-        Err(ChainError::InvalidParameter {
+        Err(InputError::InvalidParameter {
             name,
             value,
             expected: "a finite number > 0",
-        })
+        }
+        .into())
     }
 }
 
@@ -131,10 +246,20 @@ pub fn check_len(name: &'static str, values: &[f64], expected: usize) -> Result<
     if values.len() == expected {
         Ok(())
     } else {
-        Err(ChainError::LengthMismatch {
+        Err(InputError::LengthMismatch {
             name,
             got: values.len(),
             expected,
-        })
+        }
+        .into())
+    }
+}
+
+/// Rejects a size above `limit` (sizes that cannot be allocated), naming it.
+pub fn check_size(name: &'static str, value: usize, limit: usize) -> Result<()> {
+    if value <= limit {
+        Ok(())
+    } else {
+        Err(InputError::TooLarge { name, value, limit }.into())
     }
 }

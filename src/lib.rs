@@ -11,6 +11,7 @@
 //! * [`batch`]: struct-of-arrays batches stepped in parallel.
 //! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati, LQR.
 //! * [`render`]: software rendering of chain states into RGB frames.
+//! * [`limits`]: the largest sizes accepted; [`scaling`]: timing against the number of links.
 //! * [`env`](mod@env): the RL task (target, start, reward, termination, autoreset) over a batch.
 
 pub mod analysis;
@@ -22,15 +23,17 @@ pub mod error;
 pub mod geometry;
 pub mod integrate;
 pub mod invariants;
+pub mod limits;
 pub mod model;
 pub mod params;
 pub mod render;
+pub mod scaling;
 pub mod tridiagonal;
 
 #[cfg(feature = "python")]
 mod python;
 
-pub use error::{ChainError, Result};
+pub use error::{ChainError, InputError, IntegrationFailure, Result};
 pub use geometry::{Geometry, Planar, Spatial};
 pub use integrate::{Method, StepOptions, Stepper};
 pub use model::{Chain, PlanarChain, SpatialChain};

@@ -15,7 +15,7 @@
 //! `wdot_i = q_i x qdd_i`. This is algebraically the paper's eq. (ELwm) (tested
 //! against [`crate::dense`]) at O(n) instead of O(n^3) cost.
 
-use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::error::{check_finite, check_len, InputError, Result};
 use crate::geometry::{Geometry, Layout, Planar, Spatial, Vector};
 use crate::params::ChainParams;
 
@@ -218,7 +218,7 @@ impl<G: Geometry> Chain<G> {
         check_len("s", s, self.n_links())?;
         for (index, &value) in s.iter().enumerate() {
             if value != 1.0 && value != -1.0 {
-                return Err(ChainError::InvalidSign { index, value });
+                return Err(InputError::InvalidSign { index, value }.into());
             }
         }
         let mut y = vec![0.0; self.state_dim()];
@@ -243,6 +243,7 @@ impl<G: Geometry> Chain<G> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ChainError;
     use nalgebra::Vector3;
 
     #[test]
@@ -280,14 +281,15 @@ mod tests {
         let chain = SpatialChain::new(ChainParams::paper());
         assert_eq!(
             chain.equilibrium(&[1.0, 1.0, 0.5, 1.0, 1.0]).unwrap_err(),
-            ChainError::InvalidSign {
+            InputError::InvalidSign {
                 index: 2,
                 value: 0.5
             }
+            .into()
         );
         assert!(matches!(
             chain.equilibrium(&[1.0]),
-            Err(ChainError::LengthMismatch { .. })
+            Err(ChainError::Input(InputError::LengthMismatch { .. }))
         ));
     }
 

@@ -4,7 +4,7 @@
 //! the mass carried below each joint, gravity torques), so the step loop only
 //! reads.
 
-use crate::error::{check_positive, ChainError, Result};
+use crate::error::{check_positive, InputError, Result};
 
 /// Validated parameters: cart mass `m`, link masses `m_i`, lengths `l_i`, gravity `g`.
 #[derive(Debug, Clone, PartialEq)]
@@ -22,12 +22,13 @@ pub struct ChainParams {
 fn check_positive_links(name: &'static str, values: &[f64]) -> Result<()> {
     for (link, &value) in values.iter().enumerate() {
         if !(value.is_finite() && value > 0.0) {
-            return Err(ChainError::InvalidLinkParameter {
+            return Err(InputError::InvalidLinkParameter {
                 name,
                 link,
                 value,
                 expected: "a finite number > 0",
-            });
+            }
+            .into());
         }
     }
     Ok(())
@@ -37,14 +38,16 @@ impl ChainParams {
     /// Parameters with one mass and one length per link.
     pub fn new(cart_mass: f64, masses: &[f64], lengths: &[f64], gravity: f64) -> Result<Self> {
         if masses.is_empty() {
-            return Err(ChainError::NoLinks);
+            return Err(InputError::NoLinks.into());
         }
+        crate::limits::check_links(masses.len())?;
         if lengths.len() != masses.len() {
-            return Err(ChainError::LengthMismatch {
+            return Err(InputError::LengthMismatch {
                 name: "link_lengths",
                 got: lengths.len(),
                 expected: masses.len(),
-            });
+            }
+            .into());
         }
         check_positive("cart_mass", cart_mass)?;
         check_positive("gravity", gravity)?;
@@ -92,6 +95,7 @@ impl ChainParams {
 
     /// `n` identical links (scalars broadcast).
     pub fn uniform(n: usize, cart_mass: f64, mass: f64, length: f64, gravity: f64) -> Result<Self> {
+        crate::limits::check_links(n)?;
         Self::new(cart_mass, &vec![mass; n], &vec![length; n], gravity)
     }
 
@@ -149,48 +153,50 @@ impl ChainParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ChainError;
 
     #[test]
     fn rejects_bad_values_naming_them() {
         let e = ChainParams::new(0.5, &[0.1, -1.0], &[0.1, 0.1], 9.81).unwrap_err();
         assert_eq!(
             e,
-            ChainError::InvalidLinkParameter {
+            InputError::InvalidLinkParameter {
                 name: "link_masses",
                 link: 1,
                 value: -1.0,
                 expected: "a finite number > 0"
             }
+            .into()
         );
         assert!(e.to_string().contains("link_masses[1] = -1"));
         assert_eq!(
             ChainParams::new(0.5, &[], &[], 9.81).unwrap_err(),
-            ChainError::NoLinks
+            InputError::NoLinks.into()
         );
         assert!(matches!(
             ChainParams::new(0.5, &[0.1], &[0.1, 0.2], 9.81),
-            Err(ChainError::LengthMismatch { .. })
+            Err(ChainError::Input(InputError::LengthMismatch { .. }))
         ));
         assert!(matches!(
             ChainParams::new(f64::NAN, &[0.1], &[0.1], 9.81),
-            Err(ChainError::InvalidParameter {
+            Err(ChainError::Input(InputError::InvalidParameter {
                 name: "cart_mass",
                 ..
-            })
+            }))
         ));
         assert!(matches!(
             ChainParams::new(0.5, &[0.1], &[0.1], 0.0),
-            Err(ChainError::InvalidParameter {
+            Err(ChainError::Input(InputError::InvalidParameter {
                 name: "gravity",
                 ..
-            })
+            }))
         ));
         assert!(matches!(
             ChainParams::new(0.5, &[0.1], &[f64::INFINITY], 9.81),
-            Err(ChainError::InvalidLinkParameter {
+            Err(ChainError::Input(InputError::InvalidLinkParameter {
                 name: "link_lengths",
                 ..
-            })
+            }))
         ));
     }
 

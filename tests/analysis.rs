@@ -9,7 +9,7 @@ use chaincart::analysis::{
     all_signs, controllability, equilibria, solve_care, Linearization, LocalLayout, LqrController,
     LqrWeights,
 };
-use chaincart::{ChainError, ChainParams, SpatialChain};
+use chaincart::{ChainError, ChainParams, InputError, SpatialChain};
 use nalgebra::{DMatrix, DVector, Vector2};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -177,7 +177,7 @@ fn equilibria_energies_and_the_minimum() {
     assert_eq!(folded_up.signs, vec![-1.0, 1.0, -1.0, 1.0, -1.0]);
     assert!(matches!(
         LqrController::paper(&ChainParams::paper(), &[1.0, 1.0]),
-        Err(ChainError::LengthMismatch { .. })
+        Err(ChainError::Input(InputError::LengthMismatch { .. }))
     ));
 }
 

@@ -1,6 +1,8 @@
 """Criterion section: the Rust core's own benchmarks (``cargo bench --bench dynamics``,
-benches/dynamics.rs) read back from criterion's JSON output. It does not run cargo
-bench (a few minutes); it reports the last run's numbers and when they were written."""
+benches/dynamics.rs, in a source checkout) read back from criterion's JSON output. It
+does not run cargo bench (a few minutes); it reports the last run's numbers and when
+they were written, if there are any (an installed package has none unless
+``CARGO_TARGET_DIR`` points at a checkout's target directory)."""
 
 from __future__ import annotations
 
@@ -18,14 +20,22 @@ __all__ = ["criterion_section", "read_criterion", "criterion_dir"]
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def criterion_dir() -> Path:
-    return Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "criterion"
+def criterion_dir() -> Optional[Path]:
+    """Where criterion writes: ``$CARGO_TARGET_DIR/criterion``, else the source
+    checkout's ``target/criterion``; ``None`` for an installed package without either."""
+    if "CARGO_TARGET_DIR" in os.environ:
+        return Path(os.environ["CARGO_TARGET_DIR"]) / "criterion"
+    if (ROOT / "Cargo.toml").is_file():
+        return ROOT / "target" / "criterion"
+    return None
 
 
 def read_criterion(directory: Optional[Path] = None) -> dict[str, dict[str, float]]:
     """``{full_id: {"median": seconds, "mtime": unix time}}`` of every benchmark's latest run."""
     directory = directory or criterion_dir()
-    out = {}
+    out: dict[str, dict[str, float]] = {}
+    if directory is None or not directory.is_dir():
+        return out
     for bench in sorted(directory.glob("**/new/benchmark.json")):
         meta = json.loads(bench.read_text())
         estimates = json.loads((bench.parent / "estimates.json").read_text())
@@ -49,7 +59,13 @@ def criterion_section(ctx: BenchContext) -> None:
     ctx.report.heading("Rust core: criterion benchmarks (`cargo bench --bench dynamics`)")
     results = read_criterion()
     if not results:
-        ctx.report.paragraph(f"No criterion results under `{criterion_dir()}`: run `cargo bench --bench dynamics` first.")
+        where = criterion_dir()
+        found = f"under `{where}`" if where is not None else "(this is an installed package, not a source checkout)"
+        ctx.report.paragraph(
+            f"No criterion results {found}. To produce them, run `cargo bench --bench dynamics` in a source "
+            "checkout of chaincart; set `CARGO_TARGET_DIR` to that checkout's `target` directory to report them "
+            "from elsewhere."
+        )
         return
     ctx.results["criterion"] = results
     newest = datetime.datetime.fromtimestamp(max(r["mtime"] for r in results.values()))

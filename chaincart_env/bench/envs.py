@@ -96,7 +96,7 @@ def _single_env_table(ctx: BenchContext, rng: np.random.Generator) -> float:
     singles = {}
     for label, config in configs:
         actions = list(rng.uniform(-1, 1, (1000, config.force_dim)).astype(np.float32))
-        r = _single_rate(gym.make("ChainCart-v0", config=config), actions, ctx)
+        r = _single_rate(gym.make("ChainCart-v0", config=config, max_episode_steps=config.max_episode_steps), actions, ctx)
         what = f"{config.state_dim} numbers, {config.integrator} x{config.substeps}, {config.dt * 1e3:g} ms"
         rows.append([label, what, fmt_rate(r), f"{1e6 / r:.2f}", fmt_ratio(r, base)])
         singles[label] = r

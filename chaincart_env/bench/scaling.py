@@ -1,25 +1,22 @@
 """Scaling section: time of one acceleration evaluation against the number of links
 n = 1 .. 256 for the O(n) tension form and the paper's dense form (eq. ELwm), and of one
-rk4 step of the O(n) form, measured in Rust by ``examples/scaling.rs`` (the dense form
-has no Python binding; timing in Rust keeps Python's call overhead out), with the
-log-log slope fitted by least squares."""
+rk4 step of the O(n) form, timed in Rust through the native module
+(``_core.time_scaling``: the loop runs in Rust, so Python's call overhead stays out),
+with the log-log slope fitted by least squares."""
 
 from __future__ import annotations
 
-import shutil
-import subprocess
 from collections import defaultdict
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
+from chaincart_env import _core
 from chaincart_env.bench.report import fmt_time
 from chaincart_env.bench.suite import BenchContext
 
 __all__ = ["scaling_section", "fit_loglog_slope", "parse_scaling_output", "FIT_FROM_N"]
 
-ROOT = Path(__file__).resolve().parents[2]
 #: The slope is fitted from this n on, where the leading term dominates the constant costs.
 FIT_FROM_N = 8
 FORMS = {"fast": "O(n) form, accelerations", "dense": "dense form (LU), accelerations", "fast_rk4_step": "O(n) form, one rk4 step"}
@@ -48,11 +45,15 @@ def parse_scaling_output(text: str) -> dict[str, dict[int, float]]:
     return dict(out)
 
 
-def _run_example(quick: bool) -> dict[str, dict[int, float]]:
-    command = ["cargo", "run", "--quiet", "--release", "--example", "scaling", "--"]
-    command += ["--quick", "--max-n", "128"] if quick else ["--max-n", "256"]
-    done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, check=True)
-    return parse_scaling_output(done.stdout)
+def measure(max_n: int, min_time: float) -> dict[str, dict[int, float]]:
+    """``{form: {n: seconds}}`` for n = 1, 2, 4, .. max_n, timed in Rust."""
+    out: dict[str, dict[int, float]] = {form: {} for form in FORMS}
+    n = 1
+    while n <= max_n:
+        for form in FORMS:
+            out[form][n] = _core.time_scaling(form, n, min_time)
+        n *= 2
+    return out
 
 
 def _plot(ctx: BenchContext, data: dict[str, dict[int, float]], fits: dict[str, tuple[float, float]]) -> None:
@@ -82,15 +83,14 @@ def _plot(ctx: BenchContext, data: dict[str, dict[int, float]], fits: dict[str, 
 
 def scaling_section(ctx: BenchContext) -> None:
     ctx.report.heading("Scaling with the number of links")
-    if shutil.which("cargo") is None:
-        ctx.report.paragraph("cargo is not on PATH: the scaling section (timed in Rust) is skipped.")
-        return
-    data = _run_example(ctx.settings.quick)
+    quick = ctx.settings.quick
+    data = measure(128 if quick else 256, 0.01 if quick else 0.1)
     fits = {form: fit_loglog_slope([n for n in t if n >= FIT_FROM_N], [t[n] for n in t if n >= FIT_FROM_N])
             for form, t in data.items()}  # fmt: skip
     ctx.results["scaling"] = {"data": data, "fits": fits}
     ctx.report.paragraph(
-        "`cargo run --release --example scaling`: best of 3 timed runs per point, in Rust, one core. "
+        "Timed in Rust through the native module (`_core.time_scaling`; the same numbers as "
+        "`cargo run --release --example scaling`): best of 3 timed runs per point, one core. "
         f"Slopes are least-squares fits of log time on log n for n >= {FIT_FROM_N} (expected: 1 for the O(n) form, "
         "3 for the dense LU solve)."
     )

@@ -33,7 +33,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 
 __all__ = ["CHECKPOINT_DIR", "Checkpointer", "restore", "truncate_csv"]
 
@@ -81,7 +81,7 @@ class Checkpointer(BaseCallback):
     def __init__(self, directory: Path, every: int, logs: tuple[str, ...] = (), keep: tuple[str, ...] = ()) -> None:
         super().__init__()
         if isinstance(every, bool) or not isinstance(every, int) or every < 1:
-            raise ChainCartError(f"checkpoint interval = {every!r}: expected an integer >= 1 (timesteps)")
+            raise InvalidInputError(f"checkpoint interval = {every!r}: expected an integer >= 1 (timesteps)")
         self.directory, self.every, self.logs, self.keep = Path(directory), every, logs, keep
         self.saved = 0
         self._next = every
@@ -140,7 +140,7 @@ def restore(directory: Path, algorithm: type[BaseAlgorithm]) -> tuple[BaseAlgori
 
     checkpoint = Path(directory) / CHECKPOINT_DIR
     if not (checkpoint / _STATE).is_file():
-        raise ChainCartError(
+        raise InvalidInputError(
             f"{directory} has no checkpoint ({checkpoint / _STATE} is missing): expected a run of compare "
             "interrupted after its first checkpoint"
         )

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.compare.scene_options import add_scene_options, config_from_options, parse_value
 from chaincart_env.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES, parse_sweep
 
@@ -124,7 +124,7 @@ def _default_sweeps() -> str:
 def _algo_kwarg(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep or not key.strip().isidentifier():
-        raise ChainCartError(f"--algo-kwarg {text!r}: expected KEY=VALUE, e.g. --algo-kwarg n_steps=256")
+        raise InvalidInputError(f"--algo-kwarg {text!r}: expected KEY=VALUE, e.g. --algo-kwarg n_steps=256")
     return key.strip(), parse_value(value)
 
 
@@ -136,7 +136,7 @@ def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
     for text in texts:
         axis, values = parse_sweep(text)
         if axis in sweeps:
-            raise ChainCartError(f"--sweep {axis} is given twice: expected each axis once")
+            raise InvalidInputError(f"--sweep {axis} is given twice: expected each axis once")
         sweeps[axis] = values
     return sweeps
 

@@ -18,7 +18,7 @@ from typing import Any, Optional, Protocol, Sequence
 
 import numpy as np
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
@@ -46,9 +46,9 @@ class Policy(Protocol):
 def evaluation_seeds(first_seed: int, episodes: int) -> list[int]:
     """The fixed seeded starts: ``first_seed, first_seed + 1, ...``."""
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ChainCartError(f"eval episodes = {episodes!r}: expected an integer >= 1")
+        raise InvalidInputError(f"eval episodes = {episodes!r}: expected an integer >= 1")
     if isinstance(first_seed, bool) or not isinstance(first_seed, int) or first_seed < 0:
-        raise ChainCartError(f"eval seed = {first_seed!r}: expected an integer >= 0")
+        raise InvalidInputError(f"eval seed = {first_seed!r}: expected an integer >= 0")
     return [first_seed + i for i in range(episodes)]
 
 
@@ -195,7 +195,7 @@ def summarize(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """The :data:`METRIC_COLUMNS` of one policy's :func:`episode_table` rows (std is
     the population standard deviation over episodes; settle time over settled ones)."""
     if not rows:
-        raise ChainCartError("no episodes to summarize: expected at least one")
+        raise InvalidInputError("no episodes to summarize: expected at least one")
     column = lambda key: np.array([row[key] for row in rows], dtype=np.float64)  # noqa: E731
     out: dict[str, Any] = {"policy": rows[0]["policy"], "episodes": len(rows)}
     for key in ("return", "final_e_q", "final_e_w", "peak_force", "rms_force", "settle_time"):

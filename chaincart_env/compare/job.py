@@ -22,7 +22,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator, Optional, Sequence
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.compare.learning_curve import (
     LEARNING_CURVE_COLUMNS, learning_curve, read_learning_curve, read_training_episodes,
 )  # fmt: skip
@@ -60,16 +60,16 @@ class StudySettings(dict):  # type: ignore[type-arg]
         if not seeds or len(set(seeds)) != len(seeds) or any(
             isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds
         ):
-            raise ChainCartError(f"seeds = {seeds!r}: expected distinct integers >= 0, at least one")
+            raise InvalidInputError(f"seeds = {seeds!r}: expected distinct integers >= 0, at least one")
         if settings["trainer"] not in TRAINERS:
-            raise ChainCartError(f"trainer = {settings['trainer']!r}: expected one of {list(TRAINERS)}")
+            raise InvalidInputError(f"trainer = {settings['trainer']!r}: expected one of {list(TRAINERS)}")
         for axis in settings["sweeps"]:
             if axis not in SWEEP_AXES:
-                raise ChainCartError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
+                raise InvalidInputError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
         for key in ("eval_every", "checkpoint_every", "eval_starts", "timesteps"):
             value = settings[key]
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ChainCartError(f"{key} = {value!r}: expected an integer >= 1")
+                raise InvalidInputError(f"{key} = {value!r}: expected an integer >= 1")
         return cls(settings)
 
 
@@ -134,7 +134,8 @@ def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySe
                 hyperparameters=result.hyperparameters, training_wall_time_s=round(result.wall_time_s, 2),
                 training_episodes=result.episodes, **trained)
     save_run(directory, result.model, config, info)
-    curve = learning_curve(read_training_episodes(directory / "training_episodes.csv"), timesteps)
+    # Binned over the steps actually trained (SB3 rounds up to whole rollouts).
+    curve = learning_curve(read_training_episodes(directory / "training_episodes.csv"), info["timesteps_trained"])
     write_csv(directory / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
     return info
 
@@ -143,7 +144,7 @@ def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: 
     from chaincart_env.compare.rllib_training import CHECKPOINT_DIR, train_rllib
 
     if settings["algo"] != "ppo":
-        raise ChainCartError(f"--trainer rllib with --algo {settings['algo']}: the RLlib trainer offers ppo only")
+        raise InvalidInputError(f"--trainer rllib with --algo {settings['algo']}: the RLlib trainer offers ppo only")
     rllib = settings["rllib"]
     runners, per_runner = rllib["num_env_runners"], rllib["envs_per_runner"]
     print(f"training PPO with RLlib for {settings['timesteps']} timesteps on {runners} env runner(s) x "
@@ -266,10 +267,10 @@ def resume_compare(out: Path) -> list[dict[str, Any]]:
     the interruption), the rest train, then the study is evaluated."""
     out = Path(out)
     if not (out / RUN_FILE).is_file() or not (out / CONFIG_FILE).is_file():
-        raise ChainCartError(f"--resume {out}: expected a run directory of compare (with {RUN_FILE} and {CONFIG_FILE})")
+        raise InvalidInputError(f"--resume {out}: expected a run directory of compare (with {RUN_FILE} and {CONFIG_FILE})")
     run = json.loads((out / RUN_FILE).read_text())
     if "settings" not in run or "seed_runs" not in run:
-        raise ChainCartError(f"--resume {out}: {RUN_FILE} is not that of a compare study")
+        raise InvalidInputError(f"--resume {out}: {RUN_FILE} is not that of a compare study")
     config = ChainCartConfig(**json.loads((out / CONFIG_FILE).read_text()))
     print(f"resuming {out} (status {run.get('status')!r}, seeds trained: {sorted(run['seed_runs']) or 'none'})")
     return _run(config, out, run, resume=True)
@@ -294,14 +295,14 @@ def run_evaluate(
         config = ChainCartConfig(**json.loads((path / CONFIG_FILE).read_text()))
         seeds = [int(s) for s in run["seed_runs"]]
         if not seeds:
-            raise ChainCartError(f"{path} has no trained seed yet (status {run.get('status')!r}): nothing to evaluate")
+            raise InvalidInputError(f"{path} has no trained seed yet (status {run.get('status')!r}): nothing to evaluate")
         sweeps = settings["sweeps"]
     else:
         saved = load_run(path)  # a seed folder, model.zip or RLlib checkpoint
         directory, config, settings = saved.directory.parent, saved.config, saved.info
         seeds, sweeps = [int(saved.info["seed"])], {}
         if seed_directory(directory, seeds[0]) != saved.directory:
-            raise ChainCartError(f"{path}: expected a seed-<s> folder of a compare run, or the run directory")
+            raise InvalidInputError(f"{path}: expected a seed-<s> folder of a compare run, or the run directory")
     into = (path if path.is_dir() else path.parent) / "evaluation" if out is None else Path(out)
     episodes = int(settings.get("eval_episodes", 50)) if eval_episodes is None else eval_episodes
     first = int(settings.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed

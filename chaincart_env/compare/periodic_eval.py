@@ -23,7 +23,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.compare.evaluation import rollout
 from chaincart_env.compare.statistics import wilson_interval
 from chaincart_env.config import ChainCartConfig
@@ -59,9 +59,9 @@ class PeriodicEvaluation(BaseCallback):
     ) -> None:
         super().__init__()
         if isinstance(every, bool) or not isinstance(every, int) or every < 1:
-            raise ChainCartError(f"evaluation interval = {every!r}: expected an integer >= 1 (timesteps)")
+            raise InvalidInputError(f"evaluation interval = {every!r}: expected an integer >= 1 (timesteps)")
         if len(seeds) == 0:
-            raise ChainCartError("evaluation seeds are empty: expected at least one seeded start")
+            raise InvalidInputError("evaluation seeds are empty: expected at least one seeded start")
         self.config, self.seeds, self.every = config, list(seeds), every
         self.path, self.best_path = Path(directory) / EVALUATIONS_FILE, Path(directory) / BEST_MODEL_FILE
         self.resume = resume

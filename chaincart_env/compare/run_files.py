@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 
 __all__ = ["MODEL_FILE", "CONFIG_FILE", "RUN_FILE", "SavedRun", "load_run", "save_run"]
@@ -44,10 +44,10 @@ def save_run(directory: Path, model: Any, config: ChainCartConfig, info: dict[st
 
 def _json(path: Path) -> dict[str, Any]:
     if not path.is_file():
-        raise ChainCartError(f"{path} does not exist: expected the {path.name} that compare writes beside the model")
+        raise InvalidInputError(f"{path} does not exist: expected the {path.name} that compare writes beside the model")
     data = json.loads(path.read_text())
     if not isinstance(data, dict):
-        raise ChainCartError(f"{path} holds {type(data).__name__}: expected a JSON object")
+        raise InvalidInputError(f"{path} holds {type(data).__name__}: expected a JSON object")
     return data
 
 
@@ -71,11 +71,11 @@ def load_run(path: Path) -> SavedRun:
         elif path.suffix == ".zip":
             directory, model_path = path.parent, path
         else:
-            raise ChainCartError(
+            raise InvalidInputError(
                 f"model {str(path)!r}: expected a run directory, a .zip model file or an {CHECKPOINT_DIR} that exists"
             )
         if not model_path.is_file():
-            raise ChainCartError(f"{model_path} does not exist: expected an SB3 model saved by compare")
+            raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
         info = _json(directory / RUN_FILE)
         from chaincart_env.compare.training import algorithm_class
 

@@ -15,7 +15,7 @@ import json
 from dataclasses import fields
 from typing import Any, Optional, Sequence
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.config import ChainCartConfig
 
 __all__ = ["CONFIG_KEYS", "add_scene_options", "config_from_options", "parse_value", "parse_assignment"]
@@ -62,9 +62,9 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     key = key.strip().replace("-", "_")
     if not sep or not key:
-        raise ChainCartError(f"--set {text!r}: expected key=value, e.g. --set start_noise=0.1")
+        raise InvalidInputError(f"--set {text!r}: expected key=value, e.g. --set start_noise=0.1")
     if key not in CONFIG_KEYS:
-        raise ChainCartError(f"unknown scene key {key!r} in --set {text!r}: expected one of {list(CONFIG_KEYS)}")
+        raise InvalidInputError(f"unknown scene key {key!r} in --set {text!r}: expected one of {list(CONFIG_KEYS)}")
     return key, parse_value(value)
 
 

@@ -18,7 +18,7 @@ from typing import Sequence
 
 import numpy as np
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 
 __all__ = ["BOOTSTRAP_RESAMPLES", "SeedAggregate", "aggregate_over_seeds", "wilson_interval"]
 
@@ -31,9 +31,9 @@ def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tu
     from scipy.stats import binomtest
 
     if isinstance(trials, bool) or int(trials) != trials or trials < 1:
-        raise ChainCartError(f"trials = {trials!r}: expected an integer >= 1")
+        raise InvalidInputError(f"trials = {trials!r}: expected an integer >= 1")
     if isinstance(successes, bool) or int(successes) != successes or not 0 <= successes <= trials:
-        raise ChainCartError(f"successes = {successes!r}: expected an integer in [0, trials = {trials}]")
+        raise InvalidInputError(f"successes = {successes!r}: expected an integer in [0, trials = {trials}]")
     interval = binomtest(int(successes), int(trials)).proportion_ci(confidence_level=confidence, method="wilson")
     return float(interval.low), float(interval.high)
 
@@ -62,9 +62,9 @@ def aggregate_over_seeds(values: Sequence[float], random_state: int = 0) -> Seed
 
     data = np.asarray(values, dtype=np.float64)
     if data.ndim != 1 or data.size == 0:
-        raise ChainCartError(f"values = {values!r}: expected one number per seed, at least one")
+        raise InvalidInputError(f"values = {values!r}: expected one number per seed, at least one")
     if not np.all(np.isfinite(data)):
-        raise ChainCartError(f"values = {values!r}: expected finite numbers")
+        raise InvalidInputError(f"values = {values!r}: expected finite numbers")
     mean = float(data.mean())
     if data.size == 1:
         return SeedAggregate(mean, float("nan"), float("nan"), 1)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional, Sequence
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, evaluate_policies, evaluation_seeds
 from chaincart_env.compare.filmstrip import write_filmstrip
 from chaincart_env.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, read_evaluations
@@ -58,14 +58,14 @@ def describe(config: ChainCartConfig) -> str:
 
 def lqr_baseline(config: ChainCartConfig) -> Any:
     """The LQR baseline of ``config`` (``LQRPolicy.from_env``); a scene it cannot serve
-    (e.g. no force) is a ChainCartError naming it."""
+    (e.g. no force) is an InvalidInputError naming it."""
     from chaincart_env.env import ChainCartEnv
     from chaincart_env.lqr import LQRPolicy
 
     try:
         return LQRPolicy.from_env(ChainCartEnv(config))
     except ValueError as error:
-        raise ChainCartError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
+        raise InvalidInputError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
 
 
 class _BatchView:
@@ -90,7 +90,7 @@ class OracleLQR:
         return OracleLQRPolicy(_BatchView(batch, config))
 
     def predict(self, *args: Any, **kwargs: Any) -> Any:
-        raise ChainCartError("the oracle LQR acts only inside an evaluation (it must see the true parameters)")
+        raise InvalidInputError("the oracle LQR acts only inside an evaluation (it must see the true parameters)")
 
 
 def _has_parameter_gap(config: ChainCartConfig, sweeps: dict[str, Sequence[float]]) -> bool:

@@ -19,7 +19,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.compare.evaluation import Policy, rollout, settle_times
 from chaincart_env.compare.statistics import aggregate_over_seeds, wilson_interval
 from chaincart_env.config import ChainCartConfig
@@ -61,7 +61,7 @@ def _obs_noise(config: ChainCartConfig, value: float) -> ChainCartConfig:
 
 def _delay(config: ChainCartConfig, value: float) -> ChainCartConfig:
     if value != int(value):
-        raise ChainCartError(f"--sweep delay value {value!r}: expected a whole number of control periods")
+        raise InvalidInputError(f"--sweep delay value {value!r}: expected a whole number of control periods")
     return config.replace(action_delay=int(value))
 
 
@@ -92,22 +92,22 @@ def parse_sweep(text: str) -> tuple[str, list[float]]:
     name, sep, values = text.partition("=")
     name = name.strip()
     if not sep or name not in SWEEP_AXES:
-        raise ChainCartError(
+        raise InvalidInputError(
             f"--sweep {text!r}: expected AXIS=V1,V2,... with AXIS one of {sorted(SWEEP_AXES)}"
         )
     try:
         numbers = [float(v) for v in values.split(",") if v.strip()]
     except ValueError:
-        raise ChainCartError(f"--sweep {text!r}: the values must be numbers separated by commas") from None
+        raise InvalidInputError(f"--sweep {text!r}: the values must be numbers separated by commas") from None
     axis = SWEEP_AXES[name]
     if not numbers:
-        raise ChainCartError(f"--sweep {text!r}: expected at least one value")
+        raise InvalidInputError(f"--sweep {text!r}: expected at least one value")
     for value in numbers:
         if not math.isfinite(value) or not axis.minimum <= value <= axis.maximum:
             bound = f" and <= {axis.maximum}" if math.isfinite(axis.maximum) else ""
-            raise ChainCartError(f"--sweep {name} value {value!r}: expected a finite number >= {axis.minimum}{bound}")
+            raise InvalidInputError(f"--sweep {name} value {value!r}: expected a finite number >= {axis.minimum}{bound}")
         if axis.integer and value != int(value):
-            raise ChainCartError(f"--sweep {name} value {value!r}: expected a whole number")
+            raise InvalidInputError(f"--sweep {name} value {value!r}: expected a whole number")
     return name, numbers
 
 
@@ -138,7 +138,7 @@ def run_sweep(
 ) -> list[dict[str, Any]]:
     """Evaluates every ``(name, policy)`` at every value of ``axis`` on the same ``seeds``."""
     if axis not in SWEEP_AXES:
-        raise ChainCartError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
+        raise InvalidInputError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
     rows: list[dict[str, Any]] = []
     for value in values:
         variant = SWEEP_AXES[axis].apply(config, float(value))

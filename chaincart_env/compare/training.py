@@ -14,13 +14,14 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecMonitor
 
-from chaincart_env._core import ChainCartError
 from chaincart_env.compare.learning_curve import TRAINING_EPISODE_COLUMNS
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
     "ALGORITHMS",
+    "steps_trained",
     "DEFAULT_HYPERPARAMETERS",
     "TRAINING_EPISODE_COLUMNS",
     "EpisodeCsvLogger",
@@ -43,7 +44,7 @@ def algorithm_class(name: str) -> type[BaseAlgorithm]:
     try:
         return ALGORITHMS[name.lower()]
     except (KeyError, AttributeError):
-        raise ChainCartError(f"unknown algorithm {name!r}: expected one of {sorted(ALGORITHMS)}") from None
+        raise InvalidInputError(f"unknown algorithm {name!r}: expected one of {sorted(ALGORITHMS)}") from None
 
 
 class EpisodeCsvLogger(BaseCallback):
@@ -122,7 +123,22 @@ def _new_agent(algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwa
     try:
         return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
     except TypeError as error:  # an unknown or ill-typed keyword
-        raise ChainCartError(f"{algo} keywords {kwargs}: {error}") from None
+        raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
+
+
+def steps_trained(model: BaseAlgorithm, timesteps: int) -> tuple[int, str]:
+    """The env steps ``model.learn(total_timesteps=timesteps)`` takes (SB3 collects
+    whole rollouts: ``n_steps`` per env for on-policy algorithms, ``train_freq`` steps
+    per env for off-policy ones) and the unit it rounds to, in words."""
+    n_envs = model.n_envs
+    if hasattr(model, "n_steps"):  # on-policy (PPO, A2C)
+        unit, words = int(model.n_steps) * n_envs, f"rollouts of n_steps x num_envs = {model.n_steps} x {n_envs}"
+    else:
+        freq = getattr(model, "train_freq", None)
+        if freq is None or getattr(freq.unit, "value", "step") != "step":
+            return timesteps, "whole episodes"  # not known in advance
+        unit, words = int(freq.frequency) * n_envs, f"collections of train_freq x num_envs = {freq.frequency} x {n_envs}"
+    return -(-timesteps // unit) * unit, f"whole {words} = {unit} steps"
 
 
 def train(
@@ -152,20 +168,22 @@ def train(
 
     cls = algorithm_class(algo)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
-        raise ChainCartError(f"timesteps = {timesteps!r}: expected an integer >= 1")
+        raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     kwargs = {**DEFAULT_HYPERPARAMETERS[algo.lower()], **(hyperparameters or {})}
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and (directory / CHECKPOINT_DIR).is_dir()
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs)
     resumed_from = int(model.num_timesteps)
+    planned, unit = steps_trained(model, timesteps)
+    if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise
+        print(f"{algo.upper()} trains in {unit}: {timesteps} timesteps asked, {planned} trained")
     logger = EpisodeCsvLogger(directory / EPISODES_FILE, append=resuming)
     evaluation = PeriodicEvaluation(config, eval_seeds, eval_every, directory, resume=resuming)
     checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
                                keep=(BEST_MODEL_FILE,))
     start = time.perf_counter()
-    remaining = max(0, timesteps - resumed_from)
-    model.learn(total_timesteps=remaining, callback=[logger, evaluation, checkpoints], progress_bar=progress_bar,
-                reset_num_timesteps=not resuming)
+    model.learn(total_timesteps=max(0, planned - resumed_from), callback=[logger, evaluation, checkpoints],
+                progress_bar=progress_bar, reset_num_timesteps=not resuming)
     return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs, evaluation.summary(),
                           resumed_from)

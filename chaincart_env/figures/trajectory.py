@@ -68,7 +68,8 @@ def rollout(config: ChainCartConfig, policy: Optional[Predictor] = None, seed: i
 
     The env observes float64 so that the policy acts on the exact state, as the
     paper's continuous-time controller does; everything else is the scene's."""
-    env = gym.make("ChainCart-v0", config=config.replace(obs_dtype="float64"))
+    # gymnasium.make's TimeLimit takes the registered (default scene's) length unless told.
+    env = gym.make("ChainCart-v0", config=config.replace(obs_dtype="float64"), max_episode_steps=config.max_episode_steps)
     base = env.unwrapped
     assert isinstance(base, ChainCartEnv)
     steps = config.max_episode_steps

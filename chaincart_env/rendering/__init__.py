@@ -17,6 +17,7 @@ from chaincart_env.rendering.env_rendering import EnvRendering, check_shown_envs
 from chaincart_env.rendering.frames import (
     DEFAULT_FRAME_SIZE,
     RENDER_MODES,
+    VECTOR_RENDER_MODES,
     ChainRenderer,
     check_frame_size,
     check_render_mode,
@@ -28,6 +29,7 @@ from chaincart_env.rendering.window import HumanWindow, RenderUnavailable, check
 __all__ = [
     "DEFAULT_FRAME_SIZE",
     "RENDER_MODES",
+    "VECTOR_RENDER_MODES",
     "ChainRenderer",
     "EnvRendering",
     "HumanWindow",

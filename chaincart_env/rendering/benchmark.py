@@ -1,5 +1,5 @@
 """Render cost: frames per second of ``env.render()`` (one env) and of a vector env's
-tiled ``render()``, by frame size, to set beside each scene's ``render_fps``.
+tiled ``render_tiled()``, by frame size, to set beside each scene's ``render_fps``.
 
 Called by the benchmark command; ``render_benchmark()`` returns the rows,
 ``markdown_table(rows)`` formats them.
@@ -51,7 +51,7 @@ def render_benchmark(
     seconds: float = 0.5,
 ) -> list[dict[str, Any]]:
     """One row per scene, frame size and kind (``"env"``: ``ChainCartEnv.render()``;
-    ``"vector, k tiles"``: ``ChainCartVectorEnv(k).render()``, k frames of that size
+    ``"vector, k tiles"``: ``ChainCartVectorEnv(k).render_tiled()``, k frames of that size
     tiled), each timed for about ``seconds``: ``images_per_s`` (returned images),
     ``frames_per_s`` (env frames drawn, k per tiled image), ``ms_per_image``, the
     scene's ``render_fps`` and ``keeps_up`` (images_per_s >= render_fps). Timings on a
@@ -71,8 +71,9 @@ def render_benchmark(
             ]
             for kind, env, frames_per_image in kinds:
                 _moving(env)
-                rate = _calls_per_second(env.render, seconds)
-                image = env.render()
+                draw = env.render if frames_per_image == 1 else env.render_tiled
+                rate = _calls_per_second(draw, seconds)
+                image = draw()
                 fps = int(env.metadata["render_fps"])
                 rows.append(
                     {

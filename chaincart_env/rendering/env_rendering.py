@@ -10,9 +10,16 @@ from typing import Any, Optional
 import numpy as np
 import numpy.typing as npt
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.rendering.frames import ChainRenderer, check_render_mode, render_fps, steps_per_frame, tile_frames
+from chaincart_env.rendering.frames import (
+    RENDER_MODES,
+    ChainRenderer,
+    check_render_mode,
+    render_fps,
+    steps_per_frame,
+    tile_frames,
+)
 from chaincart_env.rendering.window import HumanWindow
 
 __all__ = ["EnvRendering", "check_shown_envs"]
@@ -23,10 +30,9 @@ def check_shown_envs(render_envs: Any, num_envs: int) -> int:
     num_envs]) or, for ``None``, ``min(num_envs, 4)``."""
     if render_envs is None:
         return min(num_envs, 4)
-    if isinstance(render_envs, bool) or not isinstance(render_envs, (int, np.integer)) or not (
-        1 <= render_envs <= num_envs
-    ):
-        raise ChainCartError(f"render_envs = {render_envs!r}: expected an integer in [1, num_envs = {num_envs}]")
+    wrong_type = isinstance(render_envs, bool) or not isinstance(render_envs, (int, np.integer))
+    if wrong_type or not 1 <= render_envs <= num_envs:
+        raise (InvalidTypeError if wrong_type else InvalidInputError)(f"render_envs = {render_envs!r}: expected an integer in [1, num_envs = {num_envs}]")
     return int(render_envs)
 
 
@@ -48,8 +54,9 @@ class EnvRendering:
         shown: int = 1,
         tiled: bool = False,
         tracked: Optional[int] = None,
+        modes: Sequence[str] = RENDER_MODES,
     ) -> None:
-        self.mode = check_render_mode(render_mode)
+        self.mode = check_render_mode(render_mode, modes)
         self.renderer = ChainRenderer(config, width, height)  # validates the size in every mode
         self.shown = shown
         self.tiled = tiled
@@ -97,17 +104,22 @@ class EnvRendering:
         """Frames of the states (model layout) of envs ``first, first + 1, ...``, each
         with its env's last force."""
         if first + len(states) > len(self.forces):
-            raise ChainCartError(
+            raise InvalidInputError(
                 f"states of envs {first}..{first + len(states) - 1} to draw: forces are tracked for "
                 f"envs 0..{len(self.forces) - 1} only"
             )
         return [self.renderer.frame(y, f) for y, f in zip(states, self.forces[first:])]
 
+    def image(self, states: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
+        """The frame of the first env (``tiled=False``) or the grid of the first
+        ``shown`` envs' frames."""
+        frames = self.frames(states[: self.shown])
+        return tile_frames(frames) if self.tiled else frames[0]
+
     def render(self, states: Sequence[np.ndarray] | np.ndarray) -> Optional[np.ndarray]:
         if self.mode is None:
             return None
-        frames = self.frames(states[: self.shown])
-        image = tile_frames(frames) if self.tiled else frames[0]
+        image = self.image(states)
         if self.window is not None:
             self.window.show(image)
             return None

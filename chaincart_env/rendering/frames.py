@@ -13,11 +13,12 @@ import numpy as np
 import numpy.typing as npt
 
 from chaincart_env import _core
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
     "RENDER_MODES",
+    "VECTOR_RENDER_MODES",
     "DEFAULT_FRAME_SIZE",
     "MIN_FRAME_SIZE",
     "MAX_FRAME_SIZE",
@@ -33,6 +34,9 @@ __all__ = [
 
 #: The render modes every chaincart env accepts (besides ``None``).
 RENDER_MODES = ("rgb_array", "human")
+#: The native vector env's render modes: also ``rgb_array_list`` (every frame since
+#: the last ``render()``), which single envs get from ``gymnasium.make``.
+VECTOR_RENDER_MODES = ("rgb_array", "rgb_array_list", "human")
 #: ``(width, height)`` of one env's frame unless configured.
 DEFAULT_FRAME_SIZE = (480, 240)
 #: Bounds on either side of a frame, as the Rust renderer enforces them.
@@ -56,22 +60,19 @@ def steps_per_frame(dt: float) -> int:
     return max(1, round(1.0 / (dt * render_fps(dt))))
 
 
-def check_render_mode(render_mode: Any) -> Optional[str]:
-    """``render_mode`` itself if it is ``None`` or one of :data:`RENDER_MODES`."""
-    if render_mode is None or (isinstance(render_mode, str) and render_mode in RENDER_MODES):
+def check_render_mode(render_mode: Any, modes: Sequence[str] = RENDER_MODES) -> Optional[str]:
+    """``render_mode`` itself if it is ``None`` or one of ``modes``."""
+    if render_mode is None or (isinstance(render_mode, str) and render_mode in modes):
         return render_mode
-    raise ChainCartError(f"render_mode = {render_mode!r}: expected None or one of {list(RENDER_MODES)}")
+    raise (InvalidInputError if isinstance(render_mode, str) else InvalidTypeError)(f"render_mode = {render_mode!r}: expected None or one of {list(modes)}")
 
 
 def check_frame_size(width: Any, height: Any) -> tuple[int, int]:
     """``(width, height)`` as ints, each an integer in [16, 8192] pixels."""
     for name, value in (("render_width", width), ("render_height", height)):
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, numbers.Integral)
-            or not MIN_FRAME_SIZE <= int(value) <= MAX_FRAME_SIZE
-        ):
-            raise ChainCartError(
+        wrong_type = isinstance(value, bool) or not isinstance(value, numbers.Integral)
+        if wrong_type or not MIN_FRAME_SIZE <= int(value) <= MAX_FRAME_SIZE:
+            raise (InvalidTypeError if wrong_type else InvalidInputError)(
                 f"{name} = {value!r}: expected an integer number of pixels in [{MIN_FRAME_SIZE}, {MAX_FRAME_SIZE}]"
             )
     return int(width), int(height)
@@ -130,9 +131,9 @@ class ChainRenderer:
             return [0.0, 0.0]
         f = np.asarray(force, dtype=np.float64).reshape(-1)
         if f.shape != (self.force_dim,):
-            raise ChainCartError(f"force has shape {f.shape}: expected ({self.force_dim},)")
+            raise InvalidInputError(f"force has shape {f.shape}: expected ({self.force_dim},)")
         if not np.all(np.isfinite(f)):
-            raise ChainCartError(f"force = {f.tolist()}: expected finite numbers")
+            raise InvalidInputError(f"force = {f.tolist()}: expected finite numbers")
         return [float(f[0]), float(f[1]) if self.force_dim == 2 else 0.0]
 
 
@@ -140,7 +141,7 @@ def tile_grid(count: int) -> tuple[int, int]:
     """``(rows, columns)`` of the most nearly square grid holding ``count`` tiles,
     filled row by row (columns >= rows)."""
     if count < 1:
-        raise ChainCartError(f"count = {count}: expected at least one tile")
+        raise InvalidInputError(f"count = {count}: expected at least one tile")
     columns = math.ceil(math.sqrt(count))
     return math.ceil(count / columns), columns
 
@@ -150,11 +151,11 @@ def tile_frames(frames: Sequence[np.ndarray], gap: int = 2) -> np.ndarray:
     grey pixels between tiles; empty cells stay grey. Shape ``(rows * h + (rows - 1) *
     gap, columns * w + (columns - 1) * gap, 3)``."""
     if len(frames) == 0:
-        raise ChainCartError("tile_frames got no frames: expected at least one")
+        raise InvalidInputError("tile_frames got no frames: expected at least one")
     h, w, _ = frames[0].shape
     for k, f in enumerate(frames):
         if f.shape != (h, w, 3):
-            raise ChainCartError(f"frame {k} has shape {f.shape}: expected {(h, w, 3)} like frame 0")
+            raise InvalidInputError(f"frame {k} has shape {f.shape}: expected {(h, w, 3)} like frame 0")
     rows, columns = tile_grid(len(frames))
     out = np.full((rows * h + (rows - 1) * gap, columns * w + (columns - 1) * gap, 3), TILE_GAP_GREY, dtype=np.uint8)
     for k, f in enumerate(frames):

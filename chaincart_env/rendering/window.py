@@ -1,6 +1,7 @@
 """``render_mode="human"``: frames shown live in a matplotlib window (the ``plot``
-extra), paced to the env's ``render_fps``; a clear :class:`RenderUnavailable` error
-where no window can open (no display, no interactive backend)."""
+extra), paced to the env's ``render_fps``. Where no window can open (no display, no
+interactive backend, no matplotlib) the env warns once, with the reason, and keeps
+working without showing anything, as Gymnasium's own envs do on headless machines."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ import time
 from typing import Any, Optional
 
 import numpy as np
+from gymnasium import logger
 
-from chaincart_env._core import ChainCartError
+from chaincart_env.errors import ChainCartError
 
 __all__ = ["RenderUnavailable", "HumanWindow", "check_display"]
 
@@ -26,8 +28,19 @@ _HEADLESS_HINT = (
 
 
 class RenderUnavailable(ChainCartError, RuntimeError):
-    """``render_mode="human"`` cannot open a window here (a ``ChainCartError``, so a
-    ``ValueError``, and a ``RuntimeError``)."""
+    """No window can open here (a ``ChainCartError`` and a ``RuntimeError``). Human
+    mode turns it into a warning; :func:`check_display` raises it."""
+
+
+_warned_headless = False
+
+
+def _warn_headless(reason: str) -> None:
+    """Warns, once per process, that human-mode frames are not shown."""
+    global _warned_headless
+    if not _warned_headless:
+        _warned_headless = True
+        logger.warn(f"{reason}; human-mode frames are not shown (the env keeps working)")
 
 
 def check_display() -> None:
@@ -47,9 +60,7 @@ def _pyplot() -> Any:
     try:
         import matplotlib.pyplot as plt
     except ImportError as e:
-        from gymnasium.error import DependencyNotInstalled
-
-        raise DependencyNotInstalled(
+        raise RenderUnavailable(
             "render_mode='human' draws with matplotlib: pip install 'chaincart-env[plot]'"
         ) from e
     return plt
@@ -88,20 +99,30 @@ def _use_interactive_backend(plt: Any) -> str:
 
 
 class HumanWindow:
-    """One live window showing RGB frames at most ``fps`` times a second. Built only
-    where a window can open (else :class:`RenderUnavailable`); the figure itself opens
-    with the first frame. Once the user closes it, later frames are dropped.
+    """One live window showing RGB frames at most ``fps`` times a second; the figure
+    opens with the first frame. Where no window can open, a warning (once per process)
+    says why and frames are dropped, as they are once the user closes the window.
     Pickling or copying drops the figure: a copy opens its own window."""
 
     def __init__(self, fps: float, title: str = "chaincart") -> None:
-        check_display()
-        _use_interactive_backend(_pyplot())
         self.fps = float(fps)
         self.title = title
         self._figure: Any = None
         self._image: Any = None
         self._closed_by_user = False
         self._next_due = 0.0
+        #: Why no window can open here (``None``: it can).
+        self.unavailable: Optional[str] = None
+        try:
+            check_display()
+            _use_interactive_backend(_pyplot())
+        except RenderUnavailable as e:
+            self._give_up(str(e))
+
+    def _give_up(self, reason: str) -> None:
+        self.unavailable = reason
+        self._figure = self._image = None
+        _warn_headless(reason)
 
     @property
     def is_open(self) -> bool:
@@ -109,11 +130,12 @@ class HumanWindow:
 
     def show(self, frame: np.ndarray) -> None:
         """Shows ``frame`` (uint8 H x W x 3), waiting until its time slot comes."""
-        if self._closed_by_user:
+        if self._closed_by_user or self.unavailable is not None:
             return
         plt = _pyplot()
         if self._figure is None:
-            self._open(plt, frame)
+            if not self._open(plt, frame):
+                return
         elif not self.is_open:
             self._closed_by_user = True
             self._figure = self._image = None
@@ -127,7 +149,7 @@ class HumanWindow:
         self._figure.canvas.start_event_loop(max(self._next_due - now, 1e-3))
         self._next_due = max(now, self._next_due) + 1.0 / self.fps
 
-    def _open(self, plt: Any, frame: np.ndarray) -> None:
+    def _open(self, plt: Any, frame: np.ndarray) -> bool:
         h, w, _ = frame.shape
         dpi = 100.0
         try:
@@ -138,9 +160,11 @@ class HumanWindow:
             self._image = axes.imshow(frame, interpolation="nearest")
             plt.show(block=False)
         except Exception as e:  # e.g. Tk's TclError: no display name / couldn't connect
-            raise RenderUnavailable(f"render_mode='human' could not open a window ({e}): {_HEADLESS_HINT}") from e
+            self._give_up(f"render_mode='human' could not open a window ({e}): {_HEADLESS_HINT}")
+            return False
         self._figure = figure
         self._next_due = time.perf_counter()
+        return True
 
     def close(self) -> None:
         if self._figure is not None:

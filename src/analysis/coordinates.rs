@@ -20,7 +20,7 @@
 //! `C^T (s e3 x q) = s (-q_2, q_1)`.
 
 use crate::analysis::equilibria::check_signs;
-use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::error::{check_finite, check_len, ChainError, InputError, Result};
 use crate::geometry::{Geometry, Layout, Spatial};
 use nalgebra::{Vector2, Vector3};
 
@@ -82,7 +82,7 @@ pub fn horizontal_cross(s: f64, v: Vector3<f64>) -> Vector2<f64> {
 fn check_lengths(s: &[f64], state: &[f64], z_name: &'static str, z: &[f64]) -> Result<()> {
     let n = s.len();
     if n == 0 {
-        return Err(ChainError::NoLinks);
+        return Err(InputError::NoLinks.into());
     }
     check_signs(s, n)?;
     check_len("state", state, Layout::<Spatial>::new(n).dim())?;

@@ -9,7 +9,7 @@
 //! counting with `+1` first: index 0 is hanging, index `2^n - 1` is inverted, and for
 //! n = 2 the order is (+,+), (-,+), (+,-), (-,-).
 
-use crate::error::{ChainError, Result};
+use crate::error::{InputError, Result};
 use crate::geometry::Geometry;
 use crate::model::Chain;
 
@@ -23,28 +23,31 @@ pub const NAMES: &str = "\"hanging\", \"inverted\", \"folded\", \"folded_up\"";
 /// Checks a sign tuple: length `n`, every entry exactly `+1.0` or `-1.0`.
 pub fn check_signs(s: &[f64], n: usize) -> Result<()> {
     if s.len() != n {
-        return Err(ChainError::LengthMismatch {
+        return Err(InputError::LengthMismatch {
             name: "s",
             got: s.len(),
             expected: n,
-        });
+        }
+        .into());
     }
     match s.iter().position(|&v| v != 1.0 && v != -1.0) {
-        Some(index) => Err(ChainError::InvalidSign {
+        Some(index) => Err(InputError::InvalidSign {
             index,
             value: s[index],
-        }),
+        }
+        .into()),
         None => Ok(()),
     }
 }
 
 fn check_enumerable(n: usize) -> Result<()> {
     if n > MAX_ENUMERATED_LINKS {
-        return Err(ChainError::InvalidParameter {
+        return Err(InputError::InvalidParameter {
             name: "n_links",
             value: n as f64,
             expected: "at most 20 for a full enumeration of the 2^n equilibria",
-        });
+        }
+        .into());
     }
     Ok(())
 }
@@ -78,7 +81,7 @@ pub fn all_signs(n: usize) -> Result<Vec<Vec<f64>>> {
 /// paper's Fig. 1 uses it for n = 5).
 pub fn named_signs(name: &str, n: usize) -> Result<Vec<f64>> {
     if n == 0 {
-        return Err(ChainError::NoLinks);
+        return Err(InputError::NoLinks.into());
     }
     let alternating = |first: f64| -> Vec<f64> {
         (0..n)
@@ -90,11 +93,12 @@ pub fn named_signs(name: &str, n: usize) -> Result<Vec<f64>> {
         "inverted" => Ok(vec![-1.0; n]),
         "folded" => Ok(alternating(1.0)),
         "folded_up" => Ok(alternating(-1.0)),
-        _ => Err(ChainError::UnknownName {
+        _ => Err(InputError::UnknownName {
             kind: "equilibrium",
             name: name.to_string(),
             expected: NAMES,
-        }),
+        }
+        .into()),
     }
 }
 
@@ -152,6 +156,7 @@ pub fn lowest(list: &[Equilibrium]) -> Option<&Equilibrium> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ChainError;
 
     #[test]
     fn order_is_binary_counting_with_plus_first() {
@@ -174,14 +179,15 @@ mod tests {
     fn bad_input_is_named() {
         assert_eq!(
             check_signs(&[1.0, 0.0], 2).unwrap_err(),
-            ChainError::InvalidSign {
+            InputError::InvalidSign {
                 index: 1,
                 value: 0.0
             }
+            .into()
         );
         assert!(matches!(
             check_signs(&[1.0], 2),
-            Err(ChainError::LengthMismatch { got: 1, .. })
+            Err(ChainError::Input(InputError::LengthMismatch { got: 1, .. }))
         ));
         let e = all_signs(21).unwrap_err().to_string();
         assert!(

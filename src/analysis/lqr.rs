@@ -17,7 +17,7 @@ use crate::analysis::coordinates::{horizontal_cross, LocalLayout};
 use crate::analysis::equilibria::check_signs;
 use crate::analysis::linearize::{Linearization, StateSpace};
 use crate::analysis::riccati::{solve_care, CareSolution};
-use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::error::{check_finite, check_len, InputError, Result};
 use crate::geometry::{Geometry, Layout, Spatial};
 use crate::params::ChainParams;
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
@@ -102,7 +102,7 @@ impl LqrController {
     /// elsewhere.
     pub fn from_gain(s: &[f64], gain: DMatrix<f64>) -> Result<Self> {
         if s.is_empty() {
-            return Err(ChainError::NoLinks);
+            return Err(InputError::NoLinks.into());
         }
         check_signs(s, s.len())?;
         let loc = LocalLayout::new(s.len());

@@ -15,7 +15,7 @@ use super::step::{
 };
 use crate::any::AnyChain;
 use crate::batch::CHUNK;
-use crate::error::{ChainError, Result};
+use crate::error::{InputError, Result};
 use crate::geometry::{Geometry, Planar, Spatial};
 use crate::model::Chain;
 use crate::params::ChainParams;
@@ -196,12 +196,14 @@ impl<G: Geometry> EnvBatch<G> {
         diagnostics: bool,
     ) -> Result<Self> {
         if n_envs == 0 {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name: "num_envs",
                 value: 0.0,
                 expected: "an integer >= 1",
-            });
+            }
+            .into());
         }
+        crate::limits::check_rows("num_envs", n_envs, chain.state_dim())?;
         task.validate(chain.n_links())?;
         task.reality.validate(chain.n_links(), chain.state_dim())?;
         let true_chain = Chain::new(task.reality.true_params(chain.params())?);
@@ -357,11 +359,12 @@ impl<G: Geometry> EnvBatch<G> {
         if env < self.n_envs {
             Ok(())
         } else {
-            Err(ChainError::InvalidParameter {
+            Err(InputError::InvalidParameter {
                 name: "env index",
                 value: env as f64,
                 expected: "an index below num_envs",
-            })
+            }
+            .into())
         }
     }
 
@@ -425,20 +428,22 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn check_actions<A: Real>(&self, actions: &[A]) -> Result<()> {
         check_size("actions", actions.len(), self.n_envs * self.force_dim())?;
         if let Some(index) = actions.iter().position(|a| !a.to_f64().is_finite()) {
-            return Err(ChainError::NonFinite {
+            return Err(InputError::NonFinite {
                 name: "actions",
                 index,
                 value: actions[index].to_f64(),
-            });
+            }
+            .into());
         }
         if self.mode == AutoresetMode::Disabled {
             if let Some(env) = self.data.slots.iter().position(|s| s.ended) {
-                return Err(ChainError::InvalidParameter {
+                return Err(InputError::InvalidParameter {
                     name: "stepped env",
                     value: env as f64,
                     expected: "an env whose episode has not ended (autoreset_mode \"disabled\": \
                                reset it first with options={\"reset_mask\": ...})",
-                });
+                }
+                .into());
             }
         }
         Ok(())
@@ -562,11 +567,12 @@ fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
     if got == expected {
         Ok(())
     } else {
-        Err(ChainError::LengthMismatch {
+        Err(InputError::LengthMismatch {
             name,
             got,
             expected,
-        })
+        }
+        .into())
     }
 }
 

@@ -4,7 +4,7 @@
 use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
 use crate::batch::Guard;
-use crate::error::{check_finite, check_positive, ChainError, Result};
+use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
 use crate::integrate::StepOptions;
 
 /// Names accepted for a target equilibrium (besides a sign tuple).
@@ -60,11 +60,12 @@ pub fn target_signs(name: &str, n: usize) -> Result<Vec<f64>> {
         return Ok(fig.target());
     }
     named_signs(name, n).map_err(|e| match e {
-        ChainError::UnknownName { kind, name, .. } => ChainError::UnknownName {
+        ChainError::Input(InputError::UnknownName { kind, name, .. }) => InputError::UnknownName {
             kind,
             name,
             expected: TARGET_NAMES,
-        },
+        }
+        .into(),
         other => other,
     })
 }
@@ -73,7 +74,7 @@ pub(crate) fn check_paper_links(fig: PaperFigure, n: usize) -> Result<()> {
     if n == 5 {
         return Ok(());
     }
-    Err(ChainError::InvalidParameter {
+    Err(InputError::InvalidParameter {
         name: "n_links",
         value: n as f64,
         expected: match fig {
@@ -81,7 +82,8 @@ pub(crate) fn check_paper_links(fig: PaperFigure, n: usize) -> Result<()> {
             PaperFigure::Fig2 => "5 for the paper's Fig. 2 (\"paper-fig2\")",
             PaperFigure::Fig3 => "5 for the paper's Fig. 3 (\"paper-fig3\")",
         },
-    })
+    }
+    .into())
 }
 
 /// Where episodes start, before the noise of [`TaskConfig::start_noise`].
@@ -110,11 +112,14 @@ impl Start {
         named_signs(name, n)
             .map(Self::Equilibrium)
             .map_err(|e| match e {
-                ChainError::UnknownName { name, .. } => ChainError::UnknownName {
-                    kind: "start",
-                    name,
-                    expected: START_NAMES,
-                },
+                ChainError::Input(InputError::UnknownName { name, .. }) => {
+                    InputError::UnknownName {
+                        kind: "start",
+                        name,
+                        expected: START_NAMES,
+                    }
+                    .into()
+                }
                 other => other,
             })
     }
@@ -210,11 +215,12 @@ impl AutoresetMode {
             "next_step" => Ok(Self::NextStep),
             "same_step" => Ok(Self::SameStep),
             "disabled" => Ok(Self::Disabled),
-            _ => Err(ChainError::UnknownName {
+            _ => Err(InputError::UnknownName {
                 kind: "autoreset_mode",
                 name: name.to_string(),
                 expected: Self::NAMES,
-            }),
+            }
+            .into()),
         }
     }
     pub fn name(self) -> &'static str {
@@ -277,22 +283,26 @@ impl TaskConfig {
     /// when it is built, see [`crate::env::start::base_state`]).
     pub fn validate(&self, n: usize) -> Result<()> {
         check_signs(&self.target, n).map_err(|e| match e {
-            ChainError::LengthMismatch { got, expected, .. } => ChainError::LengthMismatch {
-                name: "target",
-                got,
-                expected,
-            },
+            ChainError::Input(InputError::LengthMismatch { got, expected, .. }) => {
+                InputError::LengthMismatch {
+                    name: "target",
+                    got,
+                    expected,
+                }
+                .into()
+            }
             other => other,
         })?;
         match &self.start {
             Start::Equilibrium(s) => {
                 check_signs(s, n).map_err(|e| match e {
-                    ChainError::LengthMismatch { got, expected, .. } => {
-                        ChainError::LengthMismatch {
+                    ChainError::Input(InputError::LengthMismatch { got, expected, .. }) => {
+                        InputError::LengthMismatch {
                             name: "start",
                             got,
                             expected,
                         }
+                        .into()
                     }
                     other => other,
                 })?;
@@ -308,11 +318,12 @@ impl TaskConfig {
         check_non_negative("max_force", self.max_force)?;
         check_positive("track_limit", self.track_limit)?;
         if self.max_episode_steps == 0 {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name: "max_episode_steps",
                 value: 0.0,
                 expected: "an integer >= 1",
-            });
+            }
+            .into());
         }
         self.reward.validate()?;
         check_positive("success_tolerances.e_q", self.success.e_q)?;
@@ -324,11 +335,12 @@ fn check_non_negative(name: &'static str, value: f64) -> Result<()> {
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {
-        Err(ChainError::InvalidParameter {
+        Err(InputError::InvalidParameter {
             name,
             value,
             expected: "a finite number >= 0",
-        })
+        }
+        .into())
     }
 }
 
@@ -384,17 +396,18 @@ mod tests {
         let e = task(2).validate(3).unwrap_err();
         assert_eq!(
             e,
-            ChainError::LengthMismatch {
+            InputError::LengthMismatch {
                 name: "target",
                 got: 2,
                 expected: 3
             }
+            .into()
         );
         let mut t = task(1);
         t.target = vec![0.5];
         assert!(matches!(
             t.validate(1),
-            Err(ChainError::InvalidSign { index: 0, .. })
+            Err(ChainError::Input(InputError::InvalidSign { index: 0, .. }))
         ));
         let cases: Vec<(&str, Spoiler)> = vec![
             ("start_noise", Box::new(|t| t.start_noise = -0.1)),

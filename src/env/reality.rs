@@ -20,7 +20,7 @@
 //! (likewise), gravity. Each draw is `u` uniform in `[0, 1)` mapped as
 //! [`Distribution::sample`] says.
 
-use crate::error::{ChainError, Result};
+use crate::error::{InputError, Result};
 use crate::params::ChainParams;
 use rand::Rng;
 
@@ -61,10 +61,13 @@ impl Param {
         Self::ALL
             .into_iter()
             .find(|p| p.name() == name)
-            .ok_or_else(|| ChainError::UnknownName {
-                kind,
-                name: name.to_string(),
-                expected: Self::NAMES,
+            .ok_or_else(|| {
+                InputError::UnknownName {
+                    kind,
+                    name: name.to_string(),
+                    expected: Self::NAMES,
+                }
+                .into()
             })
     }
 
@@ -160,12 +163,13 @@ impl Distribution {
         if low.is_finite() && high.is_finite() && low > 0.0 && low <= high {
             Ok(())
         } else {
-            Err(ChainError::InvalidRange {
+            Err(InputError::InvalidRange {
                 name,
                 low,
                 high,
                 expected,
-            })
+            }
+            .into())
         }
     }
 }
@@ -251,7 +255,7 @@ impl ParamValues {
             if value.is_finite() && value > 0.0 {
                 Ok(())
             } else {
-                Err(ChainError::InvalidParameter {
+                Err(InputError::InvalidParameter {
                     name,
                     value,
                     expected: "a finite number > 0",
@@ -271,20 +275,22 @@ impl ParamValues {
             let Some(values) = values else { continue };
             let name = p.qualified(kind);
             if values.len() != 1 && values.len() != n {
-                return Err(ChainError::LengthMismatch {
+                return Err(InputError::LengthMismatch {
                     name,
                     got: values.len(),
                     expected: n,
-                });
+                }
+                .into());
             }
             for (link, &value) in values.iter().enumerate() {
                 if !(value.is_finite() && value > 0.0) {
-                    return Err(ChainError::InvalidLinkParameter {
+                    return Err(InputError::InvalidLinkParameter {
                         name,
                         link,
                         value,
                         expected: "a finite number > 0",
-                    });
+                    }
+                    .into());
                 }
             }
         }
@@ -342,38 +348,44 @@ impl RealityGap {
         self.mismatch.validate(Kind::Mismatch, n)?;
         self.randomize.validate()?;
         if self.obs_noise.len() > 1 && self.obs_noise.len() != state_dim {
-            return Err(ChainError::LengthMismatch {
+            return Err(InputError::LengthMismatch {
                 name: "obs_noise",
                 got: self.obs_noise.len(),
                 expected: state_dim,
-            });
+            }
+            .into());
         }
         for (index, &value) in self.obs_noise.iter().enumerate() {
             if !(value.is_finite() && value >= 0.0) {
-                return Err(ChainError::InvalidLinkParameter {
+                return Err(InputError::InvalidLinkParameter {
                     name: "obs_noise",
                     link: index,
                     value,
                     expected: "a finite standard deviation >= 0",
-                });
+                }
+                .into());
             }
         }
         if !(self.force_rate_limit > 0.0) {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name: "force_rate_limit",
                 value: self.force_rate_limit,
                 expected: "a number > 0 (N/s), or none for no limit",
-            });
+            }
+            .into());
         }
         Ok(())
     }
 
     /// A control delay given as a signed integer (as it arrives from a config).
     pub fn delay_from(value: i64) -> Result<usize> {
-        usize::try_from(value).map_err(|_| ChainError::InvalidParameter {
-            name: "action_delay",
-            value: value as f64,
-            expected: "an integer >= 0 (control periods)",
+        usize::try_from(value).map_err(|_| {
+            InputError::InvalidParameter {
+                name: "action_delay",
+                value: value as f64,
+                expected: "an integer >= 0 (control periods)",
+            }
+            .into()
         })
     }
 

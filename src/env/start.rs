@@ -15,7 +15,7 @@
 //! `a = 0` returns the base state exactly.
 
 use super::config::{check_paper_links, PaperFigure, Start, TaskConfig};
-use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::error::{check_finite, check_len, InputError, Result};
 use crate::geometry::{spatial_to_planar, Geometry, Layout, Spatial, Vector};
 use crate::model::Chain;
 use nalgebra::{Vector2, Vector3};
@@ -83,11 +83,12 @@ pub fn base_state<G: Geometry>(chain: &Chain<G>, task: &TaskConfig) -> Result<Ve
                 return Ok(spatial);
             }
             if *fig == PaperFigure::Fig3 {
-                return Err(ChainError::InvalidParameter {
+                return Err(InputError::InvalidParameter {
                     name: "planar",
                     value: 1.0,
                     expected: "False for start \"paper-fig3\" (its links leave the e1-e3 plane)",
-                });
+                }
+                .into());
             }
             let mut planar = vec![0.0; chain.state_dim()];
             spatial_to_planar(n, &spatial, &mut planar);
@@ -98,18 +99,20 @@ pub fn base_state<G: Geometry>(chain: &Chain<G>, task: &TaskConfig) -> Result<Ve
             check_finite("start", y)?;
             let r = chain.residuals(y);
             if r.unit_length > START_STATE_TOLERANCE {
-                return Err(ChainError::InvalidParameter {
+                return Err(InputError::InvalidParameter {
                     name: "start state's max | |q_i| - 1 |",
                     value: r.unit_length,
                     expected: "at most 1e-9 (link directions are unit vectors)",
-                });
+                }
+                .into());
             }
             if r.tangency > START_STATE_TOLERANCE {
-                return Err(ChainError::InvalidParameter {
+                return Err(InputError::InvalidParameter {
                     name: "start state's max |w_i . q_i|",
                     value: r.tangency,
                     expected: "at most 1e-9 (angular velocities are normal to their links)",
-                });
+                }
+                .into());
             }
             Ok(y.clone())
         }

@@ -5,7 +5,7 @@
 //! state is projected back onto the constraints.
 
 use super::{StepOptions, Stepper};
-use crate::error::{ChainError, Result};
+use crate::error::{ChainError, IntegrationFailure, Result};
 use crate::geometry::Geometry;
 use crate::model::Chain;
 
@@ -111,11 +111,10 @@ pub(super) fn integrate<G: Geometry>(
     let mut h = dt / opts.substeps as f64;
     while t < dt {
         if s.stats.accepted_steps + s.stats.rejected_steps >= MAX_STEPS {
-            return Err(ChainError::NumericalFailure {
-                reason: format!(
-                    "adaptive integrator took more than {MAX_STEPS} steps in one control period"
-                ),
-            });
+            return Err(ChainError::integration(
+                t,
+                IntegrationFailure::TooManySteps { limit: MAX_STEPS },
+            ));
         }
         let last = t + h >= dt;
         if last {
@@ -127,9 +126,10 @@ pub(super) fn integrate<G: Geometry>(
             h *= 0.1;
             s.stats.rejected_steps += 1;
             if h < dt * 1e-14 {
-                return Err(ChainError::NumericalFailure {
-                    reason: "adaptive step size underflow".into(),
-                });
+                return Err(ChainError::integration(
+                    t,
+                    IntegrationFailure::StepSizeUnderflow,
+                ));
             }
             continue;
         }
@@ -148,9 +148,10 @@ pub(super) fn integrate<G: Geometry>(
         };
         h *= factor;
         if h < dt * 1e-14 {
-            return Err(ChainError::NumericalFailure {
-                reason: "adaptive step size underflow".into(),
-            });
+            return Err(ChainError::integration(
+                t,
+                IntegrationFailure::StepSizeUnderflow,
+            ));
         }
     }
     Ok(())

@@ -16,7 +16,7 @@ mod rk4;
 mod rkmk4;
 mod variational;
 
-use crate::error::{check_positive, ChainError, Result};
+use crate::error::{check_positive, ChainError, InputError, Result};
 use crate::geometry::Geometry;
 use crate::model::{Chain, Workspace};
 
@@ -64,10 +64,13 @@ impl Method {
         Method::ALL
             .into_iter()
             .find(|m| m.name() == name)
-            .ok_or_else(|| ChainError::UnknownName {
-                kind: "integrator",
-                name: name.to_string(),
-                expected: Method::NAMES,
+            .ok_or_else(|| {
+                InputError::UnknownName {
+                    kind: "integrator",
+                    name: name.to_string(),
+                    expected: Method::NAMES,
+                }
+                .into()
             })
     }
 
@@ -119,11 +122,12 @@ impl StepOptions {
     /// Checks `substeps >= 1` and positive tolerances.
     pub fn validate(&self) -> Result<()> {
         if self.substeps == 0 {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name: "substeps",
                 value: 0.0,
                 expected: "an integer >= 1",
-            });
+            }
+            .into());
         }
         check_positive("tolerance", self.tolerance)?;
         check_positive("newton_tolerance", self.newton_tolerance)

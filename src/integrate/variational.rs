@@ -17,7 +17,7 @@
 //! (up to round-off) when u = 0, and energy error stays bounded.
 
 use super::{StepOptions, Stepper};
-use crate::error::{ChainError, Result};
+use crate::error::{ChainError, IntegrationFailure, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::model::Chain;
 use crate::tridiagonal;
@@ -226,12 +226,15 @@ fn solve_positions<G: Geometry>(
             return Ok((xdot_resp, iterations));
         }
         if iterations >= opts.max_newton_iterations || !worst.is_finite() {
-            return Err(ChainError::NoConvergence {
-                method: "variational Newton solve",
-                iterations,
-                residual: worst,
-                tolerance: opts.newton_tolerance,
-            });
+            return Err(ChainError::integration(
+                0.0,
+                IntegrationFailure::NoConvergence {
+                    method: "variational Newton solve",
+                    iterations,
+                    residual: worst,
+                    tolerance: opts.newton_tolerance,
+                },
+            ));
         }
         // d phi_i / d kappa_j = -q1_i . d r_i / d kappa_j.
         response_matrix(

@@ -1,7 +1,7 @@
 //! Argument conversion shared by the classes: errors, array-likes, sign tuples.
 
-use super::ChainCartError;
-use crate::error::ChainError;
+use super::{AnalysisError, IntegrationError, InvalidInputError, InvalidTypeError};
+use crate::error::{ChainError, InputError};
 use numpy::{AllowTypeChange, PyArrayDyn, PyArrayLikeDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
@@ -9,12 +9,31 @@ use std::borrow::Cow;
 
 impl From<ChainError> for PyErr {
     fn from(e: ChainError) -> PyErr {
-        ChainCartError::new_err(e.to_string())
+        let message = e.to_string();
+        match e {
+            ChainError::Input(_) => InvalidInputError::new_err(message),
+            ChainError::Integration { time, failure } => {
+                IntegrationError::new_err((message, time, failure.to_string()))
+            }
+            ChainError::Analysis { .. } => AnalysisError::new_err(message),
+        }
     }
 }
 
+impl From<InputError> for PyErr {
+    fn from(e: InputError) -> PyErr {
+        InvalidInputError::new_err(e.to_string())
+    }
+}
+
+/// An `InvalidInputError` (a `ValueError`) with `message`.
 pub fn error(message: String) -> PyErr {
-    ChainCartError::new_err(message)
+    InvalidInputError::new_err(message)
+}
+
+/// An `InvalidTypeError` (a `TypeError` and an `InvalidInputError`) with `message`.
+pub fn type_error(message: String) -> PyErr {
+    InvalidTypeError::new_err(message)
 }
 
 /// `(3, 2)`-style shape text.
@@ -83,7 +102,7 @@ impl<'py> Actions<'py> {
         }
         obj.extract::<Floats<'py>>()
             .map(Self::Other)
-            .map_err(|_| error("actions must be an array of numbers".to_string()))
+            .map_err(|_| type_error("actions must be an array of numbers".to_string()))
     }
 
     pub fn shape(&self) -> &[usize] {
@@ -124,7 +143,7 @@ pub fn signs(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
         return Ok(crate::env::target_signs(name.to_str()?, n)?);
     }
     obj.extract::<Vec<f64>>().map_err(|_| {
-        error(format!(
+        type_error(format!(
             "equilibrium {obj}: expected a name ({}) or a sequence of {n} signs +1/-1",
             crate::env::config::TARGET_NAMES
         ))
@@ -137,12 +156,12 @@ pub fn per_link(name: &'static str, obj: &Bound<'_, PyAny>, n: usize) -> PyResul
         return Ok(vec![v; n]);
     }
     let v: Vec<f64> = obj.extract().map_err(|_| {
-        error(format!(
+        type_error(format!(
             "{name} = {obj}: expected a number or a sequence of {n} numbers"
         ))
     })?;
     if v.len() != n {
-        return Err(ChainError::LengthMismatch {
+        return Err(InputError::LengthMismatch {
             name,
             got: v.len(),
             expected: n,

@@ -13,7 +13,7 @@ use crate::env::{
     AnyEnvBatch, AutoresetMode, Real, RewardWeights, Snapshot, Start, StepOutputs,
     SuccessTolerances, TaskConfig, DIAGNOSTICS,
 };
-use crate::error::ChainError;
+use crate::error::InputError;
 use crate::integrate::{Method, StepOptions};
 use numpy::{
     Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
@@ -247,7 +247,7 @@ impl EnvBatch {
             "float32" => false,
             "float64" => true,
             other => {
-                return Err(ChainError::UnknownName {
+                return Err(InputError::UnknownName {
                     kind: "obs_dtype",
                     name: other.to_string(),
                     expected: "\"float32\", \"float64\"",

@@ -1,7 +1,9 @@
 //! The Python extension `chaincart_env._core`: the only place that knows about
 //! Python. Each function converts its arguments, calls the core and converts the
-//! result; errors of the core become `ChainCartError` (a `ValueError`) with the core's
-//! message, and nothing here panics on user input.
+//! result; errors of the core become the exceptions of `chaincart_env.errors` (bad input:
+//! `InvalidInputError`, a `ValueError`; failed integration: `IntegrationError`, a
+//! `RuntimeError`; failed analysis: `AnalysisError`) with the core's message, and
+//! nothing here panics on user input.
 
 mod convert;
 mod env;
@@ -12,12 +14,13 @@ mod render;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
-pyo3::create_exception!(
-    chaincart_env._core,
-    ChainCartError,
-    pyo3::exceptions::PyValueError,
-    "Invalid input for chaincart (a ValueError); the message names the value and what was expected."
-);
+// Defined in Python (multiple inheritance: InvalidInputError is a ChainCartError and a
+// ValueError), imported on first use.
+pyo3::import_exception!(chaincart_env.errors, ChainCartError);
+pyo3::import_exception!(chaincart_env.errors, InvalidInputError);
+pyo3::import_exception!(chaincart_env.errors, InvalidTypeError);
+pyo3::import_exception!(chaincart_env.errors, IntegrationError);
+pyo3::import_exception!(chaincart_env.errors, AnalysisError);
 
 /// The core's number of worker threads (rayon's global pool; set `RAYON_NUM_THREADS`
 /// before the first parallel step to change it).
@@ -26,13 +29,30 @@ fn num_threads() -> usize {
     rayon::current_num_threads()
 }
 
+/// Seconds per call of `form` (`"fast"`, `"dense"`, `"fast_rk4_step"`) for a
+/// uniform spatial chain of `n_links`, timed in Rust on one core (best of 3 runs of
+/// at least `min_time` s each); the GIL is released while timing.
+#[pyfunction]
+#[pyo3(signature = (form, n_links, min_time=0.1))]
+fn time_scaling(py: Python<'_>, form: &str, n_links: usize, min_time: f64) -> PyResult<f64> {
+    let form = crate::scaling::Form::from_name(form)?;
+    Ok(py.detach(|| crate::scaling::time_form(form, n_links, min_time))?)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("ChainCartError", py.get_type::<ChainCartError>())?;
+    m.add("InvalidInputError", py.get_type::<InvalidInputError>())?;
+    m.add("InvalidTypeError", py.get_type::<InvalidTypeError>())?;
+    m.add("IntegrationError", py.get_type::<IntegrationError>())?;
+    m.add("AnalysisError", py.get_type::<AnalysisError>())?;
     m.add_class::<model::ChainCart>()?;
     m.add_class::<env::EnvBatch>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(time_scaling, m)?)?;
+    m.add("MAX_LINKS", crate::limits::MAX_LINKS)?;
+    m.add("MAX_STATE_VALUES", crate::limits::MAX_STATE_VALUES)?;
     m.add_function(wrap_pyfunction!(render::render_frame, m)?)?;
     m.add_function(wrap_pyfunction!(model::target_signs, m)?)?;
     m.add_function(wrap_pyfunction!(model::paper_initial_condition, m)?)?;

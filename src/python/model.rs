@@ -4,7 +4,7 @@ use super::convert::{contiguous, error, per_link, signs, vector, Floats};
 use crate::analysis::{Linearization, LqrController, LqrWeights};
 use crate::any::AnyChain;
 use crate::env::PaperFigure;
-use crate::error::ChainError;
+use crate::error::InputError;
 use crate::integrate::{Method, StepOptions};
 use crate::params::ChainParams;
 use nalgebra::DMatrix;
@@ -54,7 +54,7 @@ impl ChainCart {
         planar: bool,
     ) -> PyResult<Self> {
         if n_links < 0 {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name: "n_links",
                 value: n_links as f64,
                 expected: "an integer >= 1",
@@ -62,6 +62,7 @@ impl ChainCart {
             .into());
         }
         let n = n_links as usize;
+        crate::limits::check_links(n)?; // before the per-link vectors are allocated
         let masses = per_link("link_masses", link_masses, n)?;
         let lengths = per_link("link_lengths", link_lengths, n)?;
         let params = ChainParams::new(cart_mass, &masses, &lengths, gravity)?;
@@ -408,7 +409,7 @@ pub fn paper_initial_condition<'py>(
     py: Python<'py>,
     figure: &str,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let fig = PaperFigure::from_name(figure).ok_or_else(|| ChainError::UnknownName {
+    let fig = PaperFigure::from_name(figure).ok_or_else(|| InputError::UnknownName {
         kind: "paper figure",
         name: figure.to_string(),
         expected: "\"paper-fig1\", \"paper-fig2\", \"paper-fig3\"",

@@ -6,7 +6,7 @@ pub mod scene;
 pub use canvas::Canvas;
 pub use scene::{draw_frame, FrameSpec};
 
-use crate::error::{check_finite, check_len, ChainError, Result};
+use crate::error::{check_finite, check_len, InputError, Result};
 
 /// Renders one `height x width x 3` frame into `pixels`, validating sizes. Wild
 /// (huge or off-screen) states draw without error; NaN coordinates are skipped.
@@ -18,11 +18,12 @@ pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) 
         check_len("target", s, spec.lengths.len())?;
     }
     if pixels.len() != width * height * 3 {
-        return Err(ChainError::LengthMismatch {
+        return Err(InputError::LengthMismatch {
             name: "pixels",
             got: pixels.len(),
             expected: width * height * 3,
-        });
+        }
+        .into());
     }
     draw_frame(&mut Canvas::new(width, height, pixels), spec);
     Ok(())
@@ -32,11 +33,12 @@ pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) 
 pub fn check_frame_size(width: usize, height: usize) -> Result<()> {
     for (name, value) in [("width", width), ("height", height)] {
         if !(16..=8192).contains(&value) {
-            return Err(ChainError::InvalidParameter {
+            return Err(InputError::InvalidParameter {
                 name,
                 value: value as f64,
                 expected: "a frame size between 16 and 8192 pixels",
-            });
+            }
+            .into());
         }
     }
     Ok(())

@@ -36,7 +36,8 @@ def test_every_public_native_name_is_documented_in_the_stub() -> None:
 def test_all_is_explicit_and_importable() -> None:
     for name in chaincart_env.__all__:
         assert getattr(chaincart_env, name) is not None, name
-    assert issubclass(chaincart_env.ChainCartError, ValueError)
+    assert issubclass(chaincart_env.InvalidInputError, chaincart_env.ChainCartError)
+    assert issubclass(chaincart_env.InvalidInputError, ValueError)
     assert chaincart_env.ChainCartError is _core.ChainCartError
 
 

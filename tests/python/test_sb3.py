@@ -45,7 +45,7 @@ def test_it_is_a_vecenv_with_same_step_autoreset_matching_the_gymnasium_vector_e
         assert isinstance(infos, list) and len(infos) == n
         for i in range(n):
             if not dones[i]:
-                assert infos[i] == {}
+                assert infos[i] == {"TimeLimit.truncated": False}  # in every info, as DummyVecEnv
                 continue
             dones_seen += 1
             info = infos[i]
@@ -72,10 +72,12 @@ def test_seed_reset_reproduces_and_attributes() -> None:
     assert np.array_equal(venv.get_attr("model_state", 2)[0], [0.1, 0.0, 0.0, -1.0, 0.0, -1.0, 0.0, 0.0])
     assert venv.env_method("get_wrapper_attr", "dt", indices=0) == [0.02]
     assert venv.env_is_wrapped(Monitor) == [False] * 4
-    venv.set_attr("note", "shared")
-    assert venv.get_attr("note") == ["shared"] * 4
-    with pytest.raises(ChainCartError, match="shared by all envs"):
-        venv.set_attr("note", "one", indices=[0])
+    venv.set_attr("note", "everyone")
+    assert venv.get_attr("note") == ["everyone"] * 4
+    venv.set_attr("note", "one", indices=[0])  # a name the VecEnv lacks is per env
+    assert venv.get_attr("note") == ["one"] + ["everyone"] * 3
+    with pytest.raises(ChainCartError, match="'config' is shared by all 4 envs"):
+        venv.set_attr("config", venv.config, indices=[0])
     with pytest.raises(AttributeError):
         venv.get_attr("no_such_attribute")
     assert venv.config.n_links == 2 and venv.model.n_links == 2

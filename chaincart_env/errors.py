@@ -1,0 +1,66 @@
+"""The exceptions of chaincart, one base class and one class per kind of failure.
+
+======================  ==============================  ==========================================
+class                   also a                          raised for
+======================  ==============================  ==========================================
+``ChainCartError``      ``Exception``                   (base class of all below)
+``InvalidInputError``   ``ValueError``                  an argument with a wrong value
+``InvalidTypeError``    ``InvalidInputError``,          an argument of a wrong type (a string
+                        ``TypeError``                   where a number is needed, a non-bool mask)
+``IntegrationError``    ``RuntimeError``                ``ChainCart.simulate``/``step`` failing
+                                                        numerically (``time``, ``reason``)
+``AnalysisError``       ``numpy.linalg.LinAlgError``    linearisation, LQR and Lyapunov solves
+                        (a ``ValueError``)              that have no (stable) solution
+======================  ==============================  ==========================================
+
+The native module raises them too (it imports this module), with the core's message.
+This module imports nothing of chaincart, so the native module can load it first.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "ChainCartError",
+    "InvalidInputError",
+    "InvalidTypeError",
+    "IntegrationError",
+    "AnalysisError",
+]
+
+
+class ChainCartError(Exception):
+    """Base class of every error chaincart raises on purpose."""
+
+
+class InvalidInputError(ChainCartError, ValueError):
+    """An argument is not admissible; the message names the value and what was expected."""
+
+
+class InvalidTypeError(InvalidInputError, TypeError):
+    """An argument has the wrong type (both a ``TypeError`` and an
+    :class:`InvalidInputError`, so code catching ``ValueError`` still catches it)."""
+
+
+class IntegrationError(ChainCartError, RuntimeError):
+    """The integration of the model failed: ``time`` is the time (s, from the start of
+    the call) at which the failing step began, ``reason`` what went wrong."""
+
+    def __init__(self, message: str, time: float = float("nan"), reason: str = "") -> None:
+        super().__init__(message)
+        self.time = float(time)
+        self.reason = reason or message
+
+    def __reduce__(self) -> tuple[type, tuple[str, float, str]]:
+        return (type(self), (str(self), self.time, self.reason))
+
+
+class AnalysisError(ChainCartError, np.linalg.LinAlgError):
+    """A linear-algebra analysis (linearisation, LQR gain, Lyapunov solve, ...) has no
+    solution of the kind asked for, e.g. an uncontrollable equilibrium."""
+
+
+class MissingExtraError(ChainCartError, ImportError):
+    """An optional dependency is not installed; the message names the extra to install
+    (``pip install 'chaincart-env[plot]'``, ...)."""

@@ -1,0 +1,60 @@
+"""Optional dependencies: which extra of ``chaincart-env`` each command or class
+needs, checked before any work starts so that a missing one is one clear line
+(``pip install 'chaincart-env[plot]'``) instead of an ``ImportError`` halfway through."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from typing import Any, Iterable
+
+from chaincart_env.errors import MissingExtraError
+
+__all__ = ["EXTRAS", "command_needs", "require"]
+
+#: The import names each extra provides (as in pyproject.toml).
+EXTRAS: dict[str, tuple[str, ...]] = {
+    "sb3": ("stable_baselines3", "torch"),
+    "plot": ("matplotlib", "imageio", "imageio_ffmpeg", "tqdm", "rich", "PIL"),
+    "mujoco": ("mujoco",),
+}
+
+
+def _missing(modules: Iterable[str]) -> list[str]:
+    return [m for m in modules if importlib.util.find_spec(m) is None]
+
+
+def require(purpose: str, needs: dict[str, tuple[str, ...]]) -> None:
+    """Raises :class:`MissingExtraError` naming the extras to install if any module
+    in ``needs`` (``{extra: modules}``) is missing."""
+    lacking = {extra: _missing(modules) for extra, modules in needs.items()}
+    lacking = {extra: missing for extra, missing in lacking.items() if missing}
+    if lacking:
+        modules = ", ".join(m for missing in lacking.values() for m in missing)
+        extras = ",".join(lacking)
+        raise MissingExtraError(f"{purpose} needs {modules}, not installed: pip install 'chaincart-env[{extras}]'")
+
+
+def _animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
+    needs: dict[str, tuple[str, ...]] = {}
+    suffix = ".gif" if args.out is None else Path(str(args.out)).suffix.lower()  # default: SCENE.gif
+    if suffix == ".gif":
+        needs["plot"] = ("PIL",)
+    elif suffix == ".mp4":
+        needs["plot"] = ("imageio", "imageio_ffmpeg")
+    if str(args.policy) not in ("lqr", "zero", "random"):  # a saved model
+        needs["sb3"] = ("stable_baselines3",)
+    return needs
+
+
+def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
+    """``{extra: modules}`` that ``python -m chaincart_env COMMAND`` with ``args`` needs."""
+    if command == "compare":
+        return {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
+    if command == "evaluate":
+        return {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
+    if command in ("figures", "roa"):
+        return {"plot": ("matplotlib",)}
+    if command == "animate":
+        return _animate_needs(args)
+    return {}
