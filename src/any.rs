@@ -21,16 +21,6 @@ pub enum AnyChain {
     Planar(Chain<Planar>),
 }
 
-/// Runs `$body` with `$c` bound to the concrete chain and `$G` to its geometry.
-macro_rules! dispatch {
-    ($self:expr, $c:ident, $body:expr) => {
-        match $self {
-            AnyChain::Spatial($c) => $body,
-            AnyChain::Planar($c) => $body,
-        }
-    };
-}
-
 impl AnyChain {
     /// The planar or spatial chain with these parameters.
     pub fn new(params: ChainParams, planar: bool) -> Self {
@@ -46,24 +36,24 @@ impl AnyChain {
     }
     /// The physical parameters.
     pub fn params(&self) -> &ChainParams {
-        dispatch!(self, c, c.params())
+        dispatch!(AnyChain, self, c => c.params())
     }
     /// Number of links.
     pub fn n_links(&self) -> usize {
-        dispatch!(self, c, c.n_links())
+        dispatch!(AnyChain, self, c => c.n_links())
     }
     /// Length of a state: `4 + 6n` spatial, `2 + 3n` planar.
     pub fn state_dim(&self) -> usize {
-        dispatch!(self, c, c.state_dim())
+        dispatch!(AnyChain, self, c => c.state_dim())
     }
     /// Length of a force: 2 spatial, 1 planar.
     pub fn force_dim(&self) -> usize {
-        dispatch!(self, c, c.force_dim())
+        dispatch!(AnyChain, self, c => c.force_dim())
     }
 
     /// Time derivative of `state` under `force`.
     pub fn derivative(&self, state: &[f64], force: &[f64]) -> Result<Vec<f64>> {
-        dispatch!(self, c, {
+        dispatch!(AnyChain, self, c => {
             c.check_input(state, force)?;
             let mut dy = vec![0.0; c.state_dim()];
             c.derivative(state, Vector::load(force), &mut c.workspace(), &mut dy);
@@ -98,7 +88,7 @@ impl AnyChain {
         check_positive("dt", dt)?;
         opts.validate()?;
         self.check_state(state)?;
-        dispatch!(self, c, {
+        dispatch!(AnyChain, self, c => {
             let f = c.force_dim();
             crate::limits::check_rows("steps", steps, c.state_dim())?;
             check_len("forces", forces, steps * f)?;
@@ -130,12 +120,12 @@ impl AnyChain {
     /// Kinetic and potential energy of a checked state.
     pub fn energy(&self, state: &[f64]) -> Result<Energy> {
         self.check_state(state)?;
-        Ok(dispatch!(self, c, c.energy(state)))
+        Ok(dispatch!(AnyChain, self, c => c.energy(state)))
     }
     /// Horizontal momentum of a checked state (one entry per cart axis).
     pub fn horizontal_momentum(&self, state: &[f64]) -> Result<Vec<f64>> {
         self.check_state(state)?;
-        dispatch!(self, c, {
+        dispatch!(AnyChain, self, c => {
             let mut out = vec![0.0; c.force_dim()];
             c.horizontal_momentum(state).store(&mut out);
             Ok(out)
@@ -144,19 +134,19 @@ impl AnyChain {
     /// Constraint residuals of a state (length and finiteness checked).
     pub fn residuals(&self, state: &[f64]) -> Result<Residuals> {
         self.check_state(state)?;
-        Ok(dispatch!(self, c, c.residuals(state)))
+        Ok(dispatch!(AnyChain, self, c => c.residuals(state)))
     }
     /// The paper's `(e_q, e_w)` for equilibrium `s`.
     pub fn errors(&self, state: &[f64], s: &[f64]) -> Result<(f64, f64)> {
         self.check_state(state)?;
-        dispatch!(self, c, {
+        dispatch!(AnyChain, self, c => {
             c.equilibrium(s)?;
             Ok(c.errors(state, s))
         })
     }
     /// The equilibrium state with signs `s` (cart at rest at the origin).
     pub fn equilibrium(&self, s: &[f64]) -> Result<Vec<f64>> {
-        dispatch!(self, c, c.equilibrium(s))
+        dispatch!(AnyChain, self, c => c.equilibrium(s))
     }
 
     /// Spatial state of a state of this chain (identity for a spatial chain).

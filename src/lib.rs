@@ -14,6 +14,18 @@
 //! * [`limits`]: the largest sizes accepted; [`scaling`]: timing against the number of links.
 //! * [`env`](mod@env): the RL task (target, start, reward, termination, autoreset) over a batch.
 
+/// Runs `$body` with `$x` bound to the value inside `$value`, an enum `$kind` with
+/// the variants `Spatial` and `Planar` (the run-time choice of scene), so that one
+/// generic call serves both.
+macro_rules! dispatch {
+    ($kind:ident, $value:expr, $x:ident => $body:expr) => {
+        match $value {
+            $kind::Spatial($x) => $body,
+            $kind::Planar($x) => $body,
+        }
+    };
+}
+
 pub mod analysis;
 pub mod any;
 pub mod batch;

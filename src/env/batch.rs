@@ -582,16 +582,6 @@ pub enum AnyEnvBatch {
     Planar(EnvBatch<Planar>),
 }
 
-/// Runs `$body` with `$b` bound to the concrete batch.
-macro_rules! dispatch {
-    ($self:expr, $b:ident, $body:expr) => {
-        match $self {
-            AnyEnvBatch::Spatial($b) => $body,
-            AnyEnvBatch::Planar($b) => $body,
-        }
-    };
-}
-
 impl AnyEnvBatch {
     pub fn new(
         chain: AnyChain,
@@ -614,55 +604,55 @@ impl AnyEnvBatch {
         matches!(self, AnyEnvBatch::Planar(_))
     }
     pub fn task(&self) -> &TaskConfig {
-        dispatch!(self, b, b.task())
+        dispatch!(AnyEnvBatch, self, b => b.task())
     }
     pub fn mode(&self) -> AutoresetMode {
-        dispatch!(self, b, b.mode())
+        dispatch!(AnyEnvBatch, self, b => b.mode())
     }
     pub fn diagnostics_enabled(&self) -> bool {
-        dispatch!(self, b, b.diagnostics_enabled())
+        dispatch!(AnyEnvBatch, self, b => b.diagnostics_enabled())
     }
     pub fn n_envs(&self) -> usize {
-        dispatch!(self, b, b.n_envs())
+        dispatch!(AnyEnvBatch, self, b => b.n_envs())
     }
     pub fn n_links(&self) -> usize {
-        dispatch!(self, b, b.chain().n_links())
+        dispatch!(AnyEnvBatch, self, b => b.chain().n_links())
     }
     pub fn state_dim(&self) -> usize {
-        dispatch!(self, b, b.state_dim())
+        dispatch!(AnyEnvBatch, self, b => b.state_dim())
     }
     pub fn force_dim(&self) -> usize {
-        dispatch!(self, b, b.force_dim())
+        dispatch!(AnyEnvBatch, self, b => b.force_dim())
     }
     pub fn base_state(&self) -> &[f64] {
-        dispatch!(self, b, b.base_state())
+        dispatch!(AnyEnvBatch, self, b => b.base_state())
     }
     pub fn states(&self) -> &[f64] {
-        dispatch!(self, b, b.states())
+        dispatch!(AnyEnvBatch, self, b => b.states())
     }
     pub fn step_count(&self, env: usize) -> u64 {
-        dispatch!(self, b, b.step_count(env))
+        dispatch!(AnyEnvBatch, self, b => b.step_count(env))
     }
     pub fn has_ended(&self, env: usize) -> bool {
-        dispatch!(self, b, b.has_ended(env))
+        dispatch!(AnyEnvBatch, self, b => b.has_ended(env))
     }
     pub fn events(&self) -> &[u8] {
-        dispatch!(self, b, b.events())
+        dispatch!(AnyEnvBatch, self, b => b.events())
     }
     pub fn errors(&self) -> &[f64] {
-        dispatch!(self, b, b.errors())
+        dispatch!(AnyEnvBatch, self, b => b.errors())
     }
     pub fn final_states(&self) -> &[f64] {
-        dispatch!(self, b, b.final_states())
+        dispatch!(AnyEnvBatch, self, b => b.final_states())
     }
     pub fn diagnostics(&self) -> &[f64] {
-        dispatch!(self, b, b.diagnostics())
+        dispatch!(AnyEnvBatch, self, b => b.diagnostics())
     }
     pub fn write_obs<T: Real>(&self, obs: &mut [T]) -> Result<()> {
-        dispatch!(self, b, b.write_obs(obs))
+        dispatch!(AnyEnvBatch, self, b => b.write_obs(obs))
     }
     pub fn set_state(&mut self, env: usize, state: &[f64]) -> Result<()> {
-        dispatch!(self, b, b.set_state(env, state))
+        dispatch!(AnyEnvBatch, self, b => b.set_state(env, state))
     }
     pub fn reset<T: Real>(
         &mut self,
@@ -670,31 +660,31 @@ impl AnyEnvBatch {
         mask: Option<&[bool]>,
         obs: &mut [T],
     ) -> Result<()> {
-        dispatch!(self, b, b.reset(seeds, mask, obs))
+        dispatch!(AnyEnvBatch, self, b => b.reset(seeds, mask, obs))
     }
     pub fn check_actions<A: Real>(&self, actions: &[A]) -> Result<()> {
-        dispatch!(self, b, b.check_actions(actions))
+        dispatch!(AnyEnvBatch, self, b => b.check_actions(actions))
     }
     pub fn step<T: Real, A: Real>(
         &mut self,
         actions: &[A],
         out: StepOutputs<'_, T>,
     ) -> Result<usize> {
-        dispatch!(self, b, b.step(actions, out))
+        dispatch!(AnyEnvBatch, self, b => b.step(actions, out))
     }
     pub fn true_params(&self) -> &ChainParams {
-        dispatch!(self, b, b.true_params())
+        dispatch!(AnyEnvBatch, self, b => b.true_params())
     }
     pub fn env_params(&self, env: usize) -> Result<ChainParams> {
-        dispatch!(self, b, b.env_params(env))
+        dispatch!(AnyEnvBatch, self, b => b.env_params(env))
     }
     pub fn per_env_params(&self) -> Option<&EnvParams> {
-        dispatch!(self, b, b.per_env_params())
+        dispatch!(AnyEnvBatch, self, b => b.per_env_params())
     }
     pub fn snapshot(&self) -> Snapshot {
-        dispatch!(self, b, b.snapshot())
+        dispatch!(AnyEnvBatch, self, b => b.snapshot())
     }
     pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
-        dispatch!(self, b, b.restore(snap))
+        dispatch!(AnyEnvBatch, self, b => b.restore(snap))
     }
 }
