@@ -16,52 +16,80 @@ use std::fmt;
 pub enum InputError {
     /// A scalar parameter outside its admissible set (e.g. a mass <= 0 or NaN).
     InvalidParameter {
+        /// Name of the argument or quantity.
         name: &'static str,
+        /// The value given.
         value: f64,
+        /// What was expected.
         expected: &'static str,
     },
     /// One entry of a per-link parameter vector is inadmissible.
     InvalidLinkParameter {
+        /// Name of the argument or quantity.
         name: &'static str,
+        /// Index of the link.
         link: usize,
+        /// The value given.
         value: f64,
+        /// What was expected.
         expected: &'static str,
     },
     /// A `[low, high]` range that is empty, not finite, or admits inadmissible values.
     InvalidRange {
+        /// Name of the argument or quantity.
         name: &'static str,
+        /// Lower end of the range.
         low: f64,
+        /// Upper end of the range.
         high: f64,
+        /// What was expected.
         expected: &'static str,
     },
     /// Two things that must have the same length do not.
     LengthMismatch {
+        /// Name of the argument or quantity.
         name: &'static str,
+        /// The length given.
         got: usize,
+        /// What was expected.
         expected: usize,
     },
     /// The number of links must be at least one.
     NoLinks,
     /// A size (links, envs, steps, ...) beyond what can be allocated.
     TooLarge {
+        /// Name of the argument or quantity.
         name: &'static str,
+        /// The value given.
         value: usize,
+        /// The largest admissible value.
         limit: usize,
     },
     /// A name (integrator, equilibrium, ...) that is not known.
     UnknownName {
+        /// What kind of name (integrator, target, ...).
         kind: &'static str,
+        /// Name of the argument or quantity.
         name: String,
+        /// What was expected.
         expected: &'static str,
     },
     /// An input vector contains NaN or infinity.
     NonFinite {
+        /// Name of the argument or quantity.
         name: &'static str,
+        /// Position of the entry.
         index: usize,
+        /// The value given.
         value: f64,
     },
     /// An equilibrium sign tuple with an entry other than +1 or -1.
-    InvalidSign { index: usize, value: f64 },
+    InvalidSign {
+        /// Position in the tuple.
+        index: usize,
+        /// The entry given.
+        value: f64,
+    },
 }
 
 /// Why an integration failed.
@@ -70,20 +98,31 @@ pub enum IntegrationFailure {
     /// A guarded control period failed: `status` says how (non-finite state,
     /// constraint drift, under-resolved motion, solver failure).
     Step {
+        /// Index of the failing control period.
         step: usize,
+        /// How the step failed.
         status: &'static str,
+        /// The integrator or solver.
         method: &'static str,
+        /// The control period (s).
         dt: f64,
     },
     /// The adaptive integrator needed more than `limit` steps in one period.
-    TooManySteps { limit: usize },
+    TooManySteps {
+        /// Most steps allowed in one control period.
+        limit: usize,
+    },
     /// The adaptive integrator's step size fell below what floating point resolves.
     StepSizeUnderflow,
     /// An implicit solve did not converge.
     NoConvergence {
+        /// The integrator or solver.
         method: &'static str,
+        /// Iterations done.
         iterations: usize,
+        /// The residual reached.
         residual: f64,
+        /// The residual asked for.
         tolerance: f64,
     },
 }
@@ -96,11 +135,16 @@ pub enum ChainError {
     /// The integration failed in the step that began at `time` (s from the start
     /// of the call; within a control period for the integrators' own errors).
     Integration {
+        /// Time (s) at which the failing step began.
         time: f64,
+        /// What failed.
         failure: IntegrationFailure,
     },
     /// Linear-algebra failure in the analysis code (singular matrix, no stabilising solution...).
-    Analysis { reason: String },
+    Analysis {
+        /// What failed.
+        reason: String,
+    },
 }
 
 impl From<InputError> for ChainError {
@@ -212,6 +256,7 @@ impl fmt::Display for ChainError {
 impl std::error::Error for InputError {}
 impl std::error::Error for ChainError {}
 
+/// The core's result type.
 pub type Result<T> = std::result::Result<T, ChainError>;
 
 /// Rejects NaN/inf in an input vector, naming the first bad entry.

@@ -22,8 +22,10 @@ pub enum Form {
 }
 
 impl Form {
+    /// Every form.
     pub const ALL: [Form; 3] = [Form::Fast, Form::Dense, Form::FastRk4Step];
 
+    /// The form's name.
     pub fn name(self) -> &'static str {
         match self {
             Form::Fast => "fast",
@@ -32,6 +34,7 @@ impl Form {
         }
     }
 
+    /// The form with this name, or an error listing the names.
     pub fn from_name(name: &str) -> Result<Self> {
         Self::ALL
             .into_iter()

@@ -27,6 +27,7 @@ pub enum PaperFigure {
 }
 
 impl PaperFigure {
+    /// The figure with this scene name (`"paper-fig1"`, ...).
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
             "paper-fig1" => Some(Self::Fig1),
@@ -35,6 +36,7 @@ impl PaperFigure {
             _ => None,
         }
     }
+    /// The name of this item as the configuration writes it.
     pub fn name(self) -> &'static str {
         match self {
             Self::Fig1 => "paper-fig1",
@@ -130,10 +132,15 @@ impl Start {
 /// (`a` the clipped, normalised action). All must be finite and >= 0.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RewardWeights {
+    /// Weight of the link direction errors `sum_i |q_i - s_i e3|^2`.
     pub q: f64,
+    /// Weight of the angular velocities `sum_i |w_i|^2`.
     pub w: f64,
+    /// Weight of the cart position `|x|^2`.
     pub x: f64,
+    /// Weight of the cart velocity `|xdot|^2`.
     pub v: f64,
+    /// Weight of the normalised action `|a|^2`.
     pub u: f64,
 }
 
@@ -153,9 +160,11 @@ impl Default for RewardWeights {
 }
 
 impl RewardWeights {
+    /// `[q, w, x, v, u]`.
     pub fn as_array(&self) -> [f64; 5] {
         [self.q, self.w, self.x, self.v, self.u]
     }
+    /// From `[q, w, x, v, u]`.
     pub fn from_array(a: [f64; 5]) -> Self {
         Self {
             q: a[0],
@@ -165,6 +174,7 @@ impl RewardWeights {
             u: a[4],
         }
     }
+    /// Checks that every weight is finite and >= 0.
     pub fn validate(&self) -> Result<()> {
         for (name, value) in [
             ("reward_weights.q", self.q),
@@ -183,7 +193,9 @@ impl RewardWeights {
 /// the paper's errors `e_q = sum |q_i - s_i e3|` and `e_w = sum |w_i|` are at most these.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SuccessTolerances {
+    /// Largest `e_q` of a success.
     pub e_q: f64,
+    /// Largest `e_w` of a success.
     pub e_w: f64,
 }
 
@@ -209,7 +221,9 @@ pub enum AutoresetMode {
 }
 
 impl AutoresetMode {
+    /// The accepted names, for error messages.
     pub const NAMES: &'static str = "\"next_step\", \"same_step\", \"disabled\"";
+    /// The mode with this name, or an error listing the names.
     pub fn from_name(name: &str) -> Result<Self> {
         match name {
             "next_step" => Ok(Self::NextStep),
@@ -223,6 +237,7 @@ impl AutoresetMode {
             .into()),
         }
     }
+    /// The name of this item as the configuration writes it.
     pub fn name(self) -> &'static str {
         match self {
             Self::NextStep => "next_step",
@@ -237,12 +252,14 @@ impl AutoresetMode {
 pub struct TaskConfig {
     /// Target equilibrium `s` (`+1` hanging link, `-1` upright link).
     pub target: Vec<f64>,
+    /// Where episodes start, before the noise.
     pub start: Start,
     /// Half-width of the uniform start noise in every local coordinate (see
     /// [`crate::env::start`]); 0 starts every episode exactly at the base state.
     pub start_noise: f64,
     /// Control period (seconds): one env step.
     pub dt: f64,
+    /// Integrator and substeps per control period.
     pub step_options: StepOptions,
     /// Force (N) of a normalised action of magnitude 1, per cart axis. 0 makes the
     /// env uncontrolled.
@@ -251,7 +268,9 @@ pub struct TaskConfig {
     pub track_limit: f64,
     /// The episode is truncated after this many steps.
     pub max_episode_steps: u64,
+    /// Weights of the reward.
     pub reward: RewardWeights,
+    /// When an episode that reaches its time limit is a success.
     pub success: SuccessTolerances,
     /// When a step counts as a numerical failure.
     pub guard: Guard,

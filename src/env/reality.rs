@@ -32,21 +32,28 @@ pub const NOISE_STREAM: u64 = 2;
 /// A physical parameter that can be mismatched or randomised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Param {
+    /// The cart mass.
     CartMass,
+    /// The link (point) masses.
     LinkMasses,
+    /// The link lengths.
     LinkLengths,
+    /// The gravitational acceleration.
     Gravity,
 }
 
 impl Param {
+    /// Every parameter, in documentation order.
     pub const ALL: [Param; 4] = [
         Param::CartMass,
         Param::LinkMasses,
         Param::LinkLengths,
         Param::Gravity,
     ];
+    /// The accepted names, for error messages.
     pub const NAMES: &'static str = "\"cart_mass\", \"link_masses\", \"link_lengths\", \"gravity\"";
 
+    /// The parameter's keyword name.
     pub fn name(self) -> &'static str {
         match self {
             Param::CartMass => "cart_mass",
@@ -108,13 +115,33 @@ enum Kind {
 pub enum Distribution {
     /// `p * (low + (high - low) u)`: a uniform relative scale. The number form `h`
     /// of the `randomize` keyword is `Scale { low: 1 - h, high: 1 + h }`.
-    Scale { low: f64, high: f64 },
+    Scale {
+        /// Lower end of the uniform relative scale.
+        low: f64,
+        /// Upper end of the uniform relative scale.
+        high: f64,
+    },
     /// `p * exp(ln low + (ln high - ln low) u)`: a log-uniform relative scale.
-    LogScale { low: f64, high: f64 },
+    LogScale {
+        /// Lower end of the log-uniform relative scale.
+        low: f64,
+        /// Upper end of the log-uniform relative scale.
+        high: f64,
+    },
     /// `low + (high - low) u`: a uniform absolute range (the nominal value is ignored).
-    Range { low: f64, high: f64 },
+    Range {
+        /// Lower end of the uniform absolute range.
+        low: f64,
+        /// Upper end of the uniform absolute range.
+        high: f64,
+    },
     /// `exp(ln low + (ln high - ln low) u)`: a log-uniform absolute range.
-    LogRange { low: f64, high: f64 },
+    LogRange {
+        /// Lower end of the log-uniform absolute range.
+        low: f64,
+        /// Upper end of the log-uniform absolute range.
+        high: f64,
+    },
 }
 
 impl Distribution {
@@ -177,6 +204,7 @@ impl Distribution {
 /// The randomisation of one parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamRandomization {
+    /// How values are drawn.
     pub distribution: Distribution,
     /// Link masses and lengths: one draw per link (true) or one draw shared by all
     /// links (false). Ignored for the cart mass and gravity.
@@ -186,13 +214,18 @@ pub struct ParamRandomization {
 /// Which parameters are redrawn at every reset (`None`: kept at the true value).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Randomization {
+    /// The cart mass's randomisation.
     pub cart_mass: Option<ParamRandomization>,
+    /// The link masses' randomisation.
     pub link_masses: Option<ParamRandomization>,
+    /// The link lengths' randomisation.
     pub link_lengths: Option<ParamRandomization>,
+    /// Gravity's randomisation.
     pub gravity: Option<ParamRandomization>,
 }
 
 impl Randomization {
+    /// The randomisation of `p`.
     pub fn get(&self, p: Param) -> Option<ParamRandomization> {
         match p {
             Param::CartMass => self.cart_mass,
@@ -201,6 +234,7 @@ impl Randomization {
             Param::Gravity => self.gravity,
         }
     }
+    /// Sets the randomisation of `p`.
     pub fn set(&mut self, p: Param, value: Option<ParamRandomization>) {
         match p {
             Param::CartMass => self.cart_mass = value,
@@ -213,6 +247,7 @@ impl Randomization {
     pub fn is_off(&self) -> bool {
         Param::ALL.iter().all(|&p| self.get(p).is_none())
     }
+    /// Checks every range (finite, non-empty, positive where values must be).
     pub fn validate(&self) -> Result<()> {
         for p in Param::ALL {
             if let Some(r) = self.get(p) {
@@ -228,13 +263,18 @@ impl Randomization {
 /// ([`RealityGap::params`]) and for scale factors ([`RealityGap::mismatch`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ParamValues {
+    /// The cart mass (or its factor).
     pub cart_mass: Option<f64>,
+    /// The link masses (or their factors), one per link or one for all.
     pub link_masses: Option<Vec<f64>>,
+    /// The link lengths (or their factors), one per link or one for all.
     pub link_lengths: Option<Vec<f64>>,
+    /// Gravity (or its factor).
     pub gravity: Option<f64>,
 }
 
 impl ParamValues {
+    /// Whether no parameter is given.
     pub fn is_empty(&self) -> bool {
         *self == Self::default()
     }
@@ -438,9 +478,13 @@ impl RealityGap {
 
 /// One env's parameters inside [`EnvParams`]: mutable views of its rows.
 pub struct ParamRow<'a> {
+    /// The env's cart mass.
     pub cart_mass: &'a mut f64,
+    /// The env's link masses.
     pub link_masses: &'a mut [f64],
+    /// The env's link lengths.
     pub link_lengths: &'a mut [f64],
+    /// The env's gravity.
     pub gravity: &'a mut f64,
 }
 
@@ -488,9 +532,13 @@ fn sample_links<R: Rng>(
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvParams {
     n_links: usize,
+    /// Cart mass of each env.
     pub cart_mass: Vec<f64>,
+    /// Link masses, `n_links` per env.
     pub link_masses: Vec<f64>,
+    /// Link lengths, `n_links` per env.
     pub link_lengths: Vec<f64>,
+    /// Gravity of each env.
     pub gravity: Vec<f64>,
 }
 
@@ -515,6 +563,7 @@ impl EnvParams {
             gravity: Vec::new(),
         }
     }
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         self.n_links
     }
@@ -547,8 +596,11 @@ pub enum KeyDefault {
 /// default and help that the Python configuration and its documentation read.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KeySpec {
+    /// The keyword.
     pub name: &'static str,
+    /// Its default.
     pub default: KeyDefault,
+    /// What it does and the forms it takes.
     pub help: &'static str,
 }
 
