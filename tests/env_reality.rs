@@ -6,6 +6,7 @@ use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, Param, ParamRandomization, ParamValues, Randomization,
     RealityGap, StepOutputs, TaskConfig,
 };
+use chaincart::error::InputError;
 use chaincart::geometry::{Geometry, Vector};
 use chaincart::{Chain, ChainError, ChainParams, Method, Planar, Spatial, StepOptions};
 use rand::{Rng, SeedableRng};
@@ -482,10 +483,10 @@ fn bad_reality_settings_are_errors_naming_them() {
     assert!(e.contains("action_delay = -1"), "{e}");
     assert_eq!(
         Param::from_name("randomize", "pole_mass").unwrap_err(),
-        ChainError::UnknownName {
+        ChainError::Input(InputError::UnknownName {
             kind: "randomize",
             name: "pole_mass".into(),
             expected: Param::NAMES,
-        }
+        })
     );
 }
