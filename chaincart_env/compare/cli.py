@@ -13,14 +13,12 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
+from chaincart_env.compare.recipes import GENERIC, recipe_for
 from chaincart_env.compare.scene_options import add_scene_options, config_from_options, parse_value
 from chaincart_env.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES, parse_sweep
 
-__all__ = ["DEFAULT_TIMESTEPS", "add_commands", "compare_main"]
+__all__ = ["add_commands", "compare_main"]
 
-#: Training budget of the default run (see the README's results): PPO solves the
-#: default scene well within it on two shared cores.
-DEFAULT_TIMESTEPS = 400_000
 DEFAULT_OUT = Path("runs/compare")
 ALGORITHM_NAMES = ("ppo", "sac", "td3")
 
@@ -50,8 +48,9 @@ def _add_evaluation_options(parser: argparse.ArgumentParser, defaults: bool) -> 
 
 
 def _configure_compare(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--timesteps", type=_integer(1, "timesteps"), default=DEFAULT_TIMESTEPS,
-                        help=f"training budget in env steps (default: {DEFAULT_TIMESTEPS})")
+    parser.add_argument("--timesteps", type=_integer(1, "timesteps"), default=None,
+                        help=f"training budget in env steps (default: the scene's training recipe, "
+                        f"{GENERIC.timesteps} without one)")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default: {DEFAULT_OUT})")
     parser.add_argument("--algo", type=str.lower, choices=ALGORITHM_NAMES, default="ppo",
                         help="stable-baselines3 algorithm (default: ppo)")
@@ -72,10 +71,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="timesteps between checkpoints, for --resume (default: 50000)")
     parser.add_argument("--resume", type=Path, default=None, metavar="RUN_DIR",
                         help="continue an interrupted run with its own settings (other options are ignored)")
-    parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=8,
-                        help="training envs in the native VecEnv of the sb3 trainer (default: 8)")
+    parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=None,
+                        help="training envs in the native VecEnv of the sb3 trainer (default: the scene's training "
+                        f"recipe, {GENERIC.num_envs} without one)")
     parser.add_argument("--algo-kwarg", dest="algo_kwargs", action="append", default=[], metavar="KEY=VALUE",
-                        help="constructor keyword of the algorithm on top of the defaults (repeatable), "
+                        help="constructor keyword of the algorithm on top of the scene's training recipe (repeatable), "
                         "e.g. --algo-kwarg n_steps=256; with --trainer rllib a PPOConfig.training keyword, "
                         "e.g. --algo-kwarg train_batch_size_per_learner=4096")
     _add_rllib_options(parser)
@@ -149,14 +149,15 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
             resume_compare(args.resume)
             return 0
         config = config_from_options(args)
-        hyperparameters = dict(_algo_kwarg(text) for text in args.algo_kwargs)
+        recipe = recipe_for(config.scene, args.algo) if args.trainer == "sb3" else GENERIC
+        hyperparameters = {**recipe.hyperparameters, **dict(_algo_kwarg(text) for text in args.algo_kwargs)}
         sweeps = _sweeps(args.sweeps)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     seeds = args.seeds if args.seeds is not None else [0 if args.seed is None else args.seed]
     try:
-        run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps, seeds=seeds,
-                    num_envs=args.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
+        run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps or recipe.timesteps,
+                    seeds=seeds, num_envs=args.num_envs or recipe.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
                     sweeps=sweeps, eval_every=args.eval_every, eval_starts=args.eval_starts,
                     checkpoint_every=args.checkpoint_every, progress_bar=not args.no_progress,
                     torch_threads=args.torch_threads, hyperparameters=hyperparameters, trainer=args.trainer,

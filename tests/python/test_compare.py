@@ -362,3 +362,20 @@ def test_an_interrupted_run_keeps_its_files_and_resumes_to_the_uninterrupted_res
     for name in ("training_episodes.csv", "evaluations.csv"):
         resumed, uninterrupted = (read_csv(run / "seed-0" / name)[1] for run in (broken, whole))
         assert untimed(resumed) == untimed(uninterrupted) and resumed, name
+
+
+def test_the_scene_recipe_sets_the_training_defaults_and_options_override_it(tmp_path: pathlib.Path) -> None:
+    from chaincart_env.compare.recipes import GENERIC, recipe_for
+
+    recipe = recipe_for("inverted-2", "ppo")
+    assert recipe is not GENERIC and recipe_for("swingup-1", "PPO") is GENERIC
+    base = ["--eval-episodes", "2", "--sweep", "start_noise=0.05", "--set", "max_episode_steps=20", "--no-progress",
+            "--torch-threads", "1"]  # fmt: skip
+    assert main(["compare", *base, "--timesteps", "64", "--out", str(tmp_path / "recipe")]) == 0
+    seed_run = json.loads((tmp_path / "recipe" / "seed-0" / "run.json").read_text())
+    assert seed_run["num_envs"] == recipe.num_envs
+    assert seed_run["hyperparameters"] == recipe.hyperparameters
+    args = [*base, "--timesteps", "64", "--num-envs", "2", "--algo-kwarg", "n_steps=32", "--out", str(tmp_path / "own")]
+    assert main(["compare", *args]) == 0
+    seed_run = json.loads((tmp_path / "own" / "seed-0" / "run.json").read_text())
+    assert seed_run["num_envs"] == 2 and seed_run["hyperparameters"] == {**recipe.hyperparameters, "n_steps": 32}
