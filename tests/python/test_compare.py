@@ -375,7 +375,9 @@ def test_the_scene_recipe_sets_the_training_defaults_and_options_override_it(tmp
     seed_run = json.loads((tmp_path / "recipe" / "seed-0" / "run.json").read_text())
     assert seed_run["num_envs"] == recipe.num_envs
     assert seed_run["hyperparameters"] == recipe.hyperparameters
-    args = [*base, "--timesteps", "64", "--num-envs", "2", "--algo-kwarg", "n_steps=32", "--out", str(tmp_path / "own")]
+    args = [*base, "--timesteps", "64", "--num-envs", "2", "--algo-kwarg", "n_steps=32", "--algo-kwarg", "batch_size=64",
+            "--out", str(tmp_path / "own")]
     assert main(["compare", *args]) == 0
     seed_run = json.loads((tmp_path / "own" / "seed-0" / "run.json").read_text())
-    assert seed_run["num_envs"] == 2 and seed_run["hyperparameters"] == {**recipe.hyperparameters, "n_steps": 32}
+    assert seed_run["num_envs"] == 2
+    assert seed_run["hyperparameters"] == {**recipe.hyperparameters, "n_steps": 32, "batch_size": 64}
