@@ -76,9 +76,13 @@ SWEEP_AXES: dict[str, SweepAxis] = {
     )
 }
 
-#: The sweep of a default run: start perturbations from inside the LQR's region of
-#: attraction to well outside it.
-DEFAULT_SWEEPS: dict[str, tuple[float, ...]] = {"start_noise": (0.05, 0.1, 0.2, 0.3, 0.5)}
+#: The sweeps of a default run: start perturbations from inside the LQR's region of
+#: attraction to well outside it, and true systems whose masses and lengths are up to
+#: 40% off the model both controllers were designed or trained on.
+DEFAULT_SWEEPS: dict[str, tuple[float, ...]] = {
+    "start_noise": (0.05, 0.1, 0.2, 0.3, 0.5),
+    "mismatch": (0.0, 0.2, 0.4),
+}
 
 #: Columns of ``sweeps.csv``.
 SWEEP_COLUMNS = (
