@@ -28,22 +28,21 @@ def _number(value: float, digits: int = 2) -> str:
 
 
 def sweep_markdown(rows: Sequence[dict[str, Any]], axis_label: str) -> str:
-    """One table per axis: a row per value, and per policy its success rate with the 95%
-    interval, mean return, mean time to settle and mean peak force."""
+    """One table per axis: a row per value and policy with the success rate and its
+    95% interval, mean return, mean time to settle and mean peak force."""
+    lines = [
+        f"| {axis_label} | policy | success [95% interval] | return | time to settle (s) | peak force (N) |",
+        "|---:|---|---:|---:|---:|---:|",
+    ]
     policies = list(dict.fromkeys(r["policy"] for r in rows))
-    header = "| " + axis_label + " | " + " | ".join(
-        f"{p}: success [95%] | {p}: return | {p}: settle (s) | {p}: peak force (N)" for p in policies
-    ) + " |"
-    lines = [header, "|---:|" + "---:|" * 4 * len(policies)]
     for value in sorted({r["value"] for r in rows}):
-        cells = [f"{value:g}"]
         for policy in policies:
             row = next(r for r in rows if r["value"] == value and r["policy"] == policy)
-            cells += [
-                f"{row['success_rate']:.2f} {_interval(row)}", _number(row["return_mean"], 1),
-                _number(row["settle_time_mean"]), _number(row["peak_force_mean"]),
-            ]
-        lines.append("| " + " | ".join(cells) + " |")
+            lines.append(
+                f"| {value:g} | {policy} | {row['success_rate']:.2f} {_interval(row)} | "
+                f"{_number(row['return_mean'], 1)} | {_number(row['settle_time_mean'])} | "
+                f"{_number(row['peak_force_mean'])} |"
+            )
     intervals = sorted({f"{r['policy']}: {r['interval']} ({r['seeds']} seed{'s' if r['seeds'] != 1 else ''})" for r in rows})
     return "\n".join(lines) + "\n\nIntervals: " + "; ".join(intervals) + ".\n"
 
