@@ -271,7 +271,8 @@ def test_evaluate_of_a_missing_model_is_a_clear_error(
 @pytest.mark.parametrize("algo", ["sac", "td3"])
 def test_off_policy_algorithms_run_through_the_console_entry(algo: str, tmp_path: pathlib.Path) -> None:
     budget = ["--timesteps", "150", "--algo-kwarg", "learning_starts=50", "--algo-kwarg", "batch_size=32"]
-    args = [*TINY[:TINY.index("--algo-kwarg")], *budget, "--no-progress", "--algo", algo.upper()]
+    args = [*TINY[:TINY.index("--algo-kwarg")], *budget, "--no-progress", "--algo", algo.upper(),
+            "--sweep", "start_noise=0.05"]
     assert compare_main([*args, "--out", str(tmp_path)]) == 0
     _, rows = read_csv(tmp_path / "comparison.csv")
     assert [row["policy"] for row in rows] == [f"{algo.upper()} (seed 0)", f"{algo.upper()} best (seed 0)", "LQR"]
