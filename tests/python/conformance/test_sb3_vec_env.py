@@ -257,3 +257,17 @@ def test_save_load_reproduces_the_policy_and_its_parameters(tmp_path: Path) -> N
             assert np.array_equal(value.numpy(), loaded.get_parameters()[name][key].numpy()), (name, key)
     loaded.learn(total_timesteps=64, reset_num_timesteps=False)  # the loaded model trains on
     assert loaded.num_timesteps == 128
+
+
+def test_vec_video_recorder_records_the_tiled_envs(tmp_path: Path) -> None:
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    venv = ChainCartVecEnv(2, seed=0, render_mode="rgb_array", render_width=48, render_height=24, **CONFIG)
+    recorder = VecVideoRecorder(venv, str(tmp_path), record_video_trigger=lambda step: step == 0, video_length=10,
+                                name_prefix="chain")  # fmt: skip
+    recorder.reset()
+    for _ in range(12):
+        recorder.step(np.zeros((2, 1), np.float32))
+    recorder.close()
+    videos = list(tmp_path.glob("chain-step-0-to-step-10.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1000
