@@ -196,13 +196,20 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
       ``force_rate_limit`` (N/s). With a parameter gap, ``reset`` returns
       ``info["params"]``, the episode's true parameters (also :attr:`true_params`).
 
-    Note: ``gymnasium.make``'s own ``max_episode_steps`` keyword is consumed by
-    Gymnasium (a ``TimeLimit`` wrapper) and never reaches the env; set the env's
-    episode length with ``config=ChainCartConfig(max_episode_steps=...)``.
+    Episode length with ``gymnasium.make``: ``ChainCart-v0`` is registered with
+    ``max_episode_steps=500`` (the default scene's), so ``gymnasium.make`` adds a
+    ``TimeLimit`` of 500 steps unless given its own ``max_episode_steps`` (``-1``: none).
+    That keyword is Gymnasium's and does not reach the env; the env's own length (whose
+    last step carries ``is_success``) is the config's. For another length or a scene
+    with its own (the paper's scenes), pass both, e.g.
+    ``gymnasium.make("ChainCart-v0", scene="paper-fig3", max_episode_steps=12000)`` or
+    ``gymnasium.make("ChainCart-v0", config={"max_episode_steps": 100},
+    max_episode_steps=100)``; ``gymnasium.make_vec`` passes ``max_episode_steps`` on
+    to the vector env itself.
 
     ``render_mode``: ``None``, ``"rgb_array"`` (``render()`` returns a uint8 frame of
     ``render_height x render_width x 3`` pixels) or ``"human"`` (a live window in real
-    time; :class:`~chaincart_env.rendering.RenderUnavailable` where no display exists).
+    time; where no window can open, a warning once per process and no window).
     ``metadata["render_fps"]`` is ``round(1 / dt)`` capped at 50; with shorter control
     periods (the paper's scenes) the window shows every ``round(1 / (dt * 50))``-th
     step. The frame shows the state with the force of the last step; see

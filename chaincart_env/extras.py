@@ -20,6 +20,10 @@ EXTRAS: dict[str, tuple[str, ...]] = {
 }
 
 
+#: Distribution names of the import names above, where they differ.
+_DISTRIBUTIONS = {"stable_baselines3": "stable-baselines3", "imageio_ffmpeg": "imageio-ffmpeg", "PIL": "pillow"}
+
+
 def _missing(modules: Iterable[str]) -> list[str]:
     return [m for m in modules if importlib.util.find_spec(m) is None]
 
@@ -30,7 +34,7 @@ def require(purpose: str, needs: dict[str, tuple[str, ...]]) -> None:
     lacking = {extra: _missing(modules) for extra, modules in needs.items()}
     lacking = {extra: missing for extra, missing in lacking.items() if missing}
     if lacking:
-        modules = ", ".join(m for missing in lacking.values() for m in missing)
+        modules = ", ".join(_DISTRIBUTIONS.get(m, m) for missing in lacking.values() for m in missing)
         extras = ",".join(lacking)
         raise MissingExtraError(f"{purpose} needs {modules}, not installed: pip install 'chaincart-env[{extras}]'")
 

@@ -142,6 +142,8 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         num_envs = check_num_envs(num_envs)
         self.config = ChainCartConfig.coerce(config, **kwargs)
         self.model: ChainCart = self.config.make_model()
+        # First: the core refuses a num_envs too large to allocate before anything is.
+        self._batch = self.config.make_batch(num_envs, "same_step", entropy_seed())
         self._rendering = EnvRendering(
             render_mode,
             self.config,
@@ -152,7 +154,6 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
             tracked=num_envs,
         )
         self.render_mode: Optional[str] = self._rendering.mode
-        self._batch = self.config.make_batch(num_envs, "same_step", entropy_seed())
         self._diagnostics = self.config.diagnostics
         self._actions: Optional[np.ndarray] = None
         self._seeded = False

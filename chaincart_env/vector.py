@@ -133,6 +133,8 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         self.config = ChainCartConfig.coerce(config, **kwargs)
         self.model: ChainCart = self.config.make_model()
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        # First: the core refuses a num_envs too large to allocate before anything is.
+        self._batch = self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode], entropy_seed())
         self._rendering = EnvRendering(
             render_mode,
             self.config,
@@ -155,7 +157,6 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         self.single_action_space = action_space(self.config)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._batch = self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode], entropy_seed())
         self._diagnostics = self.config.diagnostics
         self._same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
         self._seeded = False

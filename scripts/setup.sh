@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Set-up of a machine that has only Rust and Python 3.11 with pip (idempotent).
 #
+# Installs Xvfb (and Tk for matplotlib's window) with apt-get when missing on a Debian
+# machine where it runs as root: the human-mode window tests need a display server.
 # Creates .venv, installs maturin, then builds the Rust extension in release mode and
 # installs chaincart-env in editable mode with the sb3, test, plot, mujoco and rllib extras
 # (`maturin develop --release --extras sb3,test,plot,mujoco,rllib`). Re-running it is cheap: the
@@ -13,6 +15,21 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 PYTHON="${PYTHON:-$(command -v python3.11 || command -v python3)}"
+
+# System packages of the window tests: a virtual X display, and Tk for the
+# interpreter's tkinter (matplotlib's TkAgg window).
+missing=()
+command -v Xvfb >/dev/null 2>&1 || missing+=(xvfb)
+"$PYTHON" -c "import tkinter" >/dev/null 2>&1 || missing+=(python3-tk)
+if [ ${#missing[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+        echo "setup: installing ${missing[*]} (apt-get)"
+        apt-get update -q
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+    else
+        echo "setup: ${missing[*]} missing (the human-mode window tests will fail): apt-get install ${missing[*]}" >&2
+    fi
+fi
 if [ ! -x .venv/bin/python ]; then
     echo "setup: creating .venv with $PYTHON"
     "$PYTHON" -m venv .venv

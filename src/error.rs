@@ -308,3 +308,53 @@ pub fn check_size(name: &'static str, value: usize, limit: usize) -> Result<()> 
         Err(InputError::TooLarge { name, value, limit }.into())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn input_errors_convert_and_keep_their_message() {
+        let e: ChainError = InputError::TooLarge {
+            name: "n_links",
+            value: 7,
+            limit: 5,
+        }
+        .into();
+        assert!(matches!(
+            e,
+            ChainError::Input(InputError::TooLarge { value: 7, .. })
+        ));
+        assert_eq!(
+            e.to_string(),
+            "n_links = 7 is too large: expected at most 5"
+        );
+        assert_eq!(check_size("n", 5, 5), Ok(()));
+        assert!(check_size("n", 6, 5).is_err());
+    }
+
+    #[test]
+    fn integration_errors_carry_time_and_failure() {
+        let e = ChainError::integration(
+            0.25,
+            IntegrationFailure::Step {
+                step: 5,
+                status: "non-finite state",
+                method: "rk4",
+                dt: 0.05,
+            },
+        );
+        let ChainError::Integration { time, failure } = &e else {
+            panic!("not an integration error: {e:?}")
+        };
+        assert_eq!(*time, 0.25);
+        assert_eq!(
+            failure.to_string(),
+            "non-finite state at step 5 (rk4 integrator, dt = 0.05)"
+        );
+        assert_eq!(
+            e.to_string(),
+            "numerical failure at t = 0.25 s: non-finite state at step 5 (rk4 integrator, dt = 0.05)"
+        );
+    }
+}

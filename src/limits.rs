@@ -20,3 +20,26 @@ pub fn check_links(n_links: usize) -> Result<()> {
 pub fn check_rows(name: &'static str, count: usize, state_dim: usize) -> Result<()> {
     check_size(name, count, MAX_STATE_VALUES / state_dim.max(1))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::{ChainError, InputError};
+    use crate::ChainParams;
+
+    #[test]
+    fn sizes_beyond_the_limits_are_refused_before_allocating() {
+        let e = ChainParams::uniform(MAX_LINKS + 1, 1.0, 0.1, 0.1, 9.81).unwrap_err();
+        assert_eq!(
+            e,
+            ChainError::Input(InputError::TooLarge {
+                name: "n_links",
+                value: MAX_LINKS + 1,
+                limit: MAX_LINKS
+            })
+        );
+        assert!(check_rows("num_envs", MAX_STATE_VALUES / 8, 8).is_ok());
+        assert!(check_rows("num_envs", MAX_STATE_VALUES / 8 + 1, 8).is_err());
+        assert!(check_rows("num_envs", usize::MAX, 8).is_err());
+    }
+}

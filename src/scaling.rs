@@ -130,3 +130,33 @@ pub fn time_form(form: Form, n_links: usize, min_time: f64) -> Result<f64> {
         }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_unknown_ones_are_refused() {
+        for form in Form::ALL {
+            assert_eq!(Form::from_name(form.name()), Ok(form));
+        }
+        assert!(Form::from_name("sparse").is_err());
+    }
+
+    #[test]
+    fn every_form_times_a_positive_duration() {
+        for form in Form::ALL {
+            let t = time_form(form, 4, 1e-4).unwrap();
+            assert!(t.is_finite() && t > 0.0, "{form:?}: {t}");
+        }
+        assert!(time_form(Form::Fast, 4, 0.0).is_err());
+    }
+
+    #[test]
+    fn the_moving_state_is_on_the_constraint_manifold() {
+        let chain = SpatialChain::new(ChainParams::uniform(3, 0.5, 0.1, 0.1, 9.81).unwrap());
+        let y = moving_state(&chain);
+        let r = chain.residuals(&y);
+        assert!(r.unit_length < 1e-12 && r.tangency < 1e-12, "{r:?}");
+    }
+}

@@ -12,6 +12,7 @@ from typing import Any, Mapping, Optional, Sequence, TextIO
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
 from chaincart_env.compare.learning_curve import TRAINING_EPISODE_COLUMNS
@@ -131,7 +132,7 @@ def steps_trained(model: BaseAlgorithm, timesteps: int) -> tuple[int, str]:
     whole rollouts: ``n_steps`` per env for on-policy algorithms, ``train_freq`` steps
     per env for off-policy ones) and the unit it rounds to, in words."""
     n_envs = model.n_envs
-    if hasattr(model, "n_steps"):  # on-policy (PPO, A2C)
+    if isinstance(model, OnPolicyAlgorithm):  # PPO, A2C (off-policy ones have n_steps too: n-step returns)
         unit, words = int(model.n_steps) * n_envs, f"rollouts of n_steps x num_envs = {model.n_steps} x {n_envs}"
     else:
         freq = getattr(model, "train_freq", None)

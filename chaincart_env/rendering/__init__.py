@@ -4,8 +4,8 @@ a live window for ``render_mode="human"``, and the render benchmark.
 * :class:`ChainRenderer`: frames of one config's chain (side view, top view for
   spatial scenes, target, force arrow, track).
 * :func:`tile_frames`: frames in a grid (vector envs).
-* :class:`HumanWindow`, :class:`RenderUnavailable`: the human-mode window and the
-  error raised where none can open.
+* :class:`HumanWindow`, :class:`RenderUnavailable`: the human-mode window and why
+  none can open (turned into a warning once per process: the env keeps working).
 * :func:`render_benchmark` (imported on first use): frames per second by frame size.
 """
 

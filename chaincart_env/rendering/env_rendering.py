@@ -60,7 +60,9 @@ class EnvRendering:
         self.renderer = ChainRenderer(config, width, height)  # validates the size in every mode
         self.shown = shown
         self.tiled = tiled
-        self.forces = np.zeros((shown if tracked is None else max(tracked, shown), config.force_dim))
+        # Forces are remembered only where frames are drawn from them.
+        rows = shown if tracked is None or self.mode is None else max(tracked, shown)
+        self.forces = np.zeros((rows, config.force_dim))
         self._max_force = float(config.max_force)
         self.fps = render_fps(config.dt)
         self._stride = steps_per_frame(config.dt)

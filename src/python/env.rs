@@ -4,7 +4,7 @@
 //! a microsecond) keeps it, since releasing and re-taking it would cost a sizeable
 //! part of the step.
 
-use super::convert::{check_shape, error, signs, ActionSlice, Actions, Floats};
+use super::convert::{check_shape, error, signs, type_error, ActionSlice, Actions, Floats};
 use super::model::ChainCart;
 use super::reality::{param_arrays, params_dict, reality_gap, write_task_keys, RealityArgs};
 use crate::env::batch::RNG_BYTES;
@@ -33,7 +33,7 @@ fn start_arg(obj: &Bound<'_, PyAny>, n: usize, state_dim: usize) -> PyResult<Sta
         return Ok(Start::from_name(name.to_str()?, n)?);
     }
     let v: Vec<f64> = obj.extract().map_err(|_| {
-        error(format!(
+        type_error(format!(
             "start = {obj}: expected a name ({}), a sequence of {n} signs +1/-1, or a state of length {state_dim}",
             crate::env::config::START_NAMES
         ))

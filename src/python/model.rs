@@ -1,6 +1,6 @@
 //! `ChainCart`: the physics model from Python (float64 NumPy in and out).
 
-use super::convert::{contiguous, error, per_link, signs, vector, Floats};
+use super::convert::{contiguous, error, per_link, signs, type_error, vector, Floats};
 use crate::analysis::{Linearization, LqrController, LqrWeights};
 use crate::any::AnyChain;
 use crate::env::PaperFigure;
@@ -273,9 +273,9 @@ impl ChainCart {
     ) -> PyResult<Bound<'py, PyAny>> {
         let s = self.signs(s)?;
         let matrix = |name: &str, obj: &Bound<'py, PyAny>| -> PyResult<DMatrix<f64>> {
-            let a: Floats<'py> = obj
-                .extract()
-                .map_err(|_| error(format!("{name} = {obj}: expected a 2-D matrix of numbers")))?;
+            let a: Floats<'py> = obj.extract().map_err(|_| {
+                type_error(format!("{name} = {obj}: expected a 2-D matrix of numbers"))
+            })?;
             match a.shape() {
                 [r, c] => Ok(DMatrix::from_row_slice(*r, *c, &contiguous(&a))),
                 shape => Err(error(format!(

@@ -480,10 +480,12 @@ def test_animate_writes_an_mp4(tmp_path: Path) -> None:
 def test_animate_bad_input_is_a_usage_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # Without imageio-ffmpeg, an MP4 is a usage error that says what to install.
+    # Without imageio-ffmpeg, an MP4 is refused before any work, saying what to install.
     monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    assert main(["animate", "--steps", "2", "--out", str(tmp_path / "a.mp4")]) == 1
+    assert "imageio-ffmpeg, not installed: pip install 'chaincart-env[plot]'" in capsys.readouterr().err
+    assert not (tmp_path / "a.mp4").exists()
     cases = [
-        (["--out", str(tmp_path / "a.mp4")], "imageio-ffmpeg"),
         (["--out", str(tmp_path / "a.png")], "expected a file name ending in .gif or .mp4"),
         (["--policy", "smart"], "expected one of ['random', 'zero', 'lqr'], an SB3 model .zip"),
         (["--scene", "paper-fig1", "--policy", "lqr"], "use --policy zero"),

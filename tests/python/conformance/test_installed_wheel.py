@@ -1,0 +1,128 @@
+"""chaincart-env as a new user has it: the wheel built by maturin, installed without
+extras into a fresh venv (numpy and gymnasium only), used from a directory outside
+the source tree. Every command either works or says which extra to install.
+
+The wheel is built with ``maturin build --release`` in the source tree's cargo target
+directory, so it reuses the release build of ``scripts/setup.sh`` (with the same
+CARGO_PROFILE_* variables, e.g. the faster dev settings of HELPERS-style builds)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import pytest
+
+import chaincart_env
+
+from conformance_support import clean_environ
+
+ROOT = Path(chaincart_env.__file__).resolve().parents[1]
+EXTRA_MESSAGE = "not installed: pip install 'chaincart-env["
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The python of a fresh venv holding the wheel and its two dependencies only."""
+    assert (ROOT / "Cargo.toml").is_file(), "the wheel test runs from a source checkout"
+    wheels = tmp_path_factory.mktemp("wheels")
+    build = subprocess.run(
+        [sys.executable, "-m", "maturin", "build", "--release", "--quiet", "-o", str(wheels)],
+        cwd=ROOT, capture_output=True, text=True, env=clean_environ(), timeout=1500,
+    )  # fmt: skip
+    assert build.returncode == 0, build.stderr[-3000:]
+    (wheel,) = wheels.glob("chaincart_env-*.whl")
+    env_dir = tmp_path_factory.mktemp("venv")
+    venv.EnvBuilder(with_pip=True).create(env_dir)
+    python = env_dir / "bin" / "python"
+    install = subprocess.run(
+        [str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check", str(wheel)],
+        capture_output=True, text=True, env=clean_environ(), timeout=600,
+    )  # fmt: skip
+    assert install.returncode == 0, install.stderr[-3000:]
+    return python
+
+
+def run(python: Path, cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    """``python args`` in ``cwd`` with no display and no cargo on PATH."""
+    env = clean_environ()
+    env.pop("DISPLAY", None)
+    env["PATH"] = os.pathsep.join([str(python.parent), "/usr/bin", "/bin"])
+    return subprocess.run([str(python), *args], cwd=cwd, capture_output=True, text=True, env=env, timeout=600)
+
+
+def test_only_numpy_and_gymnasium_come_along(installed: Path, tmp_path: Path) -> None:
+    done = run(installed, tmp_path, "-m", "pip", "list", "--format=freeze", "--disable-pip-version-check")
+    names = {line.split("==")[0].lower() for line in done.stdout.split()}
+    assert {"chaincart-env", "numpy", "gymnasium"} <= names
+    assert not names & {"stable-baselines3", "torch", "matplotlib", "pillow", "mujoco"}
+    where = run(installed, tmp_path, "-c", "import chaincart_env; print(chaincart_env.__file__)")
+    assert "site-packages" in where.stdout and str(ROOT) not in where.stdout
+
+
+def test_bench_quick_runs_every_section_without_cargo(installed: Path, tmp_path: Path) -> None:
+    done = run(installed, tmp_path, "-m", "chaincart_env", "bench", "--quick")
+    assert done.returncode == 0, done.stderr[-3000:]
+    out = done.stdout
+    assert "## Scaling with the number of links" in out and "fitted slope" in out
+    assert "dense form (LU), accelerations" in out
+    assert "No criterion results (this is an installed package" in out and "cargo bench --bench dynamics" in out
+    assert "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize(
+    "command, extras",
+    [
+        (["compare", "--timesteps", "10"], "sb3,plot"),
+        (["evaluate", "runs/none"], "sb3,plot"),
+        (["figures"], "plot"),
+        (["roa", "--starts", "2"], "plot"),
+        (["animate"], "plot"),
+        (["animate", "--out", "run.mp4"], "plot"),
+    ],
+)
+def test_commands_without_their_extra_say_which_to_install(installed: Path, tmp_path: Path, command, extras) -> None:
+    done = run(installed, tmp_path, "-m", "chaincart_env", *command)
+    assert done.returncode == 1
+    assert done.stderr.count("\n") == 1 and f"{EXTRA_MESSAGE}{extras}]'" in done.stderr
+    assert "Traceback" not in done.stderr and done.stdout == ""  # nothing done before
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_classes_and_commands_that_need_no_extra(installed: Path, tmp_path: Path) -> None:
+    code = (
+        "import chaincart_env, gymnasium as gym\n"
+        "try:\n"
+        "    chaincart_env.ChainCartVecEnv\n"
+        "except chaincart_env.MissingExtraError as e:\n"
+        "    print('vecenv:', e)\n"
+        "env = gym.make('ChainCart-v0', render_mode='human')\n"  # no matplotlib, no display: a warning
+        "env.reset(seed=0); env.step(env.action_space.sample())\n"
+        "print('human ok')\n"
+    )
+    done = run(installed, tmp_path, "-c", code)
+    assert done.returncode == 0, done.stderr
+    assert f"vecenv: ChainCartVecEnv needs stable-baselines3, {EXTRA_MESSAGE}sb3]'" in done.stdout
+    assert "human ok" in done.stdout and "human-mode frames are not shown" in done.stderr
+    demo = run(installed, tmp_path, "-m", "chaincart_env", "demo", "--steps", "5")
+    assert demo.returncode == 0 and "scene inverted-2" in demo.stdout
+    bad = run(installed, tmp_path, "-m", "chaincart_env", "soak", "--scene", "nope")
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "unknown scene 'nope'" in bad.stderr
+
+
+def test_a_source_checkout_without_the_native_module_gives_a_hint(tmp_path: Path) -> None:
+    # A copy of the package beside a Cargo.toml, as in a fresh clone before building.
+    checkout = tmp_path / "checkout"
+    (checkout / "chaincart_env").mkdir(parents=True)
+    (checkout / "Cargo.toml").write_text("[package]\nname = 'chaincart'\n")
+    for source in (ROOT / "chaincart_env").glob("*.py"):
+        (checkout / "chaincart_env" / source.name).write_text(source.read_text())
+    done = subprocess.run([sys.executable, "-c", "import chaincart_env"], cwd=checkout, capture_output=True,
+                          text=True, env=clean_environ())  # fmt: skip
+    assert done.returncode == 1
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("ModuleNotFoundError: chaincart_env is imported from the source checkout")
+    assert "maturin develop --release" in last
