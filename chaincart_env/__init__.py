@@ -28,7 +28,7 @@ from chaincart_env.errors import (  # noqa: E402
     InvalidTypeError,
     MissingExtraError,
 )
-from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
+from chaincart_env.config import DEFAULT_SCENE, REGISTERED_EPISODE_STEPS, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
 from chaincart_env.env import ChainCartEnv  # noqa: E402
 from chaincart_env.model import ChainCart  # noqa: E402
 from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
@@ -74,7 +74,7 @@ if ENV_ID not in gymnasium.registry:
         vector_entry_point="chaincart_env.vector:ChainCartVectorEnv",
         # The default scene's episode length, so that gymnasium.make's TimeLimit and
         # spec-reading wrappers (TimeAwareObservation, ...) agree with the env.
-        max_episode_steps=SCENES[DEFAULT_SCENE]["max_episode_steps"],
+        max_episode_steps=REGISTERED_EPISODE_STEPS,
     )
 
 

@@ -174,6 +174,8 @@ SCENES: dict[str, dict[str, Any]] = {
 }
 
 DEFAULT_SCENE = "inverted-2"
+#: The episode length ``ChainCart-v0`` is registered with: the default scene's.
+REGISTERED_EPISODE_STEPS: int = SCENES[DEFAULT_SCENE]["max_episode_steps"]
 
 # Typed "unset" default: every field is filled from the scene in __post_init__.
 _UNSET: Any = None

@@ -17,7 +17,7 @@ from gymnasium.vector.utils import batch_space
 
 from chaincart_env import _core
 from chaincart_env.errors import InvalidInputError, InvalidTypeError
-from chaincart_env.config import ChainCartConfig
+from chaincart_env.config import REGISTERED_EPISODE_STEPS, ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies, check_num_envs
@@ -63,6 +63,18 @@ def episode_infos(batch: _core.EnvBatch) -> tuple[np.ndarray, dict[str, Any]]:
         info[key] = value
         info["_" + key] = ended
     return ended, info
+
+
+def _scene_length_kept(config: Any, kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``gymnasium.make_vec`` passes the registered episode length (the default
+    scene's) as ``max_episode_steps`` unless it is given one; that default must not cut
+    a chosen scene's (or config's) own length. So a ``max_episode_steps`` equal to the
+    registered length is dropped when the rest of the configuration has another one."""
+    if kwargs.get("max_episode_steps") != REGISTERED_EPISODE_STEPS:
+        return kwargs
+    rest = {k: v for k, v in kwargs.items() if k != "max_episode_steps"}
+    own = ChainCartConfig.coerce(config, **rest).max_episode_steps
+    return rest if own != REGISTERED_EPISODE_STEPS else kwargs
 
 
 class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
@@ -130,7 +142,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         **kwargs: Any,
     ) -> None:
         self.num_envs = check_num_envs(num_envs)
-        self.config = ChainCartConfig.coerce(config, **kwargs)
+        self.config = ChainCartConfig.coerce(config, **_scene_length_kept(config, kwargs))
         self.model: ChainCart = self.config.make_model()
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
         # First: the core refuses a num_envs too large to allocate before anything is.

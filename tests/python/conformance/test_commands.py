@@ -77,14 +77,14 @@ def test_compare_says_what_it_trains_when_sb3_rounds_up(capsys, tmp_path: Path) 
     # 2 envs x 64-step rollouts: 100 timesteps asked become 2 rollouts = 128 steps.
     argv = ["compare", "--timesteps", "100", "--num-envs", "2", "--eval-episodes", "1", "--no-progress",
             "--set", "max_episode_steps=20", "--algo-kwarg", "n_steps=64", "--algo-kwarg", "batch_size=64",
-            "--out", str(tmp_path)]  # fmt: skip
+            "--sweep", "start_noise=0.05", "--out", str(tmp_path)]  # fmt: skip
     assert main(argv) == 0
     out = capsys.readouterr().out
     said = "PPO trains in whole rollouts of n_steps x num_envs = 64 x 2 = 128 steps: 100 timesteps asked, 128 trained"
     assert said in out and out.index(said) < out.index("trained in")
-    run = json.loads((tmp_path / "run.json").read_text())
+    run = json.loads((tmp_path / "seed-0" / "run.json").read_text())
     assert run["timesteps"] == 100 and run["timesteps_trained"] == 128
-    curve = (tmp_path / "learning_curve.csv").read_text().splitlines()
+    curve = (tmp_path / "seed-0" / "learning_curve.csv").read_text().splitlines()
     assert int(curve[-1].split(",")[0]) <= 128 and int(curve[-1].split(",")[0]) > 100
 
 

@@ -125,6 +125,16 @@ def test_spec_reading_wrappers_work_on_a_plain_make() -> None:
     assert info["episode"]["l"] >= 1 and info["episode"]["r"] > 0
 
 
+def test_make_vec_keeps_a_scenes_own_length() -> None:
+    # make_vec passes the registered length (500) to the vector env unless given one;
+    # that default does not cut a chosen scene, while an explicit length is kept.
+    make = lambda **kw: gym.make_vec("ChainCart-v0", 2, vectorization_mode="vector_entry_point", **kw)  # noqa: E731
+    assert make(scene="paper-fig3").unwrapped.config.max_episode_steps == 12_000
+    assert make(config={"max_episode_steps": 30}).unwrapped.config.max_episode_steps == 30
+    assert make().unwrapped.config.max_episode_steps == 500
+    assert make(scene="paper-fig3", max_episode_steps=77).unwrapped.config.max_episode_steps == 77
+
+
 def test_a_scenes_own_length_applies_through_make_with_its_length() -> None:
     # gymnasium.make wraps every id in the TimeLimit of its registration unless told
     # otherwise; passing the scene's length (or -1: no TimeLimit) keeps the scene's.
