@@ -65,6 +65,7 @@ __all__ = [
     "ppo_config",
     "register",
     "runner_start_seeds",
+    "start_seeds_of",
 ]
 
 #: The name :func:`register` gives the env in Ray's registry (``config.env``).
@@ -161,6 +162,16 @@ class RunnerStartSeeds(VectorWrapper):
             self.start_seeds = seeds
             return self.env.reset(seed=seeds, options=options)  # type: ignore[arg-type]
         return self.env.reset(seed=seed, options=options)
+
+
+def start_seeds_of(env_runner: Any) -> Optional[list[int]]:
+    """The start seeds of an RLlib env runner's envs (``None`` before a seeded reset or
+    when its env is not a :class:`RunnerStartSeeds`), e.g. through
+    ``algo.env_runner_group.foreach_env_runner(start_seeds_of)``."""
+    env = getattr(env_runner, "env", None)
+    while env is not None and not isinstance(env, RunnerStartSeeds):
+        env = getattr(env, "env", None)
+    return None if env is None else env.start_seeds
 
 
 def _share_runner_threads() -> None:

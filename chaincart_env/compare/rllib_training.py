@@ -71,10 +71,10 @@ class RLlibPolicy:
         from ray.rllib.core.columns import Columns
         from ray.rllib.utils.spaces.space_utils import unsquash_action
 
-        obs = np.asarray(observation, dtype=np.float32)
-        single = obs.ndim == 1
+        single = np.ndim(observation) == 1
+        batch = np.array(observation, dtype=np.float32, ndmin=2)  # a writable copy for torch
         with torch.no_grad():
-            out = self.module.forward_inference({Columns.OBS: torch.from_numpy(np.atleast_2d(obs))})
+            out = self.module.forward_inference({Columns.OBS: torch.from_numpy(batch)})
             dist = self.module.get_inference_action_dist_cls().from_logits(out[Columns.ACTION_DIST_INPUTS])
             if deterministic:
                 dist = dist.to_deterministic()
