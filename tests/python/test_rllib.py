@@ -20,6 +20,7 @@ from ray.rllib.algorithms.appo import APPOConfig
 
 from chaincart_env import ChainCartConfig, ChainCartEnv, ChainCartError, ChainCartVectorEnv
 from chaincart_env.__main__ import main
+from chaincart_env.bench.rllib_sampling import measure_sampling
 from chaincart_env.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
 from chaincart_env.compare.job import RLLIB_OUTPUT_FILES, lqr_baseline
 from chaincart_env.compare.learning_curve import TRAINING_EPISODE_COLUMNS
@@ -203,6 +204,12 @@ def test_compare_with_rllib_writes_its_tables_and_evaluate_reruns_them(
     for again in ("again", "again2"):
         for name in ("comparison.csv", "episodes.csv"):
             assert (tmp_path / again / name).read_text() == (out / name).read_text(), name
+
+
+def test_bench_times_sampling_of_rllibs_sync_wrapping_of_the_single_env(ray_session: None) -> None:
+    rate = measure_sampling("sync", runners=1, envs_per_runner=2, timesteps=64, repeats=1)
+    assert rate.steps_per_s > 0 and rate.runner_steps_per_s > 0
+    assert 0.0 < rate.env_share < 1.0
 
 
 def test_compare_with_rllib_offers_ppo_only(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
