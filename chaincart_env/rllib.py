@@ -161,7 +161,7 @@ class RunnerStartSeeds(VectorWrapper):
             seeds = runner_start_seeds(seed, self.num_envs)
             self.start_seeds = seeds
             return self.env.reset(seed=seeds, options=options)  # type: ignore[arg-type]
-        return self.env.reset(seed=seed, options=options)
+        return self.env.reset(seed=seed, options=options)  # type: ignore[arg-type]
 
 
 def start_seeds_of(env_runner: Any) -> Optional[list[int]]:

@@ -11,6 +11,7 @@ the rest is RLlib's connectors, the module's forward pass and episode bookkeepin
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 from dataclasses import dataclass
@@ -84,6 +85,7 @@ def measure_sampling(
     algo = config.learners(num_learners=0).debugging(seed=0).build_algo()
     try:
         group = algo.env_runner_group
+        assert group is not None  # built with remote runners
         group.foreach_env_runner(lambda r: timed_sample(r, timesteps // 4), local_env_runner=False)  # warm-up
         best: tuple[float, list[tuple[int, float, float]]] = (0.0, [])
         for _ in range(repeats):
@@ -113,7 +115,7 @@ def rllib_section(ctx: BenchContext) -> None:
     cases = ((1, 8), (2, 8)) if quick else ((1, 8), (2, 8), (1, 64))
     owned = not ray.is_initialized()
     if owned:
-        ray.init(num_cpus=max(2, os.cpu_count() or 1), include_dashboard=False, logging_level="WARNING")
+        ray.init(num_cpus=max(2, os.cpu_count() or 1), include_dashboard=False, logging_level=logging.WARNING)
     try:
         rates = [measure_sampling(mode, runners, envs, timesteps, repeats) for mode in MODES for runners, envs in cases]
     finally:

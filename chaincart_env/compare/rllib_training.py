@@ -11,6 +11,7 @@ iteration), so the learning curve has the resolution of one iteration.
 from __future__ import annotations
 
 import csv
+import logging
 import os
 import time
 from contextlib import contextmanager
@@ -119,9 +120,9 @@ def ray_cluster(address: Optional[str], cpus_needed: int) -> Iterator[str]:
     if owned:
         if address is None:
             ray.init(num_cpus=max(os.cpu_count() or 1, cpus_needed), include_dashboard=False,
-                     logging_level="WARNING")
+                     logging_level=logging.WARNING)
         else:
-            ray.init(address=address, logging_level="WARNING")
+            ray.init(address=address, logging_level=logging.WARNING)
     try:
         cpus = int(ray.cluster_resources().get("CPU", 0))
         nodes = sum(1 for node in ray.nodes() if node.get("Alive"))
