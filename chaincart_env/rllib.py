@@ -214,7 +214,7 @@ def configure(
     docstring)."""
     name = register()
     algo_config.environment(name, env_config=env_config(config, **env_keywords))
-    algo_config.env_runners(gym_env_vectorize_mode=gym.VectorizeMode.VECTOR_ENTRY_POINT.value)
+    algo_config.env_runners(gym_env_vectorize_mode=gym.VectorizeMode.VECTOR_ENTRY_POINT)
     return algo_config
 
 

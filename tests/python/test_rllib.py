@@ -12,6 +12,7 @@ import subprocess
 import sys
 from typing import Any, Iterator
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import ray  # the rllib extra, installed by scripts/setup.sh
@@ -85,7 +86,7 @@ def test_every_runner_holds_the_native_vector_env_with_the_env_config(algo: Any)
     assert len(described) == RUNNERS
     for cls, num_envs, mode, config, vectorize in described:
         assert cls is ChainCartVectorEnv and num_envs == ENVS_PER_RUNNER
-        assert mode == AutoresetMode.NEXT_STEP and vectorize == "vector_entry_point"
+        assert mode == AutoresetMode.NEXT_STEP and gym.VectorizeMode(vectorize) == gym.VectorizeMode.VECTOR_ENTRY_POINT
         assert config == ChainCartConfig(**SCENE)
 
 
@@ -131,7 +132,7 @@ def test_an_autoreset_mode_rllib_cannot_use_is_an_error_naming_it(mode: Any) -> 
 
 def test_configure_sets_up_any_algorithm_config() -> None:
     appo = configure(APPOConfig(), ChainCartConfig(scene="inverted-1"), start_noise=0.07, render_mode="rgb_array")
-    assert appo.env == ENV_NAME and appo.gym_env_vectorize_mode == "vector_entry_point"
+    assert appo.env == ENV_NAME and gym.VectorizeMode(appo.gym_env_vectorize_mode) == gym.VectorizeMode.VECTOR_ENTRY_POINT
     keys = ChainCartConfig().to_dict().keys()
     passed = ChainCartConfig(**{key: appo.env_config[key] for key in keys})
     assert passed == ChainCartConfig(scene="inverted-1", start_noise=0.07)
