@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -19,7 +20,7 @@ import ray  # the rllib extra, installed by scripts/setup.sh
 from gymnasium.vector import AutoresetMode
 from ray.rllib.algorithms.appo import APPOConfig
 
-from chaincart_env import ChainCartConfig, ChainCartEnv, ChainCartError, ChainCartVectorEnv
+from chaincart_env import ChainCartConfig, ChainCartEnv, ChainCartError, ChainCartVectorEnv, _core
 from chaincart_env.__main__ import main
 from chaincart_env.bench.rllib_sampling import measure_sampling
 from chaincart_env.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
@@ -80,12 +81,15 @@ def algo(ray_session: None) -> Iterator[Any]:
 def test_every_runner_holds_the_native_vector_env_with_the_env_config(algo: Any) -> None:
     def describe(runner: Any) -> tuple[Any, ...]:
         env = runner.env.unwrapped
-        return type(env), env.num_envs, env.autoreset_mode, env.config, runner.config.gym_env_vectorize_mode
+        threads = _core.num_threads()
+        return type(env), env.num_envs, env.autoreset_mode, env.config, runner.config.gym_env_vectorize_mode, threads
 
     described = algo.env_runner_group.foreach_env_runner(describe, local_env_runner=False)
     assert len(described) == RUNNERS
-    for cls, num_envs, mode, config, vectorize in described:
-        assert cls is ChainCartVectorEnv and num_envs == ENVS_PER_RUNNER
+    # The runners' Rust pool has the one CPU a runner gets (unless the user set its size).
+    threads = int(os.environ.get("RAYON_NUM_THREADS", 1))
+    for cls, num_envs, mode, config, vectorize, pool in described:
+        assert cls is ChainCartVectorEnv and num_envs == ENVS_PER_RUNNER and pool == threads
         assert mode == AutoresetMode.NEXT_STEP and gym.VectorizeMode(vectorize) == gym.VectorizeMode.VECTOR_ENTRY_POINT
         assert config == ChainCartConfig(**SCENE)
 
