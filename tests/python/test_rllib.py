@@ -174,7 +174,7 @@ def test_too_few_cpus_in_the_cluster_is_an_error(ray_session: None) -> None:
     assert ray.is_initialized()  # the caller's session is left alone
 
 
-def test_compare_with_rllib_writes_its_tables_and_evaluate_reruns_them(
+def test_compare_with_rllib_writes_its_tables_reproducibly_and_evaluate_reruns_them(
     ray_session: None, tmp_path: pathlib.Path
 ) -> None:
     out = tmp_path / "run"
@@ -203,6 +203,12 @@ def test_compare_with_rllib_writes_its_tables_and_evaluate_reruns_them(
     run = json.loads((out / "run.json").read_text())
     assert run["trainer"] == "rllib" and run["num_env_runners"] == 2 and run["num_envs"] == 4
     assert run["hyperparameters"]["train_batch_size_per_learner"] == 100 and run["timesteps_trained"] >= 200
+
+    # Seeded: a second run trains and evaluates the same, bit for bit (wall times aside).
+    assert main([*args[:-1], str(tmp_path / "rerun")]) == 0
+    assert (tmp_path / "rerun" / "comparison.csv").read_text() == (out / "comparison.csv").read_text()
+    _, train_again = read_csv(tmp_path / "rerun" / "training_episodes.csv")
+    assert [{**r, "wall_time_s": ""} for r in train_again] == [{**r, "wall_time_s": ""} for r in train]
 
     assert main(["evaluate", str(out), "--out", str(tmp_path / "again")]) == 0
     assert main(["evaluate", str(out / "rllib_checkpoint"), "--out", str(tmp_path / "again2")]) == 0
