@@ -146,7 +146,7 @@ def add_commands(commands: "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 def compare_main(argv: Optional[Sequence[str]] = None) -> int:
     """The console script ``chaincart-compare``: ``compare`` with its options."""
-    parser = argparse.ArgumentParser(prog="chaincart-compare", description="Train a stable-baselines3 agent and compare it with the LQR baseline.")
+    parser = argparse.ArgumentParser(prog="chaincart-compare", description="Train a stable-baselines3 agent (or Ray RLlib PPO, --trainer rllib) and compare it with the LQR baseline.")
     _configure_compare(parser)
     args = parser.parse_args(argv)
     return int(args.handler(args, parser))
