@@ -160,7 +160,8 @@ def _ppo(config: ChainCartConfig, seed: int, num_env_runners: int, envs_per_runn
     ppo.callbacks(on_episode_end=record_episode)
     try:
         ppo.training(**hyperparameters)
-    except TypeError as error:  # an unknown keyword
+        ppo.validate()  # RLlib's own checks, before any cluster starts
+    except (TypeError, ValueError) as error:  # an unknown keyword, an inconsistent setting
         raise ChainCartError(f"RLlib PPO keywords {dict(hyperparameters)}: {error}") from None
     return ppo, {**PPO_TRAINING, **hyperparameters}
 

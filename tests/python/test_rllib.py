@@ -229,6 +229,20 @@ def test_compare_with_rllib_offers_ppo_only(tmp_path: pathlib.Path, capsys: pyte
     assert "--trainer rllib with --algo sac" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "kwarg, message",
+    [("no_such_setting=1", "no_such_setting"), ("minibatch_size=100000", "minibatch_size")],
+)
+def test_compare_with_rllib_rejects_bad_ppo_settings_before_training(
+    kwarg: str, message: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit):
+        main(["compare", "--trainer", "rllib", "--algo-kwarg", kwarg, "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert "RLlib PPO keywords" in err and message in err
+    assert not (tmp_path / "training_episodes.csv").exists()
+
+
 def test_the_rllib_trainer_and_evaluation_import_without_stable_baselines3() -> None:
     code = (
         "import sys; sys.modules['stable_baselines3'] = None\n"
