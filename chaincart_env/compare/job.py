@@ -106,6 +106,12 @@ def _train_sb3(config: ChainCartConfig, out: Path, algo: str, timesteps: int, se
 
 def _train_rllib(config: ChainCartConfig, out: Path, algo: str, timesteps: int, seed: int, rllib: dict[str, Any],
                  progress_bar: bool, hyperparameters: Optional[dict[str, Any]]) -> tuple[Any, dict[str, Any]]:
+    try:
+        import ray.rllib  # noqa: F401
+    except ImportError as error:
+        raise ChainCartError(
+            f"--trainer rllib needs Ray RLlib ({error}): install the rllib extra, pip install 'chaincart-env[rllib]'"
+        ) from None
     from chaincart_env.compare.rllib_training import CHECKPOINT_DIR, train_rllib
 
     if algo.lower() != "ppo":

@@ -243,6 +243,16 @@ def test_compare_with_rllib_rejects_bad_ppo_settings_before_training(
     assert not (tmp_path / "training_episodes.csv").exists()
 
 
+def test_compare_with_rllib_without_ray_says_which_extra_to_install(tmp_path: pathlib.Path) -> None:
+    code = (
+        "import sys; sys.modules['ray'] = None\n"
+        "from chaincart_env.__main__ import main\n"
+        f"main(['compare', '--trainer', 'rllib', '--out', {str(tmp_path)!r}])\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "chaincart-env[rllib]" in done.stderr, done.stderr
+
+
 def test_the_rllib_trainer_and_evaluation_import_without_stable_baselines3() -> None:
     code = (
         "import sys; sys.modules['stable_baselines3'] = None\n"
