@@ -136,7 +136,8 @@ def test_an_autoreset_mode_rllib_cannot_use_is_an_error_naming_it(mode: Any) -> 
 
 def test_configure_sets_up_any_algorithm_config() -> None:
     appo = configure(APPOConfig(), ChainCartConfig(scene="inverted-1"), start_noise=0.07, render_mode="rgb_array")
-    assert appo.env == ENV_NAME and gym.VectorizeMode(appo.gym_env_vectorize_mode) == gym.VectorizeMode.VECTOR_ENTRY_POINT
+    assert appo.env == ENV_NAME
+    assert gym.VectorizeMode(appo.gym_env_vectorize_mode) == gym.VectorizeMode.VECTOR_ENTRY_POINT
     keys = ChainCartConfig().to_dict().keys()
     passed = ChainCartConfig(**{key: appo.env_config[key] for key in keys})
     assert passed == ChainCartConfig(scene="inverted-1", start_noise=0.07)
