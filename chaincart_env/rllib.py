@@ -36,6 +36,7 @@ What :func:`configure` sets:
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 from collections.abc import Mapping
@@ -65,13 +66,23 @@ __all__ = [
     "ppo_config",
     "register",
     "runner_start_seeds",
+    "start_seeds_of",
 ]
 
 #: The name :func:`register` gives the env in Ray's registry (``config.env``).
 ENV_NAME = "chaincart"
 
-#: Keywords of ``ChainCartVectorEnv`` that are not ``ChainCartConfig`` keywords.
-VECTOR_KEYWORDS = ("autoreset_mode", "render_mode", "render_width", "render_height", "render_envs")
+
+def _keyword_only(cls: type) -> tuple[str, ...]:
+    parameters = inspect.signature(cls).parameters.values()
+    return tuple(p.name for p in parameters if p.kind == inspect.Parameter.KEYWORD_ONLY)
+
+
+#: Keywords of ``ChainCartVectorEnv`` that are not ``ChainCartConfig`` keywords
+#: (``autoreset_mode``, ``render_mode``, ...), passed through to the runners.
+VECTOR_KEYWORDS = _keyword_only(ChainCartVectorEnv)
+#: Those a single ``ChainCartEnv`` (RLlib's sync/async wrapping) does not take.
+_VECTOR_ONLY = tuple(key for key in VECTOR_KEYWORDS if key not in _keyword_only(ChainCartEnv))
 
 #: ``PPOConfig.training`` settings of :func:`ppo_config`: stable-baselines3's PPO
 #: defaults (n_steps 2048 x 8 envs per update, minibatch 64, 10 epochs, lr 3e-4,
@@ -160,7 +171,17 @@ class RunnerStartSeeds(VectorWrapper):
             seeds = runner_start_seeds(seed, self.num_envs)
             self.start_seeds = seeds
             return self.env.reset(seed=seeds, options=options)  # type: ignore[arg-type]
-        return self.env.reset(seed=seed, options=options)
+        return self.env.reset(seed=seed, options=options)  # type: ignore[arg-type]
+
+
+def start_seeds_of(env_runner: Any) -> Optional[list[int]]:
+    """The start seeds of an RLlib env runner's envs (``None`` before a seeded reset or
+    when its env is not a :class:`RunnerStartSeeds`), e.g. through
+    ``algo.env_runner_group.foreach_env_runner(start_seeds_of)``."""
+    env = getattr(env_runner, "env", None)
+    while env is not None and not isinstance(env, RunnerStartSeeds):
+        env = getattr(env, "env", None)
+    return None if env is None else env.start_seeds
 
 
 def _share_runner_threads() -> None:
@@ -186,9 +207,7 @@ def make_runner_env(env_config: Mapping[str, Any]) -> Union[gym.Env, VectorEnv]:
     _share_runner_threads()
     num_envs = keywords.pop("num_envs", None)
     if num_envs is None:
-        keywords.pop("autoreset_mode", None)
-        keywords.pop("render_envs", None)
-        return ChainCartEnv(**keywords)
+        return ChainCartEnv(**{key: value for key, value in keywords.items() if key not in _VECTOR_ONLY})
     keywords["autoreset_mode"] = AutoresetMode.NEXT_STEP
     return RunnerStartSeeds(ChainCartVectorEnv(num_envs, **keywords))
 
@@ -203,7 +222,7 @@ def configure(
     docstring)."""
     name = register()
     algo_config.environment(name, env_config=env_config(config, **env_keywords))
-    algo_config.env_runners(gym_env_vectorize_mode=gym.VectorizeMode.VECTOR_ENTRY_POINT.value)
+    algo_config.env_runners(gym_env_vectorize_mode=gym.VectorizeMode.VECTOR_ENTRY_POINT)
     return algo_config
 
 

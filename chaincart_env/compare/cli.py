@@ -101,7 +101,8 @@ def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("model", type=Path, help="a run folder written by compare, or its model.zip or rllib_checkpoint")
+    parser.add_argument("model", type=Path,
+                        help="a run folder written by compare, or its model.zip or rllib_checkpoint")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
     _add_evaluation_options(parser, defaults=False)
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
@@ -196,7 +197,11 @@ def add_commands(commands: "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 def compare_main(argv: Optional[Sequence[str]] = None) -> int:
     """The console script ``chaincart-compare``: ``compare`` with its options."""
-    parser = argparse.ArgumentParser(prog="chaincart-compare", description="Train a stable-baselines3 agent and compare it with the LQR baseline.")
+    parser = argparse.ArgumentParser(
+        prog="chaincart-compare",
+        description="Train a stable-baselines3 agent (or Ray RLlib PPO, --trainer rllib) and compare it with the "
+        "LQR baseline.",
+    )
     _configure_compare(parser)
     args = parser.parse_args(argv)
     return int(args.handler(args, parser))

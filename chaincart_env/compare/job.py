@@ -141,6 +141,12 @@ def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySe
 
 
 def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: StudySettings) -> tuple[Any, dict[str, Any]]:
+    try:
+        import ray.rllib  # noqa: F401
+    except ImportError as error:
+        raise InvalidInputError(
+            f"--trainer rllib needs Ray RLlib ({error}): install the rllib extra, pip install 'chaincart-env[rllib]'"
+        ) from None
     from chaincart_env.compare.rllib_training import CHECKPOINT_DIR, train_rllib
 
     if settings["algo"] != "ppo":
@@ -291,7 +297,7 @@ def run_evaluate(
     path = Path(path)
     if (path / RUN_FILE).is_file() and "settings" in json.loads((path / RUN_FILE).read_text()):
         run = json.loads((path / RUN_FILE).read_text())
-        settings, directory = run["settings"], path
+        settings, directory, home = run["settings"], path, path
         config = ChainCartConfig(**json.loads((path / CONFIG_FILE).read_text()))
         seeds = [int(s) for s in run["seed_runs"]]
         if not seeds:
@@ -300,10 +306,10 @@ def run_evaluate(
     else:
         saved = load_run(path)  # a seed folder, model.zip or RLlib checkpoint
         directory, config, settings = saved.directory.parent, saved.config, saved.info
-        seeds, sweeps = [int(saved.info["seed"])], {}
+        home, seeds, sweeps = saved.directory, [int(saved.info["seed"])], {}
         if seed_directory(directory, seeds[0]) != saved.directory:
             raise InvalidInputError(f"{path}: expected a seed-<s> folder of a compare run, or the run directory")
-    into = (path if path.is_dir() else path.parent) / "evaluation" if out is None else Path(out)
+    into = home / "evaluation" if out is None else Path(out)
     episodes = int(settings.get("eval_episodes", 50)) if eval_episodes is None else eval_episodes
     first = int(settings.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed
     print(describe(config))

@@ -11,6 +11,7 @@ iteration), so the learning curve has the resolution of one iteration.
 from __future__ import annotations
 
 import csv
+import logging
 import os
 import time
 from contextlib import contextmanager
@@ -71,10 +72,10 @@ class RLlibPolicy:
         from ray.rllib.core.columns import Columns
         from ray.rllib.utils.spaces.space_utils import unsquash_action
 
-        obs = np.asarray(observation, dtype=np.float32)
-        single = obs.ndim == 1
+        single = np.ndim(observation) == 1
+        batch = np.array(observation, dtype=np.float32, ndmin=2)  # a writable copy for torch
         with torch.no_grad():
-            out = self.module.forward_inference({Columns.OBS: torch.from_numpy(np.atleast_2d(obs))})
+            out = self.module.forward_inference({Columns.OBS: torch.from_numpy(batch)})
             dist = self.module.get_inference_action_dist_cls().from_logits(out[Columns.ACTION_DIST_INPUTS])
             if deterministic:
                 dist = dist.to_deterministic()
@@ -119,13 +120,14 @@ def ray_cluster(address: Optional[str], cpus_needed: int) -> Iterator[str]:
     if owned:
         if address is None:
             ray.init(num_cpus=max(os.cpu_count() or 1, cpus_needed), include_dashboard=False,
-                     logging_level="WARNING")
+                     logging_level=logging.WARNING)
         else:
-            ray.init(address=address, logging_level="WARNING")
+            ray.init(address=address, logging_level=logging.WARNING)
     try:
         cpus = int(ray.cluster_resources().get("CPU", 0))
         nodes = sum(1 for node in ray.nodes() if node.get("Alive"))
-        where = "a local Ray cluster" if owned and address is None else f"the Ray cluster at {address or 'this session'}"
+        local = owned and address is None
+        where = "a local Ray cluster" if local else f"the Ray cluster at {address or 'this session'}"
         if cpus < cpus_needed:
             raise ChainCartError(
                 f"{where} has {cpus} CPUs: expected at least {cpus_needed} (one per env runner); "
@@ -159,7 +161,8 @@ def _ppo(config: ChainCartConfig, seed: int, num_env_runners: int, envs_per_runn
     ppo.callbacks(on_episode_end=record_episode)
     try:
         ppo.training(**hyperparameters)
-    except TypeError as error:  # an unknown keyword
+        ppo.validate()  # RLlib's own checks, before any cluster starts
+    except (TypeError, ValueError) as error:  # an unknown keyword, an inconsistent setting
         raise ChainCartError(f"RLlib PPO keywords {dict(hyperparameters)}: {error}") from None
     return ppo, {**PPO_TRAINING, **hyperparameters}
 
