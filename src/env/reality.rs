@@ -358,7 +358,7 @@ impl RealityGap {
                 });
             }
         }
-        if !(self.force_rate_limit > 0.0) {
+        if self.force_rate_limit.is_nan() || self.force_rate_limit <= 0.0 {
             return Err(ChainError::InvalidParameter {
                 name: "force_rate_limit",
                 value: self.force_rate_limit,

@@ -212,3 +212,20 @@ def test_a_scene_setting_can_be_switched_off() -> None:
     np.testing.assert_array_equal(off.reset(seed=1)[0], clean.reset(seed=1)[0])
     np.testing.assert_array_equal(off.step(np.array([0.7]))[0], clean.step(np.array([0.7]))[0])
     assert ChainCartConfig(scene="inverted-2-randomized", randomize={}).randomize is None
+
+
+def test_the_command_line_takes_the_keywords_with_the_cores_help() -> None:
+    import argparse
+
+    from chaincart_env.compare.scene_options import add_scene_options, config_from_options
+    from chaincart_env.config import REALITY_KEYS
+
+    parser = argparse.ArgumentParser()
+    add_scene_options(parser)
+    text = parser.format_help()
+    assert "Domain randomisation at every reset" in text and "--force-rate-limit" in text
+    args = parser.parse_args(["--randomize", '{"link_masses": 0.3}', "--action-delay", "2", "--obs-noise", "0.01"])
+    c = config_from_options(args)
+    assert c.randomize == {"link_masses": {"scale": [0.7, 1.3], "per_link": True}}
+    assert (c.action_delay, c.obs_noise) == (2, [0.01])
+    assert len(REALITY_KEYS) == 6
