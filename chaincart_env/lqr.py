@@ -209,6 +209,6 @@ class OracleLQRPolicy(LQRPolicy):
         if not np.all(np.isfinite(batch)):
             raise ValueError("observation has non-finite entries: expected finite states")
         states = _planar_to_spatial(batch, self.n_links) if self.planar else batch
-        z = lqr_coordinates(states, self.target)
+        z = lqr_coordinates(states, self.target.tolist())
         u = -np.einsum("nij,nj->ni", gains, z)
         return u[:, :1] if self.planar else u
