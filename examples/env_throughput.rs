@@ -85,7 +85,36 @@ fn rate(n: usize, n_envs: usize, variant: &str, repeats: usize) -> f64 {
     best
 }
 
+/// Million env-steps per CPU second of the physics batch alone (no task layer).
+fn raw_rate(n: usize, n_envs: usize) -> f64 {
+    let chain = Chain::<Planar>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
+    let opts = StepOptions::new(Method::Rk4, 2).unwrap();
+    let mut b = chaincart::batch::Batch::new(chain, n_envs, 0.02, opts).unwrap();
+    let y0: Vec<f64> = b.states().to_vec();
+    let forces = vec![0.1; n_envs];
+    let steps = (4_000 / n_envs).max(1);
+    let mut best: f64 = 0.0;
+    for _ in 0..3 {
+        let (t0, mut done) = (cpu_seconds(), 0usize);
+        while cpu_seconds() - t0 < 0.3 {
+            b.states_mut().copy_from_slice(&y0);
+            for _ in 0..steps {
+                b.step(&forces).unwrap();
+            }
+            done += steps * n_envs;
+        }
+        best = best.max(done as f64 / (cpu_seconds() - t0) / 1e6);
+    }
+    best
+}
+
 fn main() {
+    if std::env::args().nth(1).as_deref() == Some("raw") {
+        for n in [2, 5] {
+            println!("raw batch n = {n}: {:.2} {:.2}", raw_rate(n, 1), raw_rate(n, 256));
+        }
+        return;
+    }
     let variants: Vec<String> = std::env::args().skip(1).collect();
     let variants = if variants.is_empty() {
         vec!["off".into(), "randomized".into(), "noise+delay".into()]

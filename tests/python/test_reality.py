@@ -229,3 +229,36 @@ def test_the_command_line_takes_the_keywords_with_the_cores_help() -> None:
     assert c.randomize == {"link_masses": {"scale": [0.7, 1.3], "per_link": True}}
     assert (c.action_delay, c.obs_noise) == (2, [0.01])
     assert len(REALITY_KEYS) == 6
+
+
+@pytest.mark.parametrize("cls", [ChainCartEnv, ChainCartVectorEnv, ChainCartVecEnv])
+def test_copies_mid_episode_continue_identically_with_every_option(cls: type) -> None:
+    import copy
+
+    env = cls(**EVERYTHING) if cls is ChainCartEnv else cls(3, **EVERYTHING)
+    n = 1 if cls is ChainCartEnv else 3
+    if cls is ChainCartVecEnv:
+        env.seed(5)
+        env.reset()
+    else:
+        env.reset(seed=5)
+
+    def run(e: object, steps: int) -> list[np.ndarray]:
+        out = []
+        for s in range(steps):
+            a = actions(s, n)
+            if cls is ChainCartEnv:
+                obs, _, te, tr, _ = e.step(a[0])
+                if te or tr:
+                    e.reset()
+            else:
+                obs = e.step(a)[0]
+            out.append(np.asarray(obs).copy())
+        return out
+
+    run(env, 7)
+    twin, pickled = copy.deepcopy(env), pickle.loads(pickle.dumps(env))
+    expected = run(env, 30)
+    for other in (twin, pickled):
+        for a, b in zip(run(other, 30), expected):
+            np.testing.assert_array_equal(a, b)
