@@ -111,7 +111,11 @@ fn raw_rate(n: usize, n_envs: usize) -> f64 {
 fn main() {
     if std::env::args().nth(1).as_deref() == Some("raw") {
         for n in [2, 5] {
-            println!("raw batch n = {n}: {:.2} {:.2}", raw_rate(n, 1), raw_rate(n, 256));
+            println!(
+                "raw batch n = {n}: {:.2} {:.2}",
+                raw_rate(n, 1),
+                raw_rate(n, 256)
+            );
         }
         return;
     }

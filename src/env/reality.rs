@@ -585,3 +585,128 @@ pub const KEYS: [KeySpec; 6] = [
                None for no limit.",
     },
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn each_form_maps_the_unit_interval_onto_its_range() {
+        let p = 2.0;
+        let cases = [
+            (Distribution::relative(0.25), 1.5, 2.5),
+            (
+                Distribution::Scale {
+                    low: 0.5,
+                    high: 1.0,
+                },
+                1.0,
+                2.0,
+            ),
+            (
+                Distribution::LogScale {
+                    low: 0.5,
+                    high: 2.0,
+                },
+                1.0,
+                4.0,
+            ),
+            (
+                Distribution::Range {
+                    low: 3.0,
+                    high: 5.0,
+                },
+                3.0,
+                5.0,
+            ),
+            (
+                Distribution::LogRange {
+                    low: 1.0,
+                    high: 100.0,
+                },
+                1.0,
+                100.0,
+            ),
+        ];
+        for (d, lo, hi) in cases {
+            assert!((d.sample(p, 0.0) - lo).abs() < 1e-12, "{d:?}");
+            assert!((d.sample(p, 1.0) - hi).abs() < 1e-12, "{d:?}");
+        }
+        // Log forms are uniform in the logarithm: the midpoint is the geometric mean.
+        let mid = Distribution::LogRange {
+            low: 1.0,
+            high: 100.0,
+        }
+        .sample(p, 0.5);
+        assert!((mid - 10.0).abs() < 1e-12);
+        assert!(
+            (Distribution::Scale {
+                low: 0.5,
+                high: 1.0
+            }
+            .sample(p, 0.5)
+                - 1.5)
+                .abs()
+                < 1e-15
+        );
+    }
+
+    #[test]
+    fn true_parameters_replace_then_scale() {
+        let nominal = ChainParams::uniform(2, 1.0, 0.1, 0.5, 9.81).unwrap();
+        let gap = RealityGap {
+            params: ParamValues {
+                link_masses: Some(vec![0.2, 0.3]),
+                gravity: Some(10.0),
+                ..Default::default()
+            },
+            mismatch: ParamValues {
+                link_masses: Some(vec![2.0]),
+                link_lengths: Some(vec![1.0, 3.0]),
+                gravity: Some(0.5),
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let t = gap.true_params(&nominal).unwrap();
+        assert_eq!(t.cart_mass(), 1.0);
+        assert_eq!(t.masses(), &[0.4, 0.6]);
+        assert_eq!(t.lengths(), &[0.5, 1.5]);
+        assert_eq!(t.gravity(), 5.0);
+        assert!(gap.has_mismatch() && !RealityGap::default().has_mismatch());
+    }
+
+    #[test]
+    fn sampling_draws_only_the_randomised_parameters_in_order() {
+        let truth = ChainParams::uniform(2, 1.0, 0.1, 0.5, 9.81).unwrap();
+        let r = Randomization {
+            link_lengths: Some(ParamRandomization {
+                distribution: Distribution::Range {
+                    low: 0.2,
+                    high: 0.6,
+                },
+                per_link: true,
+            }),
+            ..Default::default()
+        };
+        let mut params = EnvParams::filled(&truth, 1);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let mut expected_rng = rng.clone();
+        let mut row = ParamRow {
+            cart_mass: &mut params.cart_mass[0],
+            link_masses: &mut params.link_masses[..],
+            link_lengths: &mut params.link_lengths[..],
+            gravity: &mut params.gravity[0],
+        };
+        row.sample(&r, &truth, &mut rng);
+        let u0: f64 = expected_rng.random();
+        let u1: f64 = expected_rng.random();
+        let lerp = |u: f64| 0.2 + (0.6 - 0.2) * u;
+        assert_eq!(params.link_lengths, vec![lerp(u0), lerp(u1)]);
+        assert_eq!(params.link_masses, vec![0.1, 0.1]);
+        assert_eq!((params.cart_mass[0], params.gravity[0]), (1.0, 9.81));
+        // Exactly two draws were consumed.
+        assert_eq!(rng, expected_rng);
+    }
+}
