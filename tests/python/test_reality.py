@@ -208,6 +208,8 @@ def test_bad_settings_raise_errors_naming_them(keywords: dict, needle: str) -> N
 def test_a_scene_setting_can_be_switched_off() -> None:
     c = ChainCartConfig(scene="inverted-2-noisy", obs_noise=0.0, action_delay=0, obs_dtype="float64")
     assert (c.obs_noise, c.action_delay) == ([0.0], 0)
+    assert ChainCartConfig(scene="inverted-2-noisy").has_reality_gap and not ChainCartConfig().has_reality_gap
+    assert not ChainCartConfig(scene="inverted-2-noisy").has_param_gap
     off, clean = ChainCartEnv(c), ChainCartEnv(obs_dtype="float64")
     np.testing.assert_array_equal(off.reset(seed=1)[0], clean.reset(seed=1)[0])
     np.testing.assert_array_equal(off.step(np.array([0.7]))[0], clean.step(np.array([0.7]))[0])
