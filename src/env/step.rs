@@ -45,6 +45,8 @@ pub(super) struct Widths {
     pub last_force: usize,
     /// 1 when each env has an observation-noise stream.
     pub noise_rng: usize,
+    /// Some per-env extra above is non-zero.
+    pub any_gap: bool,
 }
 
 impl Widths {
@@ -52,15 +54,18 @@ impl Widths {
         let (d, f) = (chain.state_dim(), chain.force_dim());
         let randomized = !reality.randomize.is_off();
         let noise = reality.has_obs_noise();
+        let queue = reality.action_delay * f;
+        let last_force = if reality.has_rate_limit() { f } else { 0 };
         Self {
             state: d,
             force: f,
             param_links: if randomized { chain.n_links() } else { 0 },
             param_scalars: randomized as usize,
-            queue: reality.action_delay * f,
+            queue,
             noisy: if noise { d } else { 0 },
-            last_force: if reality.has_rate_limit() { f } else { 0 },
+            last_force,
             noise_rng: noise as usize,
+            any_gap: randomized || noise || queue > 0 || last_force > 0,
         }
     }
 }
@@ -181,6 +186,19 @@ impl<'a> DataRange<'a> {
     /// The named view of env `k` of the range.
     #[inline(always)]
     pub fn env(&mut self, k: usize, w: &Widths) -> EnvMut<'_> {
+        if !w.any_gap {
+            // The common case: no per-env extras to slice.
+            return EnvMut {
+                y: row(self.states, k, w.state),
+                slot: &mut self.slots[k],
+                params: None,
+                param_rng: None,
+                noise_rng: None,
+                noisy_obs: &mut [],
+                queue: &mut [],
+                last_force: &mut [],
+            };
+        }
         let params = (w.param_scalars == 1).then(|| ParamRow {
             cart_mass: &mut self.cart_mass[k],
             link_masses: row(self.link_masses, k, w.param_links),
