@@ -140,11 +140,12 @@ class LQRPolicy:
 
 
 def _true_param_rows(env: Any) -> list[dict[str, Any]]:
-    """The current true parameters of each env of ``env`` (one dict per env)."""
+    """The current true parameters of each env of ``env`` (one dict per env): a
+    single, vector or SB3 env, or a native ``_core.EnvBatch``."""
     base = getattr(env, "unwrapped", env)
     if hasattr(base, "get_attr") and hasattr(base, "env_method"):  # an SB3 VecEnv
         return list(base.get_attr("true_params"))
-    params = base.true_params
+    params = base.param_arrays() if hasattr(base, "param_arrays") else base.true_params
     cart = np.atleast_1d(params["cart_mass"])
     if np.ndim(params["cart_mass"]) == 0:  # a single env
         return [params]
@@ -192,6 +193,11 @@ class OracleLQRPolicy(LQRPolicy):
             gain = np.asarray(self._make_model(params).lqr_gain(list(self.target), self._Q, self._R))
             self._gains[key] = gain
         return gain
+
+    def bind(self, env: Any) -> None:
+        """Reads the true parameters from ``env`` from now on (another env of the same
+        config, or the native batch whose observations the policy receives)."""
+        self._env = env
 
     def gains(self) -> np.ndarray:
         """The gain of each env for its current episode, shape ``(num_envs, 2, 4 + 4n)``."""

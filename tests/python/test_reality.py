@@ -264,3 +264,22 @@ def test_copies_mid_episode_continue_identically_with_every_option(cls: type) ->
     for other in (twin, pickled):
         for a, b in zip(run(other, 30), expected):
             np.testing.assert_array_equal(a, b)
+
+
+def test_compare_evaluates_the_oracle_lqr_on_the_rollouts_own_envs() -> None:
+    from chaincart_env.compare.evaluation import evaluate_policies, evaluation_seeds
+    from chaincart_env.compare.job import lqr_baseline
+
+    config = ChainCartConfig(scene="inverted-2-randomized", randomize={"cart_mass": 0.5, "link_lengths": 0.5})
+    oracle = lqr_baseline(config, oracle=True)
+    seeds = evaluation_seeds(7, 4)
+    _, episodes, summaries = evaluate_policies([("LQR", lqr_baseline(config)), ("LQR oracle", oracle)], config, seeds)
+    assert [s["policy"] for s in summaries] == ["LQR", "LQR oracle"]
+    # The oracle read the rollout's own batch: its gains are those of each episode's
+    # true system, seeded like a batch of the evaluation seeds.
+    batch = config.make_batch(4, "same_step")
+    batch.reset(list(seeds), None)
+    p = batch.param_arrays()
+    for i in range(4):
+        true_model = ChainCart(2, p["cart_mass"][i], p["link_masses"][i], p["link_lengths"][i], p["gravity"][i], True)
+        assert any(np.array_equal(g, true_model.lqr_gain([-1, -1])) for g in oracle._gains.values())
