@@ -4,10 +4,18 @@
 //! * `step/<method>/n`: one control step (1 substep) of the spatial model.
 //! * `planar_vs_spatial/<scene>/n`: one rk4 step of each model on the same in-plane motion.
 //! * `batch/N`: one step of a batch of N paper systems (5 links, rk4), throughput in env-steps.
+//! * `env_batch/<variant>/n<links>/N`: one step of the RL task layer's batch (planar,
+//!   default task, rk4 with 2 substeps, short episodes so resets are included) with the
+//!   reality gap off, with cart mass, link masses and lengths redrawn at every reset
+//!   (`randomized`), and with sensor noise plus a one-step delay (`noise_delay`).
 
 use chaincart::batch::Batch;
 use chaincart::dense::dense_derivative;
+use chaincart::env::{
+    AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
+};
 use chaincart::geometry::planar_to_spatial;
+use chaincart::{Chain, Planar};
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector2;
@@ -140,9 +148,76 @@ fn batch(c: &mut Criterion) {
     group.finish();
 }
 
+/// The default-scene task on `n` planar links with one of the reality-gap variants.
+fn env_task(n: usize, variant: &str) -> TaskConfig {
+    let mut task = TaskConfig::new(
+        vec![-1.0; n],
+        0.02,
+        StepOptions::new(Method::Rk4, 2).unwrap(),
+    );
+    task.max_episode_steps = 50;
+    let scale = Some(ParamRandomization {
+        distribution: Distribution::relative(0.25),
+        per_link: true,
+    });
+    match variant {
+        "randomized" => {
+            task.reality.randomize.cart_mass = scale;
+            task.reality.randomize.link_masses = scale;
+            task.reality.randomize.link_lengths = scale;
+        }
+        "noise_delay" => {
+            task.reality.obs_noise = vec![0.01];
+            task.reality.action_delay = 1;
+        }
+        _ => {}
+    }
+    task
+}
+
+fn env_batch(c: &mut Criterion) {
+    let mut group = c.benchmark_group("env_batch");
+    for variant in ["off", "randomized", "noise_delay"] {
+        for n in [2usize, 5] {
+            for n_envs in [1usize, 256, 4096] {
+                let chain =
+                    Chain::<Planar>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
+                let mut b = EnvBatch::new(
+                    chain,
+                    env_task(n, variant),
+                    n_envs,
+                    0,
+                    AutoresetMode::NextStep,
+                    false,
+                )
+                .unwrap();
+                let d = b.state_dim();
+                let actions: Vec<f32> = (0..n_envs).map(|k| ((k % 7) as f32 - 3.0) * 0.1).collect();
+                let mut obs = vec![0.0f32; n_envs * d];
+                let mut rewards = vec![0.0; n_envs];
+                let (mut terminated, mut truncated) = (vec![false; n_envs], vec![false; n_envs]);
+                group.throughput(Throughput::Elements(n_envs as u64));
+                let id = BenchmarkId::new(format!("{variant}/n{n}"), n_envs);
+                group.bench_with_input(id, &n_envs, |bencher, _| {
+                    bencher.iter(|| {
+                        let out = StepOutputs {
+                            obs: &mut obs,
+                            rewards: &mut rewards,
+                            terminated: &mut terminated,
+                            truncated: &mut truncated,
+                        };
+                        b.step(black_box(&actions), out).unwrap();
+                    })
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(300)).measurement_time(std::time::Duration::from_millis(800));
-    targets = accelerations, steps, planar_vs_spatial, batch
+    targets = accelerations, steps, planar_vs_spatial, batch, env_batch
 }
 criterion_main!(benches);

@@ -35,7 +35,7 @@ def observation_space(config: ChainCartConfig) -> spaces.Box:
     link = 2 if config.planar else 3
     dtype = np.dtype(config.obs_dtype)
     high = np.full(d, np.inf, dtype=dtype)
-    if not any(config.obs_noise or ()):
+    if not np.any(np.asarray(config.obs_noise if config.obs_noise is not None else 0.0)):
         high[2 * cart : 2 * cart + link * n] = 1.0
     return spaces.Box(-high, high, dtype=dtype)
 

@@ -140,11 +140,12 @@ class LQRPolicy:
 
 
 def _true_param_rows(env: Any) -> list[dict[str, Any]]:
-    """The current true parameters of each env of ``env`` (one dict per env)."""
+    """The current true parameters of each env of ``env`` (one dict per env): a
+    single, vector or SB3 env, or a native ``_core.EnvBatch``."""
     base = getattr(env, "unwrapped", env)
     if hasattr(base, "get_attr") and hasattr(base, "env_method"):  # an SB3 VecEnv
         return list(base.get_attr("true_params"))
-    params = base.true_params
+    params = base.param_arrays() if hasattr(base, "param_arrays") else base.true_params
     cart = np.atleast_1d(params["cart_mass"])
     if np.ndim(params["cart_mass"]) == 0:  # a single env
         return [params]
@@ -193,6 +194,11 @@ class OracleLQRPolicy(LQRPolicy):
             self._gains[key] = gain
         return gain
 
+    def bind(self, env: Any) -> None:
+        """Reads the true parameters from ``env`` from now on (another env of the same
+        config, or the native batch whose observations the policy receives)."""
+        self._env = env
+
     def gains(self) -> np.ndarray:
         """The gain of each env for its current episode, shape ``(num_envs, 2, 4 + 4n)``."""
         return np.stack([self._gain(p) for p in _true_param_rows(self._env)])
@@ -209,6 +215,6 @@ class OracleLQRPolicy(LQRPolicy):
         if not np.all(np.isfinite(batch)):
             raise ValueError("observation has non-finite entries: expected finite states")
         states = _planar_to_spatial(batch, self.n_links) if self.planar else batch
-        z = lqr_coordinates(states, self.target)
+        z = lqr_coordinates(states, self.target.tolist())
         u = -np.einsum("nij,nj->ni", gains, z)
         return u[:, :1] if self.planar else u

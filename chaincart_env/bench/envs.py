@@ -220,8 +220,55 @@ def _throughput_plot(ctx: BenchContext, cartpole: dict[int, float], measured: di
     plt.close(fig)
 
 
+#: The sim-to-real variants of the reality-gap table: keywords on top of links_config.
+REALITY_VARIANTS: dict[str, dict[str, Any]] = {
+    "off": {},
+    "randomized": {"randomize": {"cart_mass": 0.25, "link_masses": 0.25, "link_lengths": 0.25}},
+    "noise + delay": {"obs_noise": 0.01, "action_delay": 1},
+}
+
+
+def _reality_rates(ctx: BenchContext, config: ChainCartConfig, num_envs: int, rng: np.random.Generator) -> tuple[float, float]:
+    """Env-steps/s of the raw batch and the vector env for one config (interleaved)."""
+    vec = ChainCartVectorEnv(num_envs, config)
+    vec.reset(seed=0)
+    actions = rng.uniform(-1, 1, (num_envs, config.force_dim)).astype(np.float32)
+    native = vec._batch  # the Rust call the vector env wraps
+    r_vec, r_native = 0.0, 0.0
+    for _ in range(max(2, ctx.settings.repeats)):
+        r_vec = max(r_vec, rate(lambda: vec.step(actions), ctx.settings.min_time, 1))
+        r_native = max(r_native, rate(lambda: native.step(actions), ctx.settings.min_time, 1))
+    vec.close()
+    return num_envs * r_native, num_envs * r_vec
+
+
+def _reality_table(ctx: BenchContext, rng: np.random.Generator) -> None:
+    """Cost of the reality gap: raw batch and vector env with it off, with cart mass,
+    link masses and lengths redrawn at every reset, and with sensor noise plus a
+    one-step delay."""
+    rows, results = [], {}
+    for k in ctx.settings.links:
+        for n in ctx.settings.sizes:
+            rates = {v: _reality_rates(ctx, links_config(k).replace(**kw), n, rng) for v, kw in REALITY_VARIANTS.items()}
+            results[(k, n)] = rates
+            off_raw = rates["off"][0]
+            rows.append([
+                str(k), str(n),
+                *(f"{fmt_rate(raw)} ({raw / off_raw:.0%}) / {fmt_rate(vec)}" for raw, vec in rates.values()),
+            ])  # fmt: skip
+    ctx.results["reality"] = {f"{k}x{n}": r for (k, n), r in results.items()}
+    ctx.report.heading("Cost of the sim-to-real options: env-steps/s, raw batch (share of off) / vector env")
+    ctx.report.paragraph(
+        "Spatial chain of n links, default task. randomized = cart mass, link masses and lengths within "
+        "+-25 % redrawn at every reset (per-env parameters); noise + delay = Gaussian observation noise 0.01 "
+        "and a one-period control delay."
+    )
+    ctx.report.table(["links", "N", *REALITY_VARIANTS], rows, 0)
+
+
 def throughput_section(ctx: BenchContext) -> None:
     rng = np.random.default_rng(0)
     _single_env_table(ctx, rng)
     _raw_model_table(ctx)
     _vector_tables(ctx, rng)
+    _reality_table(ctx, rng)

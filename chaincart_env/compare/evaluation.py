@@ -94,8 +94,8 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
     batch = config.make_batch(n, "same_step")
     obs = batch.reset(list(seeds), None)
     bind = getattr(policy, "bind", None)
-    if callable(bind):  # a policy that must see the batch it acts on (the oracle LQR)
-        policy = bind(batch, config)
+    if callable(bind):  # a policy that reads the true parameters (the oracle LQR)
+        bind(batch)
     e_q = np.full((n, horizon + 1), np.nan)
     e_w = np.full((n, horizon + 1), np.nan)
     e_q[:, 0], e_w[:, 0] = np.array([model.errors(y, signs) for y in batch.states()]).T

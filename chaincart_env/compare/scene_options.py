@@ -16,7 +16,7 @@ from dataclasses import fields
 from typing import Any, Optional, Sequence
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
-from chaincart_env.config import ChainCartConfig
+from chaincart_env.config import REALITY_KEYS, ChainCartConfig
 
 __all__ = ["CONFIG_KEYS", "add_scene_options", "config_from_options", "parse_value", "parse_assignment"]
 
@@ -40,6 +40,9 @@ _HELP = {
     "max_episode_steps": "episode length in steps",
     "reward_weights": 'JSON object with some of q, w, x, v, u, e.g. \'{"q": 2}\'',
     "success_tolerances": "e_q,e_w bounds for is_success",
+    # The sim-to-real keywords' help comes from their one definition in the core
+    # (values as JSON, e.g. --randomize '{"link_masses": 0.3}').
+    **{name: help_text for name, _, help_text in REALITY_KEYS},
 }
 
 

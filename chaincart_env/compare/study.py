@@ -21,7 +21,7 @@ from chaincart_env.compare.tables import write_csv, write_markdown
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "OracleLQR", "TrainedPolicy", "describe", "evaluate_study", "lqr_baseline",
+    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TrainedPolicy", "describe", "evaluate_study", "lqr_baseline",
     "policy_label", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
@@ -56,46 +56,22 @@ def describe(config: ChainCartConfig) -> str:
     )
 
 
-def lqr_baseline(config: ChainCartConfig) -> Any:
-    """The LQR baseline of ``config`` (``LQRPolicy.from_env``); a scene it cannot serve
-    (e.g. no force) is an InvalidInputError naming it."""
+def lqr_baseline(config: ChainCartConfig, oracle: bool = False) -> Any:
+    """The LQR baseline of ``config`` (``LQRPolicy.from_env``, designed on the nominal
+    model; ``oracle=True``: per episode on the true parameters of the batch it is
+    evaluated on); a scene it cannot serve (e.g. no force) is an InvalidInputError
+    naming it."""
     from chaincart_env.env import ChainCartEnv
     from chaincart_env.lqr import LQRPolicy
 
     try:
-        return LQRPolicy.from_env(ChainCartEnv(config))
+        return LQRPolicy.from_env(ChainCartEnv(config), oracle=oracle)
     except ValueError as error:
         raise InvalidInputError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
 
 
-class _BatchView:
-    """What :class:`~chaincart_env.lqr.OracleLQRPolicy` reads of an env, for a native
-    batch: the config, the nominal model and every env's current true parameters."""
-
-    def __init__(self, batch: Any, config: ChainCartConfig) -> None:
-        self._batch, self.config, self.model = batch, config, config.make_model()
-
-    @property
-    def true_params(self) -> dict[str, Any]:
-        return dict(self._batch.param_arrays())
-
-
-class OracleLQR:
-    """The LQR designed, for each episode, on that episode's true parameters (an upper
-    bound: no real controller knows them). It binds to the batch an evaluation runs."""
-
-    def bind(self, batch: Any, config: ChainCartConfig) -> Any:
-        from chaincart_env.lqr import OracleLQRPolicy
-
-        return OracleLQRPolicy(_BatchView(batch, config))
-
-    def predict(self, *args: Any, **kwargs: Any) -> Any:
-        raise InvalidInputError("the oracle LQR acts only inside an evaluation (it must see the true parameters)")
-
-
 def _has_parameter_gap(config: ChainCartConfig, sweeps: dict[str, Sequence[float]]) -> bool:
-    gap = any(getattr(config, key) is not None for key in ("randomize", "params", "mismatch"))
-    return gap or any(v > 0 for v in sweeps.get("mismatch", ()))
+    return config.has_param_gap or any(v > 0 for v in sweeps.get("mismatch", ()))
 
 
 @dataclass(frozen=True)
@@ -174,7 +150,8 @@ def evaluate_study(
     into.mkdir(parents=True, exist_ok=True)
     starts = evaluation_seeds(eval_seed, eval_episodes)
     trained, baseline = trained_policies(out, seeds), lqr_baseline(config)
-    baselines = [("LQR", baseline)] + ([("LQR oracle", OracleLQR())] if _has_parameter_gap(config, sweeps) else [])
+    oracle = [("LQR oracle", lqr_baseline(config, oracle=True))] if _has_parameter_gap(config, sweeps) else []
+    baselines = [("LQR", baseline)] + oracle
     policies = [(t.name, t.policy) for t in trained] + baselines
     runs, episodes, summaries = evaluate_policies(policies, config, starts)
     write_csv(into / "comparison.csv", summaries, METRIC_COLUMNS)

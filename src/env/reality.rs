@@ -406,7 +406,7 @@ impl RealityGap {
                 .into());
             }
         }
-        if !(self.force_rate_limit > 0.0) {
+        if self.force_rate_limit.is_nan() || self.force_rate_limit <= 0.0 {
             return Err(InputError::InvalidParameter {
                 name: "force_rate_limit",
                 value: self.force_rate_limit,
@@ -653,25 +653,67 @@ pub const KEYS: [KeySpec; 6] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::SeedableRng;
 
     #[test]
     fn each_form_maps_the_unit_interval_onto_its_range() {
         let p = 2.0;
         let cases = [
             (Distribution::relative(0.25), 1.5, 2.5),
-            (Distribution::Scale { low: 0.5, high: 1.0 }, 1.0, 2.0),
-            (Distribution::LogScale { low: 0.5, high: 2.0 }, 1.0, 4.0),
-            (Distribution::Range { low: 3.0, high: 5.0 }, 3.0, 5.0),
-            (Distribution::LogRange { low: 1.0, high: 100.0 }, 1.0, 100.0),
+            (
+                Distribution::Scale {
+                    low: 0.5,
+                    high: 1.0,
+                },
+                1.0,
+                2.0,
+            ),
+            (
+                Distribution::LogScale {
+                    low: 0.5,
+                    high: 2.0,
+                },
+                1.0,
+                4.0,
+            ),
+            (
+                Distribution::Range {
+                    low: 3.0,
+                    high: 5.0,
+                },
+                3.0,
+                5.0,
+            ),
+            (
+                Distribution::LogRange {
+                    low: 1.0,
+                    high: 100.0,
+                },
+                1.0,
+                100.0,
+            ),
         ];
         for (d, lo, hi) in cases {
             assert!((d.sample(p, 0.0) - lo).abs() < 1e-12, "{d:?}");
             assert!((d.sample(p, 1.0) - hi).abs() < 1e-12, "{d:?}");
         }
         // Log forms are uniform in the logarithm: the midpoint is the geometric mean.
-        let mid = Distribution::LogRange { low: 1.0, high: 100.0 }.sample(p, 0.5);
+        let mid = Distribution::LogRange {
+            low: 1.0,
+            high: 100.0,
+        }
+        .sample(p, 0.5);
         assert!((mid - 10.0).abs() < 1e-12);
-        assert!((Distribution::Scale { low: 0.5, high: 1.0 }.sample(p, 0.5) - 1.5).abs() < 1e-15);
+        assert!(
+            (Distribution::Scale {
+                low: 0.5,
+                high: 1.0
+            }
+            .sample(p, 0.5)
+                - 1.5)
+                .abs()
+                < 1e-15
+        );
     }
 
     #[test]
@@ -701,11 +743,13 @@ mod tests {
 
     #[test]
     fn sampling_draws_only_the_randomised_parameters_in_order() {
-        use rand::SeedableRng;
         let truth = ChainParams::uniform(2, 1.0, 0.1, 0.5, 9.81).unwrap();
         let r = Randomization {
             link_lengths: Some(ParamRandomization {
-                distribution: Distribution::Range { low: 0.0 + 0.2, high: 0.2 + 0.4 },
+                distribution: Distribution::Range {
+                    low: 0.2,
+                    high: 0.6,
+                },
                 per_link: true,
             }),
             ..Default::default()
@@ -722,7 +766,8 @@ mod tests {
         row.sample(&r, &truth, &mut rng);
         let u0: f64 = expected_rng.random();
         let u1: f64 = expected_rng.random();
-        assert_eq!(params.link_lengths, vec![0.2 + 0.4 * u0, 0.2 + 0.4 * u1]);
+        let lerp = |u: f64| 0.2 + (0.6 - 0.2) * u;
+        assert_eq!(params.link_lengths, vec![lerp(u0), lerp(u1)]);
         assert_eq!(params.link_masses, vec![0.1, 0.1]);
         assert_eq!((params.cart_mass[0], params.gravity[0]), (1.0, 9.81));
         // Exactly two draws were consumed.

@@ -45,6 +45,8 @@ pub(super) struct Widths {
     pub last_force: usize,
     /// 1 when each env has an observation-noise stream.
     pub noise_rng: usize,
+    /// Some per-env extra above is non-zero.
+    pub any_gap: bool,
 }
 
 impl Widths {
@@ -52,15 +54,18 @@ impl Widths {
         let (d, f) = (chain.state_dim(), chain.force_dim());
         let randomized = !reality.randomize.is_off();
         let noise = reality.has_obs_noise();
+        let queue = reality.action_delay * f;
+        let last_force = if reality.has_rate_limit() { f } else { 0 };
         Self {
             state: d,
             force: f,
             param_links: if randomized { chain.n_links() } else { 0 },
             param_scalars: randomized as usize,
-            queue: reality.action_delay * f,
+            queue,
             noisy: if noise { d } else { 0 },
-            last_force: if reality.has_rate_limit() { f } else { 0 },
+            last_force,
             noise_rng: noise as usize,
+            any_gap: randomized || noise || queue > 0 || last_force > 0,
         }
     }
 }
@@ -104,12 +109,14 @@ impl EnvData {
 
 /// Splits `s` after `at` envs of `width` numbers each (an empty array splits into
 /// two empty halves).
+#[inline(always)]
 fn cut<S>(s: &mut [S], at: usize, width: usize) -> (&mut [S], &mut [S]) {
     let at = (at * width).min(s.len());
     s.split_at_mut(at)
 }
 
 /// Env `k`'s row of `width` numbers.
+#[inline(always)]
 fn row<S>(s: &mut [S], k: usize, width: usize) -> &mut [S] {
     &mut s[k * width..(k + 1) * width]
 }
@@ -177,7 +184,21 @@ impl<'a> DataRange<'a> {
     }
 
     /// The named view of env `k` of the range.
+    #[inline(always)]
     pub fn env(&mut self, k: usize, w: &Widths) -> EnvMut<'_> {
+        if !w.any_gap {
+            // The common case: no per-env extras to slice.
+            return EnvMut {
+                y: row(self.states, k, w.state),
+                slot: &mut self.slots[k],
+                params: None,
+                param_rng: None,
+                noise_rng: None,
+                noisy_obs: &mut [],
+                queue: &mut [],
+                last_force: &mut [],
+            };
+        }
         let params = (w.param_scalars == 1).then(|| ParamRow {
             cart_mass: &mut self.cart_mass[k],
             link_masses: row(self.link_masses, k, w.param_links),
@@ -262,6 +283,7 @@ impl<'a, T: Real, A: Real> OutRange<'a, T, A> {
         )
     }
 
+    #[inline(always)]
     fn env(&mut self, k: usize, w: &Widths) -> EnvOut<'_, T, A> {
         let nd = DIAGNOSTICS.len();
         EnvOut {
@@ -325,21 +347,13 @@ pub(super) struct Ctx<'a, G: Geometry> {
 /// halves in parallel; a range of one chunk runs on this thread.
 pub(super) fn run_range<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
-    mut data: DataRange<'_>,
-    mut out: OutRange<'_, T, A>,
+    data: DataRange<'_>,
+    out: OutRange<'_, T, A>,
     workers: &mut [Worker<G>],
 ) {
     let len = data.len();
     if len <= CHUNK {
-        let worker = &mut workers[0];
-        for k in 0..len {
-            step_env(
-                ctx,
-                worker,
-                data.env(k, &ctx.widths),
-                out.env(k, &ctx.widths),
-            );
-        }
+        run_chunk(ctx, data, out, &mut workers[0]);
         return;
     }
     let chunks = len.div_ceil(CHUNK);
@@ -353,8 +367,26 @@ pub(super) fn run_range<G: Geometry, T: Real, A: Real>(
     );
 }
 
+/// Steps the envs of one chunk, in order, on this thread.
+fn run_chunk<G: Geometry, T: Real, A: Real>(
+    ctx: &Ctx<'_, G>,
+    mut data: DataRange<'_>,
+    mut out: OutRange<'_, T, A>,
+    worker: &mut Worker<G>,
+) {
+    for k in 0..data.len() {
+        step_env(
+            ctx,
+            worker,
+            data.env(k, &ctx.widths),
+            out.env(k, &ctx.widths),
+        );
+    }
+}
+
 /// The chain env `e` steps with: the shared true chain, or the worker's scratch chain
 /// loaded with the env's own parameters.
+#[inline(always)]
 fn env_chain<'c, G: Geometry>(
     ctx: &'c Ctx<'_, G>,
     scratch: &'c mut Chain<G>,
@@ -425,6 +457,7 @@ pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
 /// normalised action (for the reward): clip to `[-1, 1]`, delay by `action_delay`
 /// control periods, scale by `max_force`, limit the change per period to
 /// `force_rate_limit * dt` per axis.
+#[inline(always)]
 fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A]) -> ([f64; 3], f64) {
     let f = action.len();
     let mut a = [0.0; 3];
@@ -505,6 +538,7 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
 }
 
 /// Reward, flags, errors and event bits of the state an env step reached.
+#[inline(always)]
 fn score<G: Geometry>(
     ctx: &Ctx<'_, G>,
     y: &[f64],

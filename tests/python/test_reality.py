@@ -208,7 +208,78 @@ def test_bad_settings_raise_errors_naming_them(keywords: dict, needle: str) -> N
 def test_a_scene_setting_can_be_switched_off() -> None:
     c = ChainCartConfig(scene="inverted-2-noisy", obs_noise=0.0, action_delay=0, obs_dtype="float64")
     assert (c.obs_noise, c.action_delay) == ([0.0], 0)
+    assert ChainCartConfig(scene="inverted-2-noisy").has_reality_gap and not ChainCartConfig().has_reality_gap
+    assert not ChainCartConfig(scene="inverted-2-noisy").has_param_gap
     off, clean = ChainCartEnv(c), ChainCartEnv(obs_dtype="float64")
     np.testing.assert_array_equal(off.reset(seed=1)[0], clean.reset(seed=1)[0])
     np.testing.assert_array_equal(off.step(np.array([0.7]))[0], clean.step(np.array([0.7]))[0])
     assert ChainCartConfig(scene="inverted-2-randomized", randomize={}).randomize is None
+
+
+def test_the_command_line_takes_the_keywords_with_the_cores_help() -> None:
+    import argparse
+
+    from chaincart_env.compare.scene_options import add_scene_options, config_from_options
+    from chaincart_env.config import REALITY_KEYS
+
+    parser = argparse.ArgumentParser()
+    add_scene_options(parser)
+    text = parser.format_help()
+    assert "Domain randomisation at every reset" in text and "--force-rate-limit" in text
+    args = parser.parse_args(["--randomize", '{"link_masses": 0.3}', "--action-delay", "2", "--obs-noise", "0.01"])
+    c = config_from_options(args)
+    assert c.randomize == {"link_masses": {"scale": [0.7, 1.3], "per_link": True}}
+    assert (c.action_delay, c.obs_noise) == (2, [0.01])
+    assert len(REALITY_KEYS) == 6
+
+
+@pytest.mark.parametrize("cls", [ChainCartEnv, ChainCartVectorEnv, ChainCartVecEnv])
+def test_copies_mid_episode_continue_identically_with_every_option(cls: type) -> None:
+    import copy
+
+    env = cls(**EVERYTHING) if cls is ChainCartEnv else cls(3, **EVERYTHING)
+    n = 1 if cls is ChainCartEnv else 3
+    if cls is ChainCartVecEnv:
+        env.seed(5)
+        env.reset()
+    else:
+        env.reset(seed=5)
+
+    def run(e: object, steps: int) -> list[np.ndarray]:
+        out = []
+        for s in range(steps):
+            a = actions(s, n)
+            if cls is ChainCartEnv:
+                obs, _, te, tr, _ = e.step(a[0])
+                if te or tr:
+                    e.reset()
+            else:
+                obs = e.step(a)[0]
+            out.append(np.asarray(obs).copy())
+        return out
+
+    run(env, 7)
+    twin, pickled = copy.deepcopy(env), pickle.loads(pickle.dumps(env))
+    expected = run(env, 30)
+    for other in (twin, pickled):
+        for a, b in zip(run(other, 30), expected):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_compare_evaluates_the_oracle_lqr_on_the_rollouts_own_envs() -> None:
+    from chaincart_env.compare.evaluation import evaluate_policies, evaluation_seeds
+    from chaincart_env.compare.job import lqr_baseline
+
+    config = ChainCartConfig(scene="inverted-2-randomized", randomize={"cart_mass": 0.5, "link_lengths": 0.5})
+    oracle = lqr_baseline(config, oracle=True)
+    seeds = evaluation_seeds(7, 4)
+    _, episodes, summaries = evaluate_policies([("LQR", lqr_baseline(config)), ("LQR oracle", oracle)], config, seeds)
+    assert [s["policy"] for s in summaries] == ["LQR", "LQR oracle"]
+    # The oracle read the rollout's own batch: its gains are those of each episode's
+    # true system, seeded like a batch of the evaluation seeds.
+    batch = config.make_batch(4, "same_step")
+    batch.reset(list(seeds), None)
+    p = batch.param_arrays()
+    for i in range(4):
+        true_model = ChainCart(2, p["cart_mass"][i], p["link_masses"][i], p["link_lengths"][i], p["gravity"][i], True)
+        assert any(np.array_equal(g, true_model.lqr_gain([-1, -1])) for g in oracle._gains.values())

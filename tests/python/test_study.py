@@ -178,11 +178,9 @@ def test_restore_without_a_checkpoint_names_what_is_missing(tmp_path) -> None:  
 
 
 def test_gap_axes_change_the_true_system_and_the_oracle_lqr_sees_it() -> None:
-    from chaincart_env.compare.study import OracleLQR
-
     config = ChainCartConfig(scene="inverted-2", max_episode_steps=150, start_noise=0.1)
     lqr = LQRPolicy.from_env(ChainCartEnv(config))
-    policies = [("LQR", lqr), ("oracle", OracleLQR())]
+    policies = [("LQR", lqr), ("oracle", LQRPolicy.from_env(ChainCartEnv(config), oracle=True))]
     seeds = list(range(12))
     rows = run_sweep(policies, config, "mismatch", [0.0, 0.4], seeds)
     strip = lambda row: {k: v for k, v in row.items() if k != "policy"}  # noqa: E731
@@ -195,10 +193,3 @@ def test_gap_axes_change_the_true_system_and_the_oracle_lqr_sees_it() -> None:
         zero, some = run_sweep([("LQR", lqr)], config, axis, [0.0, 2.0 if axis == "delay" else 0.05], seeds)
         assert strip(zero) | {"axis": "start_noise", "value": 0.1} == strip(base)
         assert strip(some) != strip(zero)
-
-
-def test_the_oracle_lqr_is_only_usable_inside_an_evaluation() -> None:
-    from chaincart_env.compare.study import OracleLQR
-
-    with pytest.raises(ChainCartError, match="inside an evaluation"):
-        OracleLQR().predict(np.zeros(8))
