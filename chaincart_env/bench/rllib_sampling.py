@@ -115,7 +115,8 @@ def rllib_section(ctx: BenchContext) -> None:
     cases = ((1, 8), (2, 8)) if quick else ((1, 8), (2, 8), (1, 64))
     owned = not ray.is_initialized()
     if owned:
-        ray.init(num_cpus=max(2, os.cpu_count() or 1), include_dashboard=False, logging_level=logging.WARNING)
+        cpus = max(2, os.cpu_count() or 1)
+        ray.init(address="local", num_cpus=cpus, include_dashboard=False, logging_level=logging.WARNING)
     try:
         rates = [measure_sampling(mode, runners, envs, timesteps, repeats) for mode in MODES for runners, envs in cases]
     finally:

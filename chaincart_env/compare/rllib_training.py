@@ -111,15 +111,16 @@ def take_episode_records(env_runner: Any) -> list[tuple[float, int, int, int, in
 @contextmanager
 def ray_cluster(address: Optional[str], cpus_needed: int) -> Iterator[str]:
     """Connects to the cluster at ``address`` (``"auto"``: the one this machine is part
-    of), or starts a local one with at least ``cpus_needed`` CPUs, and shuts it down
-    afterwards; a Ray session already started by the caller is used as it is. Yields a
-    description of the cluster; too few CPUs is a ChainCartError."""
+    of), or starts a new local one (even beside a running ``ray start`` cluster) with
+    at least ``cpus_needed`` CPUs, and shuts it down afterwards; a Ray session already
+    started by the caller is used as it is. Yields a description of the cluster; too
+    few CPUs is a ChainCartError."""
     import ray
 
     owned = not ray.is_initialized()
     if owned:
         if address is None:
-            ray.init(num_cpus=max(os.cpu_count() or 1, cpus_needed), include_dashboard=False,
+            ray.init(address="local", num_cpus=max(os.cpu_count() or 1, cpus_needed), include_dashboard=False,
                      logging_level=logging.WARNING)
         else:
             ray.init(address=address, logging_level=logging.WARNING)
