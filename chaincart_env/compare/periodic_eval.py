@@ -25,23 +25,13 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.compare.evaluation import rollout
+from chaincart_env.compare.run_files import (
+    BEST_MODEL_FILE, EVALUATION_COLUMNS, EVALUATIONS_FILE, read_evaluations,
+)  # fmt: skip
 from chaincart_env.compare.statistics import wilson_interval
 from chaincart_env.config import ChainCartConfig
 
-__all__ = ["BEST_MODEL_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "PeriodicEvaluation", "read_evaluations"]
-
-EVALUATIONS_FILE = "evaluations.csv"
-BEST_MODEL_FILE = "best_model.zip"
-#: Columns of ``evaluations.csv``.
-EVALUATION_COLUMNS = (
-    "timesteps", "wall_time_s", "episodes", "success_rate", "ci_low", "ci_high", "return_mean", "return_std",
-)
-
-
-def read_evaluations(path: Path) -> list[dict[str, float]]:
-    """The rows of an ``evaluations.csv`` as numbers."""
-    with Path(path).open(newline="") as file:
-        return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(file)]
+__all__ = ["PeriodicEvaluation"]
 
 
 def _score(row: dict[str, float]) -> tuple[float, float]:

@@ -5,6 +5,7 @@ settings, hyperparameters, timings)."""
 
 from __future__ import annotations
 
+import csv
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,7 +14,10 @@ from typing import Any
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 
-__all__ = ["MODEL_FILE", "CONFIG_FILE", "RUN_FILE", "SavedRun", "load_run", "save_run"]
+__all__ = [
+    "BEST_MODEL_FILE", "CONFIG_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "MODEL_FILE", "RUN_FILE", "SavedRun",
+    "load_run", "read_evaluations", "save_run",
+]  # fmt: skip
 
 MODEL_FILE = "model.zip"
 CONFIG_FILE = "config.json"
@@ -82,3 +86,19 @@ def load_run(path: Path) -> SavedRun:
         model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
     config = ChainCartConfig(**_json(directory / CONFIG_FILE))
     return SavedRun(model=model, config=config, info=info, directory=directory)
+
+
+#: The training-time evaluation log and the best model it keeps (see
+#: :mod:`chaincart_env.compare.periodic_eval`).
+EVALUATIONS_FILE = "evaluations.csv"
+BEST_MODEL_FILE = "best_model.zip"
+#: Columns of ``evaluations.csv``.
+EVALUATION_COLUMNS = (
+    "timesteps", "wall_time_s", "episodes", "success_rate", "ci_low", "ci_high", "return_mean", "return_std",
+)
+
+
+def read_evaluations(path: Path) -> list[dict[str, float]]:
+    """The rows of an ``evaluations.csv`` as numbers."""
+    with Path(path).open(newline="") as file:
+        return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(file)]

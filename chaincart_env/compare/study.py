@@ -11,10 +11,9 @@ from typing import Any, Optional, Sequence
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, evaluate_policies, evaluation_seeds
 from chaincart_env.compare.filmstrip import write_filmstrip
-from chaincart_env.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, read_evaluations
 from chaincart_env.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
 from chaincart_env.compare.report import SUMMARY_FIGURE, write_report, write_summary_figure
-from chaincart_env.compare.run_files import load_run
+from chaincart_env.compare.run_files import BEST_MODEL_FILE, EVALUATIONS_FILE, load_run, read_evaluations
 from chaincart_env.compare.statistics import aggregate_over_seeds
 from chaincart_env.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, run_sweep, summarize_sweep
 from chaincart_env.compare.tables import write_csv, write_markdown
