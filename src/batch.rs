@@ -6,16 +6,28 @@
 //! depend on the number of threads and every env is stepped by the same code on
 //! its own data, so results are bit-identical whatever the thread count. Nothing
 //! is allocated in [`Batch::step`].
+//!
+//! With rk4, batches of [`MIN_LANE_ENVS`] or more envs are stepped by the lane
+//! kernel of [`crate::lanes`] (one env per SIMD lane), which gives every env the
+//! same bits as the per-env path.
 
 use crate::error::{check_finite, check_len, check_positive, ChainError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::{Method, StepOptions, Stepper};
+use crate::lanes::{Kernel, LaneGeometry, LaneParams, LaneStepper, StepPlan, LANES};
 use crate::model::Chain;
 use rayon::prelude::*;
 
 /// Envs per parallel work item: large enough to amortise scheduling, small enough
 /// to balance 2..64 cores at N = 4096.
 pub const CHUNK: usize = 32;
+
+/// Envs per parallel work item of the lane kernel (a multiple of [`LANES`]): the
+/// lanes are independent, so this changes no result, only the scheduling.
+pub const LANE_CHUNK: usize = 128;
+
+/// Smallest batch stepped by the lane kernel: below it the per-env path is faster.
+pub const MIN_LANE_ENVS: usize = 4;
 
 /// Outcome of the last step of one env.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -156,8 +168,15 @@ type ChunkItem<'a, G> = (
     &'a mut GuardedStepper<G>,
 );
 
+/// The lane path of a batch: kernel, broadcast parameters, one stepper per work item.
+struct LanePath<G: LaneGeometry<LANES>> {
+    kernel: Kernel,
+    params: [LaneParams<LANES>; 1],
+    workers: Vec<LaneStepper<G, LANES>>,
+}
+
 /// N states of one chain with one integrator setting.
-pub struct Batch<G: Geometry> {
+pub struct Batch<G: LaneGeometry<LANES>> {
     chain: Chain<G>,
     opts: StepOptions,
     dt: f64,
@@ -166,9 +185,11 @@ pub struct Batch<G: Geometry> {
     states: Vec<f64>,
     status: Vec<StepStatus>,
     workers: Vec<GuardedStepper<G>>,
+    /// Set when the lane kernel steps this batch (rk4, at least [`MIN_LANE_ENVS`] envs).
+    lanes: Option<LanePath<G>>,
 }
 
-impl<G: Geometry> Batch<G> {
+impl<G: LaneGeometry<LANES>> Batch<G> {
     /// `n_envs` copies of `initial` (or of the hanging equilibrium if `None`).
     pub fn new(chain: Chain<G>, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
         if n_envs == 0 {
@@ -186,7 +207,7 @@ impl<G: Geometry> Batch<G> {
         let workers = (0..n_envs.div_ceil(CHUNK))
             .map(|_| GuardedStepper::new(&chain))
             .collect();
-        Ok(Self {
+        let mut batch = Self {
             chain,
             opts,
             dt,
@@ -195,7 +216,45 @@ impl<G: Geometry> Batch<G> {
             states,
             status: vec![StepStatus::Ok; n_envs],
             workers,
-        })
+            lanes: None,
+        };
+        if opts.method == Method::Rk4 && n_envs >= MIN_LANE_ENVS {
+            batch.set_kernel(Some(Kernel::detect()))?;
+        }
+        Ok(batch)
+    }
+
+    /// The lane kernel stepping this batch, or `None` for the per-env path.
+    pub fn kernel(&self) -> Option<Kernel> {
+        self.lanes.as_ref().map(|l| l.kernel)
+    }
+
+    /// Chooses the lane kernel (`None`: the per-env path). Both give the same bits;
+    /// this exists to compare them. Errors if the CPU lacks the kernel or the
+    /// integrator is not rk4.
+    pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
+        let Some(kernel) = kernel else {
+            self.lanes = None;
+            return Ok(());
+        };
+        kernel.checked()?;
+        if self.opts.method != Method::Rk4 {
+            return Err(ChainError::InvalidParameter {
+                name: "kernel",
+                value: kernel as u8 as f64,
+                expected: "None unless the integrator is rk4 (the only one with a lane kernel)",
+            });
+        }
+        let n = self.chain.n_links();
+        let lanes = self.lanes.get_or_insert_with(|| LanePath {
+            kernel,
+            params: [LaneParams::broadcast(self.chain.params())],
+            workers: (0..self.n_envs.div_ceil(LANE_CHUNK))
+                .map(|_| LaneStepper::new(n))
+                .collect(),
+        });
+        lanes.kernel = kernel;
+        Ok(())
     }
 
     pub fn chain(&self) -> &Chain<G> {
@@ -264,6 +323,10 @@ impl<G: Geometry> Batch<G> {
     /// their last good state and report why in [`Batch::status`].
     pub fn step(&mut self, forces: &[f64]) -> Result<()> {
         self.check_forces(forces)?;
+        if self.lanes.is_some() {
+            self.step_lanes(forces);
+            return Ok(());
+        }
         let d = self.state_dim();
         let f = self.chain.force_dim();
         let (chain, opts, dt, guard) = (&self.chain, &self.opts, self.dt, &self.guard);
@@ -292,4 +355,40 @@ impl<G: Geometry> Batch<G> {
         }
         Ok(())
     }
+
+    /// [`Batch::step`] through the lane kernel, work items of [`LANE_CHUNK`] envs.
+    fn step_lanes(&mut self, forces: &[f64]) {
+        let (d, f) = (self.state_dim(), self.chain.force_dim());
+        let Some(lanes) = self.lanes.as_mut() else {
+            return;
+        };
+        let (kernel, params) = (lanes.kernel, &lanes.params[..]);
+        let plan = StepPlan {
+            dt: self.dt,
+            substeps: self.opts.substeps,
+            guard: &self.guard,
+        };
+        let work = |(((states, forces), status), worker): LaneItem<'_, G>| {
+            worker.step(kernel, params, states, forces, None, plan, status);
+        };
+        if self.n_envs <= LANE_CHUNK {
+            work((
+                ((&mut self.states[..], forces), &mut self.status[..]),
+                &mut lanes.workers[0],
+            ));
+        } else {
+            self.states
+                .par_chunks_mut(LANE_CHUNK * d)
+                .zip(forces.par_chunks(LANE_CHUNK * f))
+                .zip(self.status.par_chunks_mut(LANE_CHUNK))
+                .zip(lanes.workers.par_iter_mut())
+                .for_each(work);
+        }
+    }
 }
+
+/// One parallel work item of the lane path.
+type LaneItem<'a, G> = (
+    ((&'a mut [f64], &'a [f64]), &'a mut [StepStatus]),
+    &'a mut LaneStepper<G, LANES>,
+);

@@ -22,6 +22,7 @@ pub mod error;
 pub mod geometry;
 pub mod integrate;
 pub mod invariants;
+pub mod lanes;
 pub mod model;
 pub mod params;
 pub mod render;

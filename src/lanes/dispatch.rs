@@ -1,0 +1,108 @@
+//! Run-time choice of the compiled kernel. The lane kernel is compiled once per
+//! instruction set below (the generic body is inlined into each clone, which carries
+//! the target features) and the best one the CPU supports is picked by feature
+//! detection, so the shipped library is built for baseline x86-64 and still uses
+//! AVX2 or AVX-512 where present. No clone enables FMA: results are the same on all.
+
+use super::rk4::{guarded_rk4, LaneWorkspace, StepSpec};
+use super::vector::LaneGeometry;
+use crate::batch::StepStatus;
+use crate::error::{ChainError, Result};
+
+/// One compiled variant of the lane kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// The build's baseline instruction set (SSE2 on x86-64, NEON on aarch64).
+    Baseline,
+    /// x86-64 with AVX2 (256-bit registers).
+    Avx2,
+    /// x86-64 with AVX-512F (512-bit registers).
+    Avx512,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 3] = [Kernel::Baseline, Kernel::Avx2, Kernel::Avx512];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Baseline => "baseline",
+            Kernel::Avx2 => "avx2",
+            Kernel::Avx512 => "avx512",
+        }
+    }
+
+    /// Whether this CPU can run the kernel.
+    pub fn is_available(self) -> bool {
+        match self {
+            Kernel::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The widest kernel this CPU runs.
+    pub fn detect() -> Kernel {
+        *Kernel::ALL
+            .iter()
+            .rev()
+            .find(|k| k.is_available())
+            .unwrap_or(&Kernel::Baseline)
+    }
+
+    /// `self`, or an error naming it if this CPU cannot run it.
+    pub fn checked(self) -> Result<Kernel> {
+        if self.is_available() {
+            Ok(self)
+        } else {
+            Err(ChainError::InvalidParameter {
+                name: "kernel",
+                value: self as u8 as f64,
+                expected: "a kernel this CPU supports (see Kernel::is_available)",
+            })
+        }
+    }
+}
+
+/// [`guarded_rk4`] compiled for `kernel`. A kernel the CPU lacks is never run:
+/// it falls back to the baseline one (callers check with [`Kernel::checked`]).
+pub fn run_guarded_rk4<G: LaneGeometry<L>, const L: usize>(
+    kernel: Kernel,
+    spec: StepSpec<'_, L>,
+    ws: &mut LaneWorkspace<G, L>,
+) -> [StepStatus; L] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if kernel == Kernel::Avx512 && kernel.is_available() {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            return unsafe { rk4_avx512(spec, ws) };
+        }
+        if kernel == Kernel::Avx2 && kernel.is_available() {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            return unsafe { rk4_avx2(spec, ws) };
+        }
+    }
+    let _ = kernel;
+    guarded_rk4(spec, ws)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[multiversion::target("x86_64+avx+avx2")]
+unsafe fn rk4_avx2<G: LaneGeometry<L>, const L: usize>(
+    spec: StepSpec<'_, L>,
+    ws: &mut LaneWorkspace<G, L>,
+) -> [StepStatus; L] {
+    guarded_rk4(spec, ws)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[multiversion::target("x86_64+avx+avx2+avx512f")]
+unsafe fn rk4_avx512<G: LaneGeometry<L>, const L: usize>(
+    spec: StepSpec<'_, L>,
+    ws: &mut LaneWorkspace<G, L>,
+) -> [StepStatus; L] {
+    guarded_rk4(spec, ws)
+}

@@ -1,0 +1,128 @@
+//! `L` numbers processed together, one per lane, as a plain fixed-size array.
+//!
+//! Every operation is a loop over the lanes doing exactly the scalar operation, so
+//! LLVM turns it into packed instructions of whatever width the enclosing function
+//! was compiled for, and lane k's result is bit for bit the scalar result on lane k's
+//! inputs. Everything is `#[inline(always)]` so that it is compiled inside the
+//! dispatched kernels with their target features.
+
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// One number per lane. Aligned to 64 bytes so that eight f64 lanes fill one
+/// cache line and one AVX-512 register.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Lanes<const L: usize>(pub [f64; L]);
+
+impl<const L: usize> Lanes<L> {
+    #[inline(always)]
+    pub fn splat(v: f64) -> Self {
+        Self([v; L])
+    }
+    #[inline(always)]
+    pub fn zero() -> Self {
+        Self::splat(0.0)
+    }
+    #[inline(always)]
+    fn map(self, f: impl Fn(f64) -> f64) -> Self {
+        let mut out = self.0;
+        for v in out.iter_mut() {
+            *v = f(*v);
+        }
+        Self(out)
+    }
+    #[inline(always)]
+    fn zip(self, other: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        let mut out = self.0;
+        for (v, o) in out.iter_mut().zip(other.0) {
+            *v = f(*v, o);
+        }
+        Self(out)
+    }
+    #[inline(always)]
+    pub fn sqrt(self) -> Self {
+        self.map(f64::sqrt)
+    }
+    #[inline(always)]
+    pub fn abs(self) -> Self {
+        self.map(f64::abs)
+    }
+    /// `f64::max` per lane (same result as the scalar fold, NaN handling included).
+    #[inline(always)]
+    pub fn max(self, other: Self) -> Self {
+        self.zip(other, f64::max)
+    }
+    #[inline(always)]
+    pub fn min(self, other: Self) -> Self {
+        self.zip(other, f64::min)
+    }
+    /// Lanes whose value is finite (not NaN, not infinite).
+    #[inline(always)]
+    pub fn finite_mask(self) -> [bool; L] {
+        self.0.map(f64::is_finite)
+    }
+    /// Lanes whose value is greater than `limit` (false for NaN).
+    #[inline(always)]
+    pub fn greater_mask(self, limit: Self) -> [bool; L] {
+        let mut out = [false; L];
+        for ((o, v), l) in out.iter_mut().zip(self.0).zip(limit.0) {
+            *o = v > l;
+        }
+        out
+    }
+}
+
+macro_rules! lane_binary {
+    ($trait:ident, $method:ident, $op:tt) => {
+        impl<const L: usize> $trait for Lanes<L> {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, other: Self) -> Self {
+                self.zip(other, |a, b| a $op b)
+            }
+        }
+    };
+}
+lane_binary!(Add, add, +);
+lane_binary!(Sub, sub, -);
+lane_binary!(Mul, mul, *);
+lane_binary!(Div, div, /);
+
+impl<const L: usize> Neg for Lanes<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        self.map(|v| -v)
+    }
+}
+
+/// `a &= b` lane by lane.
+#[inline(always)]
+pub fn and_mask<const L: usize>(a: &mut [bool; L], b: [bool; L]) {
+    for (x, y) in a.iter_mut().zip(b) {
+        *x &= y;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn operations_are_the_scalar_ones_per_lane() {
+        let a = Lanes([1.5, -0.0, f64::NAN, 3.0]);
+        let b = Lanes([0.25, 0.0, 1.0, f64::INFINITY]);
+        let bits = |l: Lanes<4>| l.0.map(f64::to_bits);
+        for k in 0..4 {
+            assert_eq!(bits(a + b)[k], (a.0[k] + b.0[k]).to_bits());
+            assert_eq!(bits(a * b)[k], (a.0[k] * b.0[k]).to_bits());
+            assert_eq!(bits(a / b)[k], (a.0[k] / b.0[k]).to_bits());
+            assert_eq!(bits(a.max(b))[k], a.0[k].max(b.0[k]).to_bits());
+        }
+        assert_eq!(a.finite_mask(), [true, true, false, true]);
+        assert_eq!(
+            b.greater_mask(Lanes::splat(0.5)),
+            [false, false, true, true]
+        );
+    }
+}

@@ -1,0 +1,184 @@
+//! Small vectors of lanes and the scene operations on them, mirroring
+//! [`crate::geometry`] operation for operation (same terms, same order, the same
+//! zero components), so that each lane reproduces the scalar result exactly.
+
+use super::simd::Lanes;
+use crate::geometry::{Planar, Spatial};
+use std::ops::{Add, Mul, Sub};
+
+/// A `D`-vector per lane, stored component by component.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneVec<const D: usize, const L: usize>(pub [Lanes<L>; D]);
+
+/// What the kernel needs of a lane vector (implemented by every [`LaneVec`]).
+pub trait LaneVector<const L: usize>:
+    Copy
+    + std::fmt::Debug
+    + Send
+    + Sync
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Lanes<L>, Output = Self>
+{
+    const DIM: usize;
+    fn zero() -> Self;
+    /// `x_0 y_0 + x_1 y_1 + ...`, summed left to right like the scalar `dot`.
+    fn dot(self, other: Self) -> Lanes<L>;
+    #[inline(always)]
+    fn norm_squared(self) -> Lanes<L> {
+        self.dot(self)
+    }
+    /// Components `y[at..at + DIM]` of a component-major state.
+    fn load(y: &[Lanes<L>], at: usize) -> Self;
+    fn store(self, y: &mut [Lanes<L>], at: usize);
+}
+
+impl<const D: usize, const L: usize> LaneVector<L> for LaneVec<D, L> {
+    const DIM: usize = D;
+    #[inline(always)]
+    fn zero() -> Self {
+        Self([Lanes::zero(); D])
+    }
+    #[inline(always)]
+    fn dot(self, other: Self) -> Lanes<L> {
+        let mut acc = self.0[0] * other.0[0];
+        for d in 1..D {
+            acc = acc + self.0[d] * other.0[d];
+        }
+        acc
+    }
+    #[inline(always)]
+    fn load(y: &[Lanes<L>], at: usize) -> Self {
+        let mut out = Self::zero();
+        out.0.copy_from_slice(&y[at..at + D]);
+        out
+    }
+    #[inline(always)]
+    fn store(self, y: &mut [Lanes<L>], at: usize) {
+        y[at..at + D].copy_from_slice(&self.0);
+    }
+}
+
+impl<const D: usize, const L: usize> Add for LaneVec<D, L> {
+    type Output = Self;
+    #[inline(always)]
+    fn add(mut self, other: Self) -> Self {
+        for d in 0..D {
+            self.0[d] = self.0[d] + other.0[d];
+        }
+        self
+    }
+}
+
+impl<const D: usize, const L: usize> Sub for LaneVec<D, L> {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(mut self, other: Self) -> Self {
+        for d in 0..D {
+            self.0[d] = self.0[d] - other.0[d];
+        }
+        self
+    }
+}
+
+impl<const D: usize, const L: usize> Mul<Lanes<L>> for LaneVec<D, L> {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(mut self, c: Lanes<L>) -> Self {
+        for d in 0..D {
+            self.0[d] = self.0[d] * c;
+        }
+        self
+    }
+}
+
+/// The scene operations of [`crate::geometry::Geometry`] on lanes.
+pub trait LaneGeometry<const L: usize>: crate::geometry::Geometry {
+    type CartL: LaneVector<L>;
+    type LinkL: LaneVector<L>;
+    type SpinL: LaneVector<L>;
+    fn lanes_velocity(w: Self::SpinL, q: Self::LinkL) -> Self::LinkL;
+    fn lanes_spin(q: Self::LinkL, a: Self::LinkL) -> Self::SpinL;
+    fn lanes_horizontal(v: Self::LinkL) -> Self::CartL;
+    fn lanes_lift(x: Self::CartL) -> Self::LinkL;
+    fn lanes_down(v: Self::LinkL) -> Lanes<L>;
+    fn lanes_down_unit() -> Self::LinkL;
+    fn lanes_tangent(w: Self::SpinL, q: Self::LinkL) -> Self::SpinL;
+}
+
+impl<const L: usize> LaneGeometry<L> for Spatial {
+    type CartL = LaneVec<2, L>;
+    type LinkL = LaneVec<3, L>;
+    type SpinL = LaneVec<3, L>;
+    #[inline(always)]
+    fn lanes_velocity(w: LaneVec<3, L>, q: LaneVec<3, L>) -> LaneVec<3, L> {
+        cross(w, q)
+    }
+    #[inline(always)]
+    fn lanes_spin(q: LaneVec<3, L>, a: LaneVec<3, L>) -> LaneVec<3, L> {
+        cross(q, a)
+    }
+    #[inline(always)]
+    fn lanes_horizontal(v: LaneVec<3, L>) -> LaneVec<2, L> {
+        LaneVec([v.0[0], v.0[1]])
+    }
+    #[inline(always)]
+    fn lanes_lift(x: LaneVec<2, L>) -> LaneVec<3, L> {
+        LaneVec([x.0[0], x.0[1], Lanes::zero()])
+    }
+    #[inline(always)]
+    fn lanes_down(v: LaneVec<3, L>) -> Lanes<L> {
+        v.0[2]
+    }
+    #[inline(always)]
+    fn lanes_down_unit() -> LaneVec<3, L> {
+        LaneVec([Lanes::zero(), Lanes::zero(), Lanes::splat(1.0)])
+    }
+    #[inline(always)]
+    fn lanes_tangent(w: LaneVec<3, L>, q: LaneVec<3, L>) -> LaneVec<3, L> {
+        w - q * w.dot(q)
+    }
+}
+
+/// `a x b` in the component order nalgebra uses.
+#[inline(always)]
+fn cross<const L: usize>(a: LaneVec<3, L>, b: LaneVec<3, L>) -> LaneVec<3, L> {
+    let [ax, ay, az] = a.0;
+    let [bx, by, bz] = b.0;
+    LaneVec([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx])
+}
+
+impl<const L: usize> LaneGeometry<L> for Planar {
+    type CartL = LaneVec<1, L>;
+    type LinkL = LaneVec<2, L>;
+    type SpinL = LaneVec<1, L>;
+    #[inline(always)]
+    fn lanes_velocity(w: LaneVec<1, L>, q: LaneVec<2, L>) -> LaneVec<2, L> {
+        let w = w.0[0];
+        LaneVec([w * q.0[1], -w * q.0[0]])
+    }
+    #[inline(always)]
+    fn lanes_spin(q: LaneVec<2, L>, a: LaneVec<2, L>) -> LaneVec<1, L> {
+        LaneVec([q.0[1] * a.0[0] - q.0[0] * a.0[1]])
+    }
+    #[inline(always)]
+    fn lanes_horizontal(v: LaneVec<2, L>) -> LaneVec<1, L> {
+        LaneVec([v.0[0]])
+    }
+    #[inline(always)]
+    fn lanes_lift(x: LaneVec<1, L>) -> LaneVec<2, L> {
+        LaneVec([x.0[0], Lanes::zero()])
+    }
+    #[inline(always)]
+    fn lanes_down(v: LaneVec<2, L>) -> Lanes<L> {
+        v.0[1]
+    }
+    #[inline(always)]
+    fn lanes_down_unit() -> LaneVec<2, L> {
+        LaneVec([Lanes::zero(), Lanes::splat(1.0)])
+    }
+    #[inline(always)]
+    fn lanes_tangent(w: LaneVec<1, L>, _q: LaneVec<2, L>) -> LaneVec<1, L> {
+        w
+    }
+}

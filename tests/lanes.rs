@@ -1,0 +1,251 @@
+//! The lane kernel (one env per SIMD lane) against the scalar guarded rk4 step:
+//! bit-identical states and statuses for every compiled kernel, lane width, chain
+//! size and scene, with per-lane parameters; failures isolated to their lane.
+
+mod common;
+
+use chaincart::batch::{Guard, GuardedStepper, StepStatus};
+use chaincart::geometry::{Geometry, Vector};
+use chaincart::lanes::{Kernel, LaneGeometry, LaneParams, LaneStepper, StepPlan};
+use chaincart::{Chain, ChainParams, Method, Planar, Spatial, StepOptions};
+use common::{random_params, random_planar_state, random_spatial_state, rng};
+use rand::rngs::StdRng;
+use rand::Rng;
+
+/// A random state of scene G (spins up to `spin` rad/s).
+trait RandomState: Geometry {
+    fn random_state(rng: &mut StdRng, n: usize, spin: f64) -> Vec<f64>;
+}
+impl RandomState for Spatial {
+    fn random_state(rng: &mut StdRng, n: usize, spin: f64) -> Vec<f64> {
+        random_spatial_state(rng, n, spin)
+    }
+}
+impl RandomState for Planar {
+    fn random_state(rng: &mut StdRng, n: usize, spin: f64) -> Vec<f64> {
+        random_planar_state(rng, n, spin)
+    }
+}
+
+fn bits(v: &[f64]) -> Vec<u64> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// Steps `n_envs` envs (each its own random chain, state and forces) `steps` times
+/// with the lane kernel and each alone with the scalar guarded stepper, and asserts
+/// identical bits and statuses. Some envs spin fast or are pushed hard so that the
+/// guard fails some steps. Returns how many env-steps failed.
+fn compare<G: LaneGeometry<L> + RandomState, const L: usize>(
+    kernel: Kernel,
+    n: usize,
+    n_envs: usize,
+    substeps: usize,
+    seed: u64,
+) -> usize {
+    let mut rng = rng(seed);
+    let (dt, steps) = (2e-3, 6);
+    let guard = Guard::default();
+    let opts = StepOptions::new(Method::Rk4, substeps).unwrap();
+    let chains: Vec<Chain<G>> = (0..n_envs)
+        .map(|_| Chain::new(random_params(&mut rng, n, 10.0, 10.0)))
+        .collect();
+    let mut params: Vec<LaneParams<L>> = (0..n_envs.div_ceil(L))
+        .map(|_| LaneParams::broadcast(&ChainParams::uniform(n, 1.0, 1.0, 1.0, 1.0).unwrap()))
+        .collect();
+    for (k, chain) in chains.iter().enumerate() {
+        params[k / L].set_lane(k % L, chain.params()).unwrap();
+    }
+    let mut states: Vec<f64> = (0..n_envs)
+        .flat_map(|k| G::random_state(&mut rng, n, if k % 5 == 4 { 400.0 } else { 3.0 }))
+        .collect();
+    let mut scalar = states.clone();
+    let f = G::Cart::DIM;
+    let d = states.len() / n_envs;
+    let mut lanes = LaneStepper::<G, L>::new(n);
+    let mut worker = GuardedStepper::new(&chains[0]);
+    let mut status = vec![StepStatus::Ok; n_envs];
+    let mut failures = 0;
+    for step in 0..steps {
+        let forces: Vec<f64> = (0..n_envs * f)
+            .map(|j| {
+                let scale = if j % 7 == step { 1e5 } else { 10.0 };
+                scale * rng.random_range(-1.0..1.0)
+            })
+            .collect();
+        let plan = StepPlan {
+            dt,
+            substeps,
+            guard: &guard,
+        };
+        lanes.step(
+            kernel,
+            &params,
+            &mut states,
+            &forces,
+            None,
+            plan,
+            &mut status,
+        );
+        for (k, chain) in chains.iter().enumerate() {
+            let y = &mut scalar[k * d..(k + 1) * d];
+            let u = G::Cart::load(&forces[k * f..]);
+            let expected = worker.step(chain, y, u, dt, &opts, &guard);
+            assert_eq!(status[k], expected, "env {k} step {step} n {n} L {L}");
+            failures += expected.is_failure() as usize;
+        }
+        assert!(
+            bits(&states) == bits(&scalar),
+            "{} {} n = {n}, L = {L}, step {step}",
+            kernel.name(),
+            G::NAME
+        );
+    }
+    failures
+}
+
+fn available_kernels() -> Vec<Kernel> {
+    Kernel::ALL
+        .into_iter()
+        .filter(|k| k.is_available())
+        .collect()
+}
+
+#[test]
+fn every_kernel_matches_the_scalar_step_bit_for_bit_for_n_1_to_16() {
+    let mut failures = 0;
+    for kernel in available_kernels() {
+        for n in 1..=16 {
+            let seed = n as u64;
+            failures += compare::<Spatial, 8>(kernel, n, 19, 1, seed);
+            failures += compare::<Planar, 8>(kernel, n, 19, 1, seed);
+        }
+    }
+    // The comparison covered the guard's failure branches too.
+    assert!(failures > 0);
+}
+
+#[test]
+fn lane_width_and_substeps_change_no_bit() {
+    for kernel in available_kernels() {
+        for n in [1, 2, 5, 9] {
+            compare::<Spatial, 1>(kernel, n, 5, 1, 40 + n as u64);
+            compare::<Spatial, 2>(kernel, n, 5, 2, 41 + n as u64);
+            compare::<Spatial, 4>(kernel, n, 11, 3, 42 + n as u64);
+            compare::<Spatial, 16>(kernel, n, 21, 1, 43 + n as u64);
+            compare::<Planar, 4>(kernel, n, 11, 3, 44 + n as u64);
+            compare::<Planar, 16>(kernel, n, 37, 2, 45 + n as u64);
+        }
+    }
+}
+
+#[test]
+fn this_cpu_runs_the_kernels_its_features_allow() {
+    let kernels = available_kernels();
+    assert_eq!(kernels[0], Kernel::Baseline);
+    assert_eq!(Kernel::detect(), *kernels.last().unwrap());
+    #[cfg(target_arch = "x86_64")]
+    {
+        assert_eq!(
+            Kernel::Avx512.is_available(),
+            std::arch::is_x86_feature_detected!("avx512f")
+        );
+        assert_eq!(
+            Kernel::Avx2.is_available(),
+            std::arch::is_x86_feature_detected!("avx2")
+        );
+    }
+    eprintln!(
+        "kernels run here: {:?}",
+        kernels.iter().map(|k| k.name()).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn a_blow_up_in_one_lane_leaves_its_neighbours_unchanged() {
+    let chain = Chain::<Spatial>::new(ChainParams::paper());
+    let params = [LaneParams::<8>::broadcast(chain.params())];
+    let mut rng = rng(9);
+    let states: Vec<f64> = (0..8)
+        .flat_map(|_| random_spatial_state(&mut rng, 5, 2.0))
+        .collect();
+    let calm: Vec<f64> = (0..16).map(|j| j as f64 - 8.0).collect();
+    let mut wild = calm.clone();
+    wild[2 * 3] = 1e12;
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 1e-3,
+        substeps: 1,
+        guard: &guard,
+    };
+    let mut stepper = LaneStepper::<Spatial, 8>::new(5);
+    let run = |forces: &[f64], stepper: &mut LaneStepper<Spatial, 8>| {
+        let (mut y, mut status) = (states.clone(), vec![StepStatus::Ok; 8]);
+        stepper.step(
+            Kernel::detect(),
+            &params,
+            &mut y,
+            forces,
+            None,
+            plan,
+            &mut status,
+        );
+        (y, status)
+    };
+    let (reference, ok) = run(&calm, &mut stepper);
+    let (y, status) = run(&wild, &mut stepper);
+    let d = chain.state_dim();
+    assert!(ok.iter().all(|s| !s.is_failure()));
+    for k in 0..8 {
+        let row = |v: &[f64]| bits(&v[k * d..(k + 1) * d]);
+        if k == 3 {
+            assert!(status[k].is_failure());
+            assert_eq!(row(&y), row(&states), "the failed env keeps its state");
+        } else {
+            assert_eq!(status[k], StepStatus::Ok);
+            assert_eq!(row(&y), row(&reference), "env {k}");
+        }
+    }
+}
+
+#[test]
+fn envs_not_stepped_are_left_alone() {
+    let chain = Chain::<Planar>::new(ChainParams::paper());
+    let params = [LaneParams::<4>::broadcast(chain.params())];
+    let mut rng = rng(10);
+    let start: Vec<f64> = (0..6)
+        .flat_map(|_| random_planar_state(&mut rng, 5, 2.0))
+        .collect();
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 1e-3,
+        substeps: 1,
+        guard: &guard,
+    };
+    let stepped = [true, false, true, false, false, true];
+    let mut y = start.clone();
+    let mut status = vec![StepStatus::SolverFailure; 6];
+    let mut stepper = LaneStepper::<Planar, 4>::new(5);
+    stepper.step(
+        Kernel::Baseline,
+        &params,
+        &mut y,
+        &[1.0; 6],
+        Some(&stepped),
+        plan,
+        &mut status,
+    );
+    let d = chain.state_dim();
+    for (k, &on) in stepped.iter().enumerate() {
+        let same = y[k * d..(k + 1) * d] == start[k * d..(k + 1) * d];
+        assert_eq!(same, !on, "env {k}");
+        assert_eq!(status[k] == StepStatus::Ok, on, "env {k}");
+    }
+}
+
+#[test]
+fn per_lane_parameters_must_match_the_link_count() {
+    let mut p = LaneParams::<8>::broadcast(&ChainParams::paper());
+    assert!(p.set_lane(8, &ChainParams::paper()).is_err());
+    let e = p.set_lane(0, &ChainParams::uniform(3, 1.0, 1.0, 1.0, 9.81).unwrap());
+    assert!(e.unwrap_err().to_string().contains('3'));
+}
