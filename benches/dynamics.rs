@@ -4,10 +4,13 @@
 //! * `step/<method>/n`: one control step (1 substep) of the spatial model.
 //! * `planar_vs_spatial/<scene>/n`: one rk4 step of each model on the same in-plane motion.
 //! * `batch/N`: one step of a batch of N paper systems (5 links, rk4), throughput in env-steps.
+//! * `batch_kernel/<path>/N`: the same step (1 ms, guarded) through the per-env path
+//!   (`scalar`) and each lane kernel this CPU runs, side by side in one run.
 
 use chaincart::batch::Batch;
 use chaincart::dense::dense_derivative;
 use chaincart::geometry::planar_to_spatial;
+use chaincart::lanes::Kernel;
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector2;
@@ -140,9 +143,37 @@ fn batch(c: &mut Criterion) {
     group.finish();
 }
 
+fn batch_kernels(c: &mut Criterion) {
+    let mut group = c.benchmark_group("batch_kernel");
+    let paths = std::iter::once(None).chain(
+        Kernel::ALL
+            .into_iter()
+            .filter(|k| k.is_available())
+            .map(Some),
+    );
+    for kernel in paths {
+        let name = kernel.map_or("scalar", Kernel::name);
+        for n_envs in [1usize, 4096] {
+            let chain = chain(5);
+            let y0 = moving_state(&chain);
+            let mut batch = Batch::new(chain, n_envs, 1e-3, StepOptions::default()).unwrap();
+            batch.set_kernel(kernel).unwrap();
+            let states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
+            let forces = vec![0.0; 2 * n_envs];
+            batch.states_mut().copy_from_slice(&states);
+            group.throughput(Throughput::Elements(n_envs as u64));
+            group.bench_with_input(BenchmarkId::new(name, n_envs), &n_envs, |b, _| {
+                // Keep stepping the same (slowly moving) states: no copy in the timed loop.
+                b.iter(|| batch.step(black_box(&forces)).unwrap())
+            });
+        }
+    }
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(300)).measurement_time(std::time::Duration::from_millis(800));
-    targets = accelerations, steps, planar_vs_spatial, batch
+    targets = accelerations, steps, planar_vs_spatial, batch, batch_kernels
 }
 criterion_main!(benches);

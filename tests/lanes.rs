@@ -249,3 +249,54 @@ fn per_lane_parameters_must_match_the_link_count() {
     let e = p.set_lane(0, &ChainParams::uniform(3, 1.0, 1.0, 1.0, 9.81).unwrap());
     assert!(e.unwrap_err().to_string().contains('3'));
 }
+
+/// Final states of a random paper batch after 20 rk4 steps in a pool of `threads`.
+fn batch_run(threads: usize, n_envs: usize, kernel: Option<Kernel>) -> (Vec<u64>, Vec<StepStatus>) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let (mut batch, _) = common::batches::random_batch(n_envs, Method::Rk4, 21);
+        batch.set_kernel(kernel).unwrap();
+        assert_eq!(batch.kernel(), kernel);
+        let mut statuses = vec![];
+        for step in 0..20 {
+            let mut f = common::batches::forces(n_envs, step);
+            // One env is pushed far past what a step resolves, now and then.
+            f[2 * (n_envs / 2)] *= if step % 4 == 1 { 1e9 } else { 1.0 };
+            batch.step(&f).unwrap();
+            statuses.extend_from_slice(batch.status());
+        }
+        (bits(batch.states()), statuses)
+    })
+}
+
+#[test]
+fn batches_are_bit_identical_across_kernels_threads_and_sizes() {
+    for n_envs in [1, 7, 33, 4097] {
+        let reference = batch_run(1, n_envs, None);
+        assert!(reference.1.iter().any(|s| s.is_failure()));
+        for kernel in available_kernels() {
+            for threads in [1, 2] {
+                assert!(
+                    batch_run(threads, n_envs, Some(kernel)) == reference,
+                    "N = {n_envs}, {} kernel, {threads} threads",
+                    kernel.name()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn rk4_batches_pick_the_lane_kernel_and_other_methods_refuse_it() {
+    let (batch, _) = common::batches::random_batch(64, Method::Rk4, 1);
+    assert_eq!(batch.kernel(), Some(Kernel::detect()));
+    let (small, _) = common::batches::random_batch(1, Method::Rk4, 1);
+    assert_eq!(small.kernel(), None);
+    let (mut other, _) = common::batches::random_batch(64, Method::Rkmk4, 1);
+    assert_eq!(other.kernel(), None);
+    let e = other.set_kernel(Some(Kernel::Baseline)).unwrap_err();
+    assert!(e.to_string().contains("rk4"), "{e}");
+}

@@ -6,7 +6,7 @@
 //! compiled into each dispatched kernel in [`super::dispatch`].
 
 use super::params::LaneParams;
-use super::simd::{and_mask, Lanes};
+use super::simd::{flat, flat_mut, is_dense, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
 use crate::batch::{Guard, StepStatus};
 use crate::geometry::Layout;
@@ -156,9 +156,41 @@ fn derivative<G: LaneGeometry<L>, const L: usize>(
 
 /// `out = a + c * b`, per component and lane.
 #[inline(always)]
-fn axpy<const L: usize>(out: &mut [Lanes<L>], a: &[Lanes<L>], c: Lanes<L>, b: &[Lanes<L>]) {
-    for ((o, &a), &b) in out.iter_mut().zip(a).zip(b) {
-        *o = a + c * b;
+fn axpy<const L: usize>(out: &mut [Lanes<L>], a: &[Lanes<L>], c: f64, b: &[Lanes<L>]) {
+    if is_dense::<L>() {
+        let (out, a, b) = (flat_mut(out), flat(a), flat(b));
+        let m = out.len().min(a.len()).min(b.len());
+        for j in 0..m {
+            out[j] = a[j] + c * b[j];
+        }
+    } else {
+        for j in 0..out.len() {
+            out[j] = a[j] + Lanes::splat(c) * b[j];
+        }
+    }
+}
+
+/// `y += c (k1 + 2 (k2 + k3) + k4)`, per component and lane.
+#[inline(always)]
+fn rk4_combine<const L: usize>(y: &mut [Lanes<L>], c: f64, k: [&[Lanes<L>]; 4]) {
+    if is_dense::<L>() {
+        let y = flat_mut(y);
+        let (k1, k2, k3, k4) = (flat(k[0]), flat(k[1]), flat(k[2]), flat(k[3]));
+        let m = y
+            .len()
+            .min(k1.len())
+            .min(k2.len())
+            .min(k3.len())
+            .min(k4.len());
+        for j in 0..m {
+            y[j] += c * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
+        }
+    } else {
+        let [k1, k2, k3, k4] = k;
+        let (c, two) = (Lanes::splat(c), Lanes::splat(2.0));
+        for j in 0..y.len() {
+            y[j] = y[j] + c * (k1[j] + two * (k2[j] + k3[j]) + k4[j]);
+        }
     }
 }
 
@@ -174,18 +206,14 @@ fn rk4_substep<G: LaneGeometry<L>, const L: usize>(
     let [k1, k2, k3, k4] = &mut ws.stages;
     let (q, off, t) = (&mut ws.q[..], &mut ws.off[..], &mut ws.tension[..]);
     let (y, tmp) = (&mut ws.y[..], &mut ws.trial[..]);
-    let half = Lanes::splat(0.5 * h);
     derivative(p, lay, y, force, q, off, t, k1);
-    axpy(tmp, y, half, k1);
+    axpy(tmp, y, 0.5 * h, k1);
     derivative(p, lay, tmp, force, q, off, t, k2);
-    axpy(tmp, y, half, k2);
+    axpy(tmp, y, 0.5 * h, k2);
     derivative(p, lay, tmp, force, q, off, t, k3);
-    axpy(tmp, y, Lanes::splat(h), k3);
+    axpy(tmp, y, h, k3);
     derivative(p, lay, tmp, force, q, off, t, k4);
-    let (c, two) = (Lanes::splat(h / 6.0), Lanes::splat(2.0));
-    for j in 0..y.len() {
-        y[j] = y[j] + c * (k1[j] + two * (k2[j] + k3[j]) + k4[j]);
-    }
+    rk4_combine(y, h / 6.0, [k1, k2, k3, k4]);
     project(lay, y);
 }
 
@@ -208,7 +236,9 @@ pub fn guarded_rk4<G: LaneGeometry<L>, const L: usize>(
     spec: StepSpec<'_, L>,
     ws: &mut LaneWorkspace<G, L>,
 ) -> [StepStatus; L] {
-    ws.start.copy_from_slice(&ws.y);
+    for j in 0..ws.y.len().min(ws.start.len()) {
+        ws.start[j] = ws.y[j];
+    }
     let h = spec.dt / spec.substeps as f64;
     for _ in 0..spec.substeps {
         rk4_substep(spec.params, ws, h);
@@ -224,10 +254,13 @@ fn classify<G: LaneGeometry<L>, const L: usize>(
     ws: &LaneWorkspace<G, L>,
 ) -> [StepStatus; L] {
     let (lay, y, start) = (ws.lay, &ws.y[..], &ws.start[..]);
-    let mut finite = [true; L];
-    for v in y {
-        and_mask(&mut finite, v.finite_mask());
+    // `v - v` is 0 for a finite v and NaN otherwise; the sum is an ordered
+    // floating-point reduction, which also keeps LLVM from gathering across lanes.
+    let mut poison = Lanes::zero();
+    for &v in y {
+        poison = poison + (v - v);
     }
+    let finite = poison.finite_mask();
     let one = Lanes::splat(1.0);
     let (mut unit, mut chord2, mut spin2) = (Lanes::zero(), Lanes::zero(), Lanes::zero());
     for i in 0..lay.n {

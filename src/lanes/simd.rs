@@ -23,19 +23,21 @@ impl<const L: usize> Lanes<L> {
     pub fn zero() -> Self {
         Self::splat(0.0)
     }
+    // Index loops, not iterator adaptors: they must inline completely into the
+    // dispatched kernels, or they would run as baseline code.
     #[inline(always)]
     fn map(self, f: impl Fn(f64) -> f64) -> Self {
         let mut out = self.0;
-        for v in out.iter_mut() {
-            *v = f(*v);
+        for k in 0..L {
+            out[k] = f(out[k]);
         }
         Self(out)
     }
     #[inline(always)]
     fn zip(self, other: Self, f: impl Fn(f64, f64) -> f64) -> Self {
         let mut out = self.0;
-        for (v, o) in out.iter_mut().zip(other.0) {
-            *v = f(*v, o);
+        for k in 0..L {
+            out[k] = f(out[k], other.0[k]);
         }
         Self(out)
     }
@@ -47,10 +49,12 @@ impl<const L: usize> Lanes<L> {
     pub fn abs(self) -> Self {
         self.map(f64::abs)
     }
-    /// `f64::max` per lane (same result as the scalar fold, NaN handling included).
+    /// The larger of two numbers per lane, written as compare-and-select so that it
+    /// vectorises. Like `f64::max` it returns the other operand when one is NaN;
+    /// it may differ from it only in the sign of a zero result.
     #[inline(always)]
     pub fn max(self, other: Self) -> Self {
-        self.zip(other, f64::max)
+        self.zip(other, |a, b| if b > a || a.is_nan() { b } else { a })
     }
     #[inline(always)]
     pub fn min(self, other: Self) -> Self {
@@ -59,14 +63,18 @@ impl<const L: usize> Lanes<L> {
     /// Lanes whose value is finite (not NaN, not infinite).
     #[inline(always)]
     pub fn finite_mask(self) -> [bool; L] {
-        self.0.map(f64::is_finite)
+        let mut out = [false; L];
+        for k in 0..L {
+            out[k] = self.0[k].is_finite();
+        }
+        out
     }
     /// Lanes whose value is greater than `limit` (false for NaN).
     #[inline(always)]
     pub fn greater_mask(self, limit: Self) -> [bool; L] {
         let mut out = [false; L];
-        for ((o, v), l) in out.iter_mut().zip(self.0).zip(limit.0) {
-            *o = v > l;
+        for k in 0..L {
+            out[k] = self.0[k] > limit.0[k];
         }
         out
     }
@@ -96,12 +104,29 @@ impl<const L: usize> Neg for Lanes<L> {
     }
 }
 
-/// `a &= b` lane by lane.
+/// Whether `[Lanes<L>]` is a dense array of numbers (no alignment padding), true
+/// for every `L` that is a multiple of 8.
+pub const fn is_dense<const L: usize>() -> bool {
+    std::mem::size_of::<Lanes<L>>() == 8 * L
+}
+
+/// A dense buffer of lanes as one flat slice of numbers, so that element-wise loops
+/// over whole states run over contiguous memory (and LLVM vectorises them along
+/// it rather than gathering across lanes). Callers check [`is_dense`].
 #[inline(always)]
-pub fn and_mask<const L: usize>(a: &mut [bool; L], b: [bool; L]) {
-    for (x, y) in a.iter_mut().zip(b) {
-        *x &= y;
-    }
+pub fn flat_mut<const L: usize>(v: &mut [Lanes<L>]) -> &mut [f64] {
+    assert!(is_dense::<L>());
+    let len = v.len() * L;
+    // SAFETY: `Lanes<L>` is `repr(C)` around `[f64; L]` with no padding (checked).
+    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), len) }
+}
+
+/// Shared [`flat_mut`].
+#[inline(always)]
+pub fn flat<const L: usize>(v: &[Lanes<L>]) -> &[f64] {
+    assert!(is_dense::<L>());
+    // SAFETY: as in `flat_mut`.
+    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len() * L) }
 }
 
 #[cfg(test)]

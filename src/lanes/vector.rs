@@ -50,12 +50,16 @@ impl<const D: usize, const L: usize> LaneVector<L> for LaneVec<D, L> {
     #[inline(always)]
     fn load(y: &[Lanes<L>], at: usize) -> Self {
         let mut out = Self::zero();
-        out.0.copy_from_slice(&y[at..at + D]);
+        for d in 0..D {
+            out.0[d] = y[at + d];
+        }
         out
     }
     #[inline(always)]
     fn store(self, y: &mut [Lanes<L>], at: usize) {
-        y[at..at + D].copy_from_slice(&self.0);
+        for d in 0..D {
+            y[at + d] = self.0[d];
+        }
     }
 }
 
