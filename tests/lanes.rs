@@ -300,3 +300,68 @@ fn rk4_batches_pick_the_lane_kernel_and_other_methods_refuse_it() {
     let e = other.set_kernel(Some(Kernel::Baseline)).unwrap_err();
     assert!(e.to_string().contains("rk4"), "{e}");
 }
+
+/// Everything an env batch reports over `steps` steps, as bits.
+fn env_batch_run<G: LaneGeometry<{ chaincart::lanes::LANES }>>(
+    n: usize,
+    n_envs: usize,
+    mode: chaincart::env::AutoresetMode,
+    kernel: Option<Kernel>,
+) -> Vec<u64> {
+    use chaincart::env::{EnvBatch, StepOutputs, TaskConfig};
+    let mut task = TaskConfig::new(vec![-1.0; n], 0.02, StepOptions::default());
+    task.max_episode_steps = 40;
+    task.start_noise = 0.3;
+    task.max_force = 30.0;
+    let params = ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap();
+    let mut b = EnvBatch::new(Chain::<G>::new(params), task, n_envs, 77, mode, true).unwrap();
+    b.set_kernel(kernel).unwrap();
+    let (d, f) = (b.state_dim(), b.force_dim());
+    let mut rng = rng(3);
+    let (mut obs, mut rewards) = (vec![0.0f32; n_envs * d], vec![0.0; n_envs]);
+    let (mut terminated, mut truncated) = (vec![false; n_envs], vec![false; n_envs]);
+    let mut out = vec![];
+    for _ in 0..90 {
+        let actions: Vec<f64> = (0..n_envs * f)
+            .map(|_| rng.random_range(-3.0..3.0))
+            .collect();
+        let buffers = StepOutputs {
+            obs: &mut obs,
+            rewards: &mut rewards,
+            terminated: &mut terminated,
+            truncated: &mut truncated,
+        };
+        b.step(&actions, buffers).unwrap();
+        out.extend(obs.iter().map(|v| v.to_bits() as u64));
+        out.extend(bits(&rewards));
+        out.extend(terminated.iter().chain(&truncated).map(|&t| t as u64));
+        out.extend(b.events().iter().map(|&e| e as u64));
+        out.extend(bits(b.errors()));
+        out.extend(bits(b.diagnostics()));
+        out.extend(bits(b.final_states()));
+    }
+    out.extend(bits(b.states()));
+    out
+}
+
+#[test]
+fn env_batches_give_the_same_bits_with_and_without_lanes() {
+    use chaincart::env::AutoresetMode;
+    for mode in [AutoresetMode::NextStep, AutoresetMode::SameStep] {
+        for n_envs in [5, 33, 70] {
+            let spatial = env_batch_run::<Spatial>(3, n_envs, mode, None);
+            let planar = env_batch_run::<Planar>(2, n_envs, mode, None);
+            for kernel in available_kernels() {
+                let k = Some(kernel);
+                assert!(
+                    env_batch_run::<Spatial>(3, n_envs, mode, k) == spatial,
+                    "{mode:?}"
+                );
+                assert!(
+                    env_batch_run::<Planar>(2, n_envs, mode, k) == planar,
+                    "{mode:?}"
+                );
+            }
+        }
+    }
+}

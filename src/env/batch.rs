@@ -10,9 +10,11 @@
 use super::config::{AutoresetMode, TaskConfig};
 use super::start::{base_state, perturb};
 use crate::any::AnyChain;
-use crate::batch::{GuardedStepper, CHUNK};
+use crate::batch::{CHUNK, MIN_LANE_ENVS};
 use crate::error::{ChainError, Result};
 use crate::geometry::{Geometry, Layout, Planar, Spatial, Vector};
+use crate::integrate::Method;
+use crate::lanes::{ChunkWorker, Kernel, LaneChunk, LaneGeometry, StepPlan, LANES};
 use crate::model::Chain;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -102,7 +104,7 @@ struct Ctx<'a, G: Geometry> {
 struct Chunk<'a, G: Geometry, T: Real, A: Real> {
     states: &'a mut [f64],
     slots: &'a mut [Slot],
-    worker: &'a mut GuardedStepper<G>,
+    worker: &'a mut ChunkWorker<G>,
     actions: &'a [A],
     obs: &'a mut [T],
     rewards: &'a mut [f64],
@@ -160,7 +162,7 @@ pub struct EnvBatch<G: Geometry> {
     n_envs: usize,
     states: Vec<f64>,
     slots: Vec<Slot>,
-    workers: Vec<GuardedStepper<G>>,
+    workers: Vec<ChunkWorker<G>>,
     events: Vec<u8>,
     /// `(e_q, e_w)` per env after the last step (before any same-step reset).
     errors: Vec<f64>,
@@ -197,7 +199,7 @@ impl<G: Geometry> EnvBatch<G> {
             })
             .collect();
         let workers = (0..n_envs.div_ceil(CHUNK))
-            .map(|_| GuardedStepper::new(&chain))
+            .map(|_| ChunkWorker::new(&chain))
             .collect();
         let mut batch = Self {
             task,
@@ -518,6 +520,39 @@ impl<G: Geometry> EnvBatch<G> {
     }
 }
 
+impl<G: LaneGeometry<LANES>> EnvBatch<G> {
+    /// Steps the physics with the lane kernel (`None`: env by env). Both give the
+    /// same bits. Errors if the CPU lacks the kernel or the integrator is not rk4.
+    pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
+        if let Some(kernel) = kernel {
+            kernel.checked()?;
+            if self.task.step_options.method != Method::Rk4 {
+                return Err(ChainError::InvalidParameter {
+                    name: "kernel",
+                    value: kernel as u8 as f64,
+                    expected: "None unless the integrator is rk4 (the only one with a lane kernel)",
+                });
+            }
+        }
+        for (i, worker) in self.workers.iter_mut().enumerate() {
+            let chunk_len = CHUNK.min(self.n_envs - i * CHUNK);
+            *worker = ChunkWorker::new(&self.chain);
+            if let Some(kernel) = kernel {
+                worker.enable_lanes(Box::new(LaneChunk::shared(&self.chain, kernel)), chunk_len);
+            }
+        }
+        Ok(())
+    }
+
+    /// Default physics path: the lane kernel for rk4 batches of [`MIN_LANE_ENVS`] or more.
+    fn with_default_kernel(mut self) -> Result<Self> {
+        if self.task.step_options.method == Method::Rk4 && self.n_envs >= MIN_LANE_ENVS {
+            self.set_kernel(Some(Kernel::detect()))?;
+        }
+        Ok(self)
+    }
+}
+
 /// A length that must be exactly `expected`.
 fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
     if got == expected {
@@ -535,10 +570,25 @@ fn run_chunk<G: Geometry, T: Real, A: Real>(ctx: &Ctx<'_, G>, c: Chunk<'_, G, T,
     let d = ctx.chain.state_dim();
     let f = ctx.chain.force_dim();
     let nd = DIAGNOSTICS.len();
+    if c.worker.uses_lanes() {
+        // Physics of the whole chunk first, one env per SIMD lane; step_env then
+        // reads each env's status.
+        for (k, slot) in c.slots.iter().enumerate() {
+            let (force, _) = env_force(&c.actions[k * f..(k + 1) * f], ctx.task.max_force);
+            c.worker.queue(k, &force, !slot.ended);
+        }
+        let plan = StepPlan {
+            dt: ctx.task.dt,
+            substeps: ctx.task.step_options.substeps,
+            guard: &ctx.task.guard,
+        };
+        c.worker.run_queue(c.states, plan);
+    }
     for k in 0..c.slots.len() {
         step_env(
             ctx,
             c.worker,
+            k,
             &mut c.slots[k],
             &mut c.states[k * d..(k + 1) * d],
             &c.actions[k * f..(k + 1) * f],
@@ -594,9 +644,25 @@ fn write_diagnostics<G: Geometry>(chain: &Chain<G>, y: &[f64], diag: &mut [f64])
     diag.copy_from_slice(&[e.total(), e.kinetic, e.potential, r.unit_length, r.tangency]);
 }
 
+/// The force an action asks for, `max_force * clip(action, -1, 1)`, and the squared
+/// norm of the clipped action.
+#[inline(always)]
+fn env_force<A: Real>(action: &[A], max_force: f64) -> ([f64; 3], f64) {
+    let mut force = [0.0; 3];
+    let mut a2 = 0.0;
+    for (fk, a) in force.iter_mut().zip(action) {
+        let a = a.to_f64().clamp(-1.0, 1.0);
+        a2 += a * a;
+        *fk = a * max_force;
+    }
+    (force, a2)
+}
+
+#[allow(clippy::too_many_arguments)]
 fn step_env<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
-    worker: &mut GuardedStepper<G>,
+    worker: &mut ChunkWorker<G>,
+    k: usize,
     slot: &mut Slot,
     y: &mut [f64],
     action: &[A],
@@ -628,14 +694,9 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         return;
     }
 
-    let mut force = [0.0; 3];
-    let mut a2 = 0.0;
-    for (fk, a) in force.iter_mut().zip(action) {
-        let a = a.to_f64().clamp(-1.0, 1.0);
-        a2 += a * a;
-        *fk = a * task.max_force;
-    }
-    let status = worker.step(
+    let (force, a2) = env_force(action, task.max_force);
+    let status = worker.step_env(
+        k,
         chain,
         y,
         G::Cart::load(&force),
@@ -718,12 +779,12 @@ impl AnyEnvBatch {
         diagnostics: bool,
     ) -> Result<Self> {
         Ok(match chain {
-            AnyChain::Spatial(c) => {
-                AnyEnvBatch::Spatial(EnvBatch::new(c, task, n_envs, seed, mode, diagnostics)?)
-            }
-            AnyChain::Planar(c) => {
-                AnyEnvBatch::Planar(EnvBatch::new(c, task, n_envs, seed, mode, diagnostics)?)
-            }
+            AnyChain::Spatial(c) => AnyEnvBatch::Spatial(
+                EnvBatch::new(c, task, n_envs, seed, mode, diagnostics)?.with_default_kernel()?,
+            ),
+            AnyChain::Planar(c) => AnyEnvBatch::Planar(
+                EnvBatch::new(c, task, n_envs, seed, mode, diagnostics)?.with_default_kernel()?,
+            ),
         })
     }
     pub fn is_planar(&self) -> bool {

@@ -7,11 +7,13 @@
 //! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
 //! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
 //! * [`stepper`]: env-major batches in and out of lane groups.
+//! * [`chunk`]: a chunk worker for scene-generic batches (the env batch).
 //!
 //! Each lane computes exactly what the scalar code computes for its env (no fused
 //! multiply-adds, same operation order), so results do not depend on the lane width,
 //! the kernel chosen or which envs share a group. See `docs/simd.md`.
 
+pub mod chunk;
 pub mod dispatch;
 pub mod params;
 pub mod rk4;
@@ -19,6 +21,7 @@ pub mod simd;
 pub mod stepper;
 pub mod vector;
 
+pub use chunk::{ChunkLanes, ChunkWorker, LaneChunk};
 pub use dispatch::Kernel;
 pub use params::LaneParams;
 pub use stepper::{LaneStepper, StepPlan};
