@@ -3,6 +3,7 @@
 
 use chaincart::batch::CHUNK;
 use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs, TaskConfig};
+use chaincart::lanes::Kernel;
 use chaincart::{ChainParams, SpatialChain, StepOptions};
 #[path = "../common/alloc_counter.rs"]
 mod alloc_counter;
@@ -19,7 +20,11 @@ fn env_steps_and_resets_allocate_nothing() {
         AutoresetMode::SameStep,
         AutoresetMode::Disabled,
     ] {
-        for n in [1, CHUNK, 8 * CHUNK] {
+        // Env by env (None) and one env per SIMD lane.
+        for (n, kernel) in [1, CHUNK, 8 * CHUNK]
+            .into_iter()
+            .flat_map(|n| [(n, None), (n, Some(Kernel::detect()))])
+        {
             let mut task = TaskConfig::new(vec![-1.0; 3], 0.01, StepOptions::default());
             // Short episodes and a narrow track: every kind of episode end happens.
             task.max_episode_steps = 3;
@@ -27,6 +32,7 @@ fn env_steps_and_resets_allocate_nothing() {
             task.start_noise = 0.1;
             let chain = SpatialChain::new(ChainParams::uniform(3, 1.0, 0.1, 0.3, 9.81).unwrap());
             let mut batch = EnvBatch::new(chain, task, n, 1, mode, true).unwrap();
+            batch.set_kernel(kernel).unwrap();
             let d = batch.state_dim();
             let (mut obs, mut rewards) = (vec![0.0f32; n * d], vec![0.0; n]);
             let (mut terminated, mut truncated) = (vec![false; n], vec![false; n]);
@@ -54,8 +60,10 @@ fn env_steps_and_resets_allocate_nothing() {
             run(&mut batch);
             let (after, after_here) = counts();
             let (during, here) = (after - before, after_here - before_here);
-            eprintln!("{mode:?} N = {n}: {during} allocations ({here} on the calling thread)");
-            assert_eq!(here, 0, "{mode:?} N = {n}");
+            eprintln!(
+                "{mode:?} N = {n} {kernel:?}: {during} allocations ({here} on the calling thread)"
+            );
+            assert_eq!(here, 0, "{mode:?} N = {n} {kernel:?}");
             // A stray allocation or two can come from the harness's other threads;
             // anything that scaled with N would show far more.
             assert!(during <= 5, "{mode:?} N = {n}: {during} allocations");
