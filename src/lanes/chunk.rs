@@ -15,7 +15,7 @@ use crate::integrate::StepOptions;
 use crate::model::Chain;
 
 /// The lane kernel for one chunk, seen from scene-generic code.
-pub trait ChunkLanes: Send {
+pub trait ChunkLanes: Send + Sync {
     /// Steps the envs with `stepped[k]` (see [`LaneStepper::step`]).
     fn step(
         &mut self,
