@@ -11,13 +11,21 @@ use super::vector::{LaneGeometry, LaneVector};
 use crate::batch::{Guard, StepStatus};
 use crate::geometry::Layout;
 
+/// The per-link rows of the tension system of one derivative evaluation.
+#[derive(Debug, Clone)]
+struct Sweep<G: LaneGeometry<L>, const L: usize> {
+    q: Vec<G::LinkL>,
+    /// Eliminated super-diagonal.
+    off: Vec<Lanes<L>>,
+    /// Eliminated right-hand side, then the tensions.
+    tension: Vec<Lanes<L>>,
+}
+
 /// Buffers of one lane group, allocated once.
 #[derive(Debug, Clone)]
 pub struct LaneWorkspace<G: LaneGeometry<L>, const L: usize> {
     pub(crate) lay: Layout<G>,
-    q: Vec<G::LinkL>,
-    off: Vec<Lanes<L>>,
-    tension: Vec<Lanes<L>>,
+    sweep: Sweep<G, L>,
     stages: [Vec<Lanes<L>>; 4],
     trial: Vec<Lanes<L>>,
     /// State at the start of the control period (the guard compares against it).
@@ -33,9 +41,11 @@ impl<G: LaneGeometry<L>, const L: usize> LaneWorkspace<G, L> {
         let v = || vec![Lanes::zero(); lay.dim()];
         Self {
             lay,
-            q: vec![G::LinkL::zero(); n],
-            off: vec![Lanes::zero(); n],
-            tension: vec![Lanes::zero(); n],
+            sweep: Sweep {
+                q: vec![G::LinkL::zero(); n],
+                off: vec![Lanes::zero(); n],
+                tension: vec![Lanes::zero(); n],
+            },
             stages: [v(), v(), v(), v()],
             trial: v(),
             start: v(),
@@ -80,11 +90,10 @@ fn forward_sweep<G: LaneGeometry<L>, const L: usize>(
     lay: Layout<G>,
     y: &[Lanes<L>],
     force: G::CartL,
-    q_buf: &mut [G::LinkL],
-    off_buf: &mut [Lanes<L>],
-    tension: &mut [Lanes<L>],
+    sweep: &mut Sweep<G, L>,
     dy: &mut [Lanes<L>],
 ) {
+    let (q_buf, off_buf, tension) = (&mut sweep.q, &mut sweep.off, &mut sweep.tension);
     let one = Lanes::splat(1.0);
     let mut pivot_inv = Lanes::zero();
     for i in 0..lay.n {
@@ -118,12 +127,11 @@ fn derivative<G: LaneGeometry<L>, const L: usize>(
     lay: Layout<G>,
     y: &[Lanes<L>],
     force: G::CartL,
-    q_buf: &mut [G::LinkL],
-    off_buf: &mut [Lanes<L>],
-    tension: &mut [Lanes<L>],
+    sweep: &mut Sweep<G, L>,
     dy: &mut [Lanes<L>],
 ) {
-    forward_sweep(p, lay, y, force, q_buf, off_buf, tension, dy);
+    forward_sweep(p, lay, y, force, sweep, dy);
+    let (q_buf, off_buf, tension) = (&sweep.q, &sweep.off, &mut sweep.tension);
     let n = lay.n;
     // Back substitution from the free end, where T_{n+1} = 0.
     let mut t_next = Lanes::zero();
@@ -204,15 +212,15 @@ fn rk4_substep<G: LaneGeometry<L>, const L: usize>(
     let lay = ws.lay;
     let force = ws.force;
     let [k1, k2, k3, k4] = &mut ws.stages;
-    let (q, off, t) = (&mut ws.q[..], &mut ws.off[..], &mut ws.tension[..]);
+    let sw = &mut ws.sweep;
     let (y, tmp) = (&mut ws.y[..], &mut ws.trial[..]);
-    derivative(p, lay, y, force, q, off, t, k1);
+    derivative(p, lay, y, force, sw, k1);
     axpy(tmp, y, 0.5 * h, k1);
-    derivative(p, lay, tmp, force, q, off, t, k2);
+    derivative(p, lay, tmp, force, sw, k2);
     axpy(tmp, y, 0.5 * h, k2);
-    derivative(p, lay, tmp, force, q, off, t, k3);
+    derivative(p, lay, tmp, force, sw, k3);
     axpy(tmp, y, h, k3);
-    derivative(p, lay, tmp, force, q, off, t, k4);
+    derivative(p, lay, tmp, force, sw, k4);
     rk4_combine(y, h / 6.0, [k1, k2, k3, k4]);
     project(lay, y);
 }
@@ -258,7 +266,7 @@ fn classify<G: LaneGeometry<L>, const L: usize>(
     // floating-point reduction, which also keeps LLVM from gathering across lanes.
     let mut poison = Lanes::zero();
     for &v in y {
-        poison = poison + (v - v);
+        poison = poison + nan_unless_finite(v);
     }
     let finite = poison.finite_mask();
     let one = Lanes::splat(1.0);
@@ -287,6 +295,13 @@ fn classify<G: LaneGeometry<L>, const L: usize>(
         };
     }
     status
+}
+
+/// `v - v`: 0 where v is finite, NaN where it is infinite or NaN.
+#[inline(always)]
+#[allow(clippy::eq_op)]
+fn nan_unless_finite<const L: usize>(v: Lanes<L>) -> Lanes<L> {
+    v - v
 }
 
 /// The angle between the old and new link directions spread over the substeps,

@@ -6,6 +6,11 @@
 //! inputs. Everything is `#[inline(always)]` so that it is compiled inside the
 //! dispatched kernels with their target features.
 
+// Index loops on purpose: iterator adaptors and `copy_from_slice` are not always
+// inlined, and whatever is not inlined runs as baseline code outside the
+// dispatched kernels.
+#![allow(clippy::needless_range_loop)]
+
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// One number per lane. Aligned to 64 bytes so that eight f64 lanes fill one

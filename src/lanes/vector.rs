@@ -2,6 +2,11 @@
 //! [`crate::geometry`] operation for operation (same terms, same order, the same
 //! zero components), so that each lane reproduces the scalar result exactly.
 
+// Index loops on purpose: iterator adaptors and `copy_from_slice` are not always
+// inlined, and whatever is not inlined runs as baseline code outside the
+// dispatched kernels.
+#![allow(clippy::manual_memcpy)]
+
 use super::simd::Lanes;
 use crate::geometry::{Planar, Spatial};
 use std::ops::{Add, Mul, Sub};
