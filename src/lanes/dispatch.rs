@@ -4,9 +4,9 @@
 //! detection, so the shipped library is built for baseline x86-64 and still uses
 //! AVX2 or AVX-512 where present. No clone enables FMA: results are the same on all.
 
-use super::rk4::{guarded_rk4, LaneWorkspace, StepSpec};
+use super::rk4::LaneWorkspace;
+use super::stepper::{step_groups, Groups};
 use super::vector::LaneGeometry;
-use crate::batch::StepStatus;
 use crate::error::{ChainError, Result};
 
 /// One compiled variant of the lane kernel.
@@ -67,42 +67,42 @@ impl Kernel {
     }
 }
 
-/// [`guarded_rk4`] compiled for `kernel`. A kernel the CPU lacks is never run:
+/// [`step_groups`] compiled for `kernel`. A kernel the CPU lacks is never run:
 /// it falls back to the baseline one (callers check with [`Kernel::checked`]).
-pub fn run_guarded_rk4<G: LaneGeometry<L>, const L: usize>(
+pub fn run_groups<G: LaneGeometry<L>, const L: usize>(
     kernel: Kernel,
-    spec: StepSpec<'_, L>,
     ws: &mut LaneWorkspace<G, L>,
-) -> [StepStatus; L] {
+    groups: Groups<'_, L>,
+) {
     #[cfg(target_arch = "x86_64")]
     {
         if kernel == Kernel::Avx512 && kernel.is_available() {
             // SAFETY: the CPU supports AVX-512F (checked just above).
-            return unsafe { rk4_avx512(spec, ws) };
+            return unsafe { groups_avx512(ws, groups) };
         }
         if kernel == Kernel::Avx2 && kernel.is_available() {
             // SAFETY: the CPU supports AVX2 (checked just above).
-            return unsafe { rk4_avx2(spec, ws) };
+            return unsafe { groups_avx2(ws, groups) };
         }
     }
     let _ = kernel;
-    guarded_rk4(spec, ws)
+    step_groups(ws, groups)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[multiversion::target("x86_64+avx+avx2")]
-unsafe fn rk4_avx2<G: LaneGeometry<L>, const L: usize>(
-    spec: StepSpec<'_, L>,
+unsafe fn groups_avx2<G: LaneGeometry<L>, const L: usize>(
     ws: &mut LaneWorkspace<G, L>,
-) -> [StepStatus; L] {
-    guarded_rk4(spec, ws)
+    groups: Groups<'_, L>,
+) {
+    step_groups(ws, groups)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[multiversion::target("x86_64+avx+avx2+avx512f")]
-unsafe fn rk4_avx512<G: LaneGeometry<L>, const L: usize>(
-    spec: StepSpec<'_, L>,
+unsafe fn groups_avx512<G: LaneGeometry<L>, const L: usize>(
     ws: &mut LaneWorkspace<G, L>,
-) -> [StepStatus; L] {
-    guarded_rk4(spec, ws)
+    groups: Groups<'_, L>,
+) {
+    step_groups(ws, groups)
 }

@@ -4,9 +4,12 @@
 //! failed env keeps its last good state without a backup copy and without touching
 //! its neighbours.
 
-use super::dispatch::{run_guarded_rk4, Kernel};
+// Index loops on purpose: they must inline into the dispatched kernels.
+#![allow(clippy::needless_range_loop)]
+
+use super::dispatch::{run_groups, Kernel};
 use super::params::LaneParams;
-use super::rk4::{LaneWorkspace, StepSpec};
+use super::rk4::{guarded_rk4, LaneWorkspace, StepSpec};
 use super::simd::Lanes;
 use super::vector::{LaneGeometry, LaneVector};
 use crate::batch::{Guard, StepStatus};
@@ -17,6 +20,16 @@ pub struct StepPlan<'a> {
     pub dt: f64,
     pub substeps: usize,
     pub guard: &'a Guard,
+}
+
+/// The envs of one [`LaneStepper::step`] call and where their results go.
+pub struct Groups<'a, const L: usize> {
+    pub params: &'a [LaneParams<L>],
+    pub states: &'a mut [f64],
+    pub forces: &'a [f64],
+    pub stepped: Option<&'a [bool]>,
+    pub plan: StepPlan<'a>,
+    pub status: &'a mut [StepStatus],
 }
 
 /// The buffers of one worker's lane groups, allocated once.
@@ -52,52 +65,84 @@ impl<G: LaneGeometry<L>, const L: usize> LaneStepper<G, L> {
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
     ) {
-        let d = self.state_dim();
-        let n_envs = status.len();
-        debug_assert_eq!(states.len(), n_envs * d);
-        for (group, first) in (0..n_envs).step_by(L).enumerate() {
-            let filled = L.min(n_envs - first);
-            if stepped.is_some_and(|s| !s[first..first + filled].contains(&true)) {
+        debug_assert_eq!(states.len(), status.len() * self.state_dim());
+        let groups = Groups {
+            params,
+            states,
+            forces,
+            stepped,
+            plan,
+            status,
+        };
+        run_groups(kernel, &mut self.ws, groups);
+    }
+}
+
+/// [`LaneStepper::step`]'s work: transpose in, step, transpose out, group by group.
+/// Inlined into each dispatched kernel so that the transposes get its instructions too.
+#[inline(always)]
+pub(crate) fn step_groups<G: LaneGeometry<L>, const L: usize>(
+    ws: &mut LaneWorkspace<G, L>,
+    g: Groups<'_, L>,
+) {
+    let d = ws.lay.dim();
+    let n_envs = g.status.len();
+    for (group, first) in (0..n_envs).step_by(L).enumerate() {
+        let filled = L.min(n_envs - first);
+        if g.stepped
+            .is_some_and(|s| !s[first..first + filled].contains(&true))
+        {
+            continue;
+        }
+        gather(ws, g.states, g.forces, first, filled);
+        let spec = StepSpec {
+            params: &g.params[if g.params.len() == 1 { 0 } else { group }],
+            dt: g.plan.dt,
+            substeps: g.plan.substeps,
+            guard: g.plan.guard,
+        };
+        let verdict = guarded_rk4(spec, ws);
+        for lane in 0..filled {
+            let env = first + lane;
+            if g.stepped.is_some_and(|s| !s[env]) {
                 continue;
             }
-            self.gather(states, forces, first, filled);
-            let spec = StepSpec {
-                params: &params[if params.len() == 1 { 0 } else { group }],
-                dt: plan.dt,
-                substeps: plan.substeps,
-                guard: plan.guard,
-            };
-            let verdict = run_guarded_rk4(kernel, spec, &mut self.ws);
-            for (lane, &lane_status) in verdict[..filled].iter().enumerate() {
-                let env = first + lane;
-                if stepped.is_some_and(|s| !s[env]) {
-                    continue;
-                }
-                status[env] = lane_status;
-                if !lane_status.is_failure() {
-                    for (j, v) in states[env * d..(env + 1) * d].iter_mut().enumerate() {
-                        *v = self.ws.y[j].0[lane];
-                    }
+            g.status[env] = verdict[lane];
+            if !verdict[lane].is_failure() {
+                let (row, y) = (&mut g.states[env * d..(env + 1) * d], &ws.y[..d]);
+                for j in 0..d {
+                    row[j] = y[j].0[lane];
                 }
             }
         }
     }
+}
 
-    /// Transposes envs `first..first + filled` into the lanes; lanes past the end
-    /// repeat the first env (their results are discarded).
-    fn gather(&mut self, states: &[f64], forces: &[f64], first: usize, filled: usize) {
-        let d = self.state_dim();
-        let f = G::CartL::DIM;
-        let mut force = [Lanes::<L>::zero(); 3];
-        for lane in 0..L {
-            let env = first + if lane < filled { lane } else { 0 };
-            for (j, &v) in states[env * d..(env + 1) * d].iter().enumerate() {
-                self.ws.y[j].0[lane] = v;
-            }
-            for (c, component) in force.iter_mut().enumerate().take(f) {
-                component.0[lane] = forces[env * f + c];
-            }
+/// Transposes envs `first..first + filled` into the lanes; lanes past the end
+/// repeat the first env (their results are discarded).
+#[inline(always)]
+fn gather<G: LaneGeometry<L>, const L: usize>(
+    ws: &mut LaneWorkspace<G, L>,
+    states: &[f64],
+    forces: &[f64],
+    first: usize,
+    filled: usize,
+) {
+    let d = ws.lay.dim();
+    let f = G::CartL::DIM;
+    // Slices of known length let LLVM drop the bounds checks of the inner loops.
+    let y = &mut ws.y[..d];
+    let mut force = [Lanes::<L>::zero(); 3];
+    for lane in 0..L {
+        let env = first + if lane < filled { lane } else { 0 };
+        let row = &states[env * d..(env + 1) * d];
+        for j in 0..d {
+            y[j].0[lane] = row[j];
         }
-        self.ws.force = G::CartL::load(&force, 0);
+        let push = &forces[env * f..(env + 1) * f];
+        for c in 0..f {
+            force[c].0[lane] = push[c];
+        }
     }
+    ws.force = G::CartL::load(&force, 0);
 }
