@@ -365,3 +365,40 @@ fn env_batches_give_the_same_bits_with_and_without_lanes() {
         }
     }
 }
+
+#[test]
+fn a_chunk_with_a_chain_per_env_steps_each_env_as_its_own_chain() {
+    use chaincart::lanes::{ChunkLanes, LaneChunk, LANES};
+    let mut rng = rng(12);
+    let n_envs = 2 * LANES + 3;
+    let params: Vec<ChainParams> = (0..n_envs)
+        .map(|_| random_params(&mut rng, 4, 10.0, 10.0))
+        .collect();
+    let chain = Chain::<Spatial>::new(params[0].clone());
+    let mut lanes = LaneChunk::per_env(&chain, &params, Kernel::detect()).unwrap();
+    let mut states: Vec<f64> = (0..n_envs)
+        .flat_map(|_| random_spatial_state(&mut rng, 4, 3.0))
+        .collect();
+    let start = states.clone();
+    let forces: Vec<f64> = (0..2 * n_envs).map(|j| (j % 7) as f64 - 3.0).collect();
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 1e-3,
+        substeps: 2,
+        guard: &guard,
+    };
+    let mut status = vec![StepStatus::SolverFailure; n_envs];
+    lanes.step(&mut states, &forces, &vec![true; n_envs], plan, &mut status);
+    let d = chain.state_dim();
+    let opts = StepOptions::new(Method::Rk4, 2).unwrap();
+    for (k, p) in params.iter().enumerate() {
+        let own = Chain::<Spatial>::new(p.clone());
+        let mut y = start[k * d..(k + 1) * d].to_vec();
+        let u = nalgebra::Vector2::new(forces[2 * k], forces[2 * k + 1]);
+        let expected = GuardedStepper::new(&own).step(&own, &mut y, u, 1e-3, &opts, &guard);
+        assert_eq!(status[k], expected, "env {k}");
+        assert_eq!(bits(&states[k * d..(k + 1) * d]), bits(&y), "env {k}");
+    }
+    let other = vec![ChainParams::uniform(3, 1.0, 1.0, 1.0, 9.81).unwrap()];
+    assert!(LaneChunk::per_env(&chain, &other, Kernel::Baseline).is_err());
+}

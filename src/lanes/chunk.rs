@@ -10,9 +10,11 @@ use super::stepper::{LaneStepper, StepPlan};
 use super::vector::LaneGeometry;
 use super::LANES;
 use crate::batch::{Guard, GuardedStepper, StepStatus};
+use crate::error::Result;
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::StepOptions;
 use crate::model::Chain;
+use crate::params::ChainParams;
 
 /// The lane kernel for one chunk, seen from scene-generic code.
 pub trait ChunkLanes: Send + Sync {
@@ -43,6 +45,28 @@ impl<G: LaneGeometry<LANES>> LaneChunk<G> {
             params: vec![LaneParams::broadcast(chain.params())],
             stepper: LaneStepper::new(chain.n_links()),
         }
+    }
+}
+
+impl<G: LaneGeometry<LANES>> LaneChunk<G> {
+    /// Env k of the chunk has the chain `params[k]` (all with the same number of
+    /// links as `chain`); unused lanes of the last group repeat its first env.
+    pub fn per_env(chain: &Chain<G>, params: &[ChainParams], kernel: Kernel) -> Result<Self> {
+        let groups = params
+            .chunks(LANES)
+            .map(|group| {
+                let mut lanes = LaneParams::broadcast(chain.params());
+                for lane in 0..LANES {
+                    lanes.set_lane(lane, group.get(lane).unwrap_or(&group[0]))?;
+                }
+                Ok(lanes)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self {
+            kernel,
+            params: groups,
+            stepper: LaneStepper::new(chain.n_links()),
+        })
     }
 }
 
