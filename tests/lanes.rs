@@ -42,12 +42,24 @@ fn compare<G: LaneGeometry<L> + RandomState, const L: usize>(
     substeps: usize,
     seed: u64,
 ) -> usize {
+    compare_with_ratios::<G, L>(kernel, n, n_envs, substeps, seed, 10.0)
+}
+
+/// [`compare`] with link masses and lengths spread over `ratio`.
+fn compare_with_ratios<G: LaneGeometry<L> + RandomState, const L: usize>(
+    kernel: Kernel,
+    n: usize,
+    n_envs: usize,
+    substeps: usize,
+    seed: u64,
+    ratio: f64,
+) -> usize {
     let mut rng = rng(seed);
     let (dt, steps) = (2e-3, 6);
     let guard = Guard::default();
     let opts = StepOptions::new(Method::Rk4, substeps).unwrap();
     let chains: Vec<Chain<G>> = (0..n_envs)
-        .map(|_| Chain::new(random_params(&mut rng, n, 10.0, 10.0)))
+        .map(|_| Chain::new(random_params(&mut rng, n, ratio, ratio)))
         .collect();
     let mut params: Vec<LaneParams<L>> = (0..n_envs.div_ceil(L))
         .map(|_| LaneParams::broadcast(&ChainParams::uniform(n, 1.0, 1.0, 1.0, 1.0).unwrap()))
@@ -122,6 +134,16 @@ fn every_kernel_matches_the_scalar_step_bit_for_bit_for_n_1_to_16() {
     }
     // The comparison covered the guard's failure branches too.
     assert!(failures > 0);
+}
+
+#[test]
+fn extreme_mass_and_length_ratios_change_no_bit() {
+    for kernel in available_kernels() {
+        for n in [2, 7, 16] {
+            compare_with_ratios::<Spatial, 8>(kernel, n, 17, 1, 60 + n as u64, 1e4);
+            compare_with_ratios::<Planar, 8>(kernel, n, 17, 2, 61 + n as u64, 1e4);
+        }
+    }
 }
 
 #[test]
