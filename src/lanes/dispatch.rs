@@ -85,12 +85,12 @@ pub fn run_groups<G: LaneGeometry<L>, const L: usize>(
             return unsafe { groups_avx2(ws, groups) };
         }
     }
-    let _ = kernel;
+    let _ = kernel; // only read on x86-64
     step_groups(ws, groups)
 }
 
 #[cfg(target_arch = "x86_64")]
-#[multiversion::target("x86_64+avx+avx2")]
+#[target_feature(enable = "avx,avx2")]
 unsafe fn groups_avx2<G: LaneGeometry<L>, const L: usize>(
     ws: &mut LaneWorkspace<G, L>,
     groups: Groups<'_, L>,
@@ -99,7 +99,7 @@ unsafe fn groups_avx2<G: LaneGeometry<L>, const L: usize>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[multiversion::target("x86_64+avx+avx2+avx512f")]
+#[target_feature(enable = "avx,avx2,avx512f")]
 unsafe fn groups_avx512<G: LaneGeometry<L>, const L: usize>(
     ws: &mut LaneWorkspace<G, L>,
     groups: Groups<'_, L>,
