@@ -54,16 +54,19 @@ impl<const D: usize, const L: usize> LaneVector<L> for LaneVec<D, L> {
     }
     #[inline(always)]
     fn load(y: &[Lanes<L>], at: usize) -> Self {
+        // One range check for the whole vector, none per component.
+        let src = &y[at..at + D];
         let mut out = Self::zero();
         for d in 0..D {
-            out.0[d] = y[at + d];
+            out.0[d] = src[d];
         }
         out
     }
     #[inline(always)]
     fn store(self, y: &mut [Lanes<L>], at: usize) {
+        let dst = &mut y[at..at + D];
         for d in 0..D {
-            y[at + d] = self.0[d];
+            dst[d] = self.0[d];
         }
     }
 }
