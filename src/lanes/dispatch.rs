@@ -5,6 +5,7 @@
 //! AVX2 or AVX-512 where present. No clone enables FMA: results are the same on all.
 
 use super::rk4::LaneWorkspace;
+use super::simd::LaneReal;
 use super::stepper::{step_groups, Groups};
 use super::vector::LaneGeometry;
 use crate::error::{ChainError, Result};
@@ -69,10 +70,10 @@ impl Kernel {
 
 /// [`step_groups`] compiled for `kernel`. A kernel the CPU lacks is never run:
 /// it falls back to the baseline one (callers check with [`Kernel::checked`]).
-pub fn run_groups<G: LaneGeometry<L>, const L: usize>(
+pub fn run_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     kernel: Kernel,
-    ws: &mut LaneWorkspace<G, L>,
-    groups: Groups<'_, L>,
+    ws: &mut LaneWorkspace<G, L, T>,
+    groups: Groups<'_, L, T>,
 ) {
     #[cfg(target_arch = "x86_64")]
     {
@@ -91,18 +92,18 @@ pub fn run_groups<G: LaneGeometry<L>, const L: usize>(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2")]
-unsafe fn groups_avx2<G: LaneGeometry<L>, const L: usize>(
-    ws: &mut LaneWorkspace<G, L>,
-    groups: Groups<'_, L>,
+unsafe fn groups_avx2<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    ws: &mut LaneWorkspace<G, L, T>,
+    groups: Groups<'_, L, T>,
 ) {
     step_groups(ws, groups)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2,avx512f")]
-unsafe fn groups_avx512<G: LaneGeometry<L>, const L: usize>(
-    ws: &mut LaneWorkspace<G, L>,
-    groups: Groups<'_, L>,
+unsafe fn groups_avx512<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    ws: &mut LaneWorkspace<G, L, T>,
+    groups: Groups<'_, L, T>,
 ) {
     step_groups(ws, groups)
 }

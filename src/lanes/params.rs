@@ -2,22 +2,22 @@
 //! (cart mass, link masses and lengths, gravity) while sharing the link count.
 //! A batch of one chain broadcasts the same values into every lane.
 
-use super::simd::Lanes;
+use super::simd::{LaneReal, Lanes};
 use crate::error::{ChainError, Result};
 use crate::params::ChainParams;
 
 /// The constants the lane kernel reads, one value per lane, computed exactly as
 /// [`crate::model::Chain`] computes them so that lanes reproduce the scalar path.
 #[derive(Debug, Clone)]
-pub struct LaneParams<const L: usize> {
-    pub(crate) inv_cart_mass: Lanes<L>,
-    pub(crate) gravity: Lanes<L>,
-    pub(crate) inv_masses: Vec<Lanes<L>>,
-    pub(crate) lengths: Vec<Lanes<L>>,
-    pub(crate) inv_lengths: Vec<Lanes<L>>,
+pub struct LaneParams<const L: usize, T: LaneReal = f64> {
+    pub(crate) inv_cart_mass: Lanes<L, T>,
+    pub(crate) gravity: Lanes<L, T>,
+    pub(crate) inv_masses: Vec<Lanes<L, T>>,
+    pub(crate) lengths: Vec<Lanes<L, T>>,
+    pub(crate) inv_lengths: Vec<Lanes<L, T>>,
 }
 
-impl<const L: usize> LaneParams<L> {
+impl<const L: usize, T: LaneReal> LaneParams<L, T> {
     /// Every lane carries `params`.
     pub fn broadcast(params: &ChainParams) -> Self {
         let n = params.n_links();
@@ -59,12 +59,13 @@ impl<const L: usize> LaneParams<L> {
     }
 
     fn fill_lane(&mut self, lane: usize, params: &ChainParams) {
-        self.inv_cart_mass.0[lane] = 1.0 / params.cart_mass();
-        self.gravity.0[lane] = params.gravity();
+        // Computed in f64 like the scalar path, then rounded to the lane type.
+        self.inv_cart_mass.0[lane] = T::from_f64(1.0 / params.cart_mass());
+        self.gravity.0[lane] = T::from_f64(params.gravity());
         for i in 0..params.n_links() {
-            self.inv_masses[i].0[lane] = params.inv_masses()[i];
-            self.lengths[i].0[lane] = params.lengths()[i];
-            self.inv_lengths[i].0[lane] = 1.0 / params.lengths()[i];
+            self.inv_masses[i].0[lane] = T::from_f64(params.inv_masses()[i]);
+            self.lengths[i].0[lane] = T::from_f64(params.lengths()[i]);
+            self.inv_lengths[i].0[lane] = T::from_f64(1.0 / params.lengths()[i]);
         }
     }
 }

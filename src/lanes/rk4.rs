@@ -6,36 +6,36 @@
 //! compiled into each dispatched kernel in [`super::dispatch`].
 
 use super::params::LaneParams;
-use super::simd::{flat, flat_mut, is_dense, Lanes};
+use super::simd::{flat, flat_mut, is_dense, LaneReal, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
 use crate::batch::{Guard, StepStatus};
 use crate::geometry::Layout;
 
 /// The per-link rows of the tension system of one derivative evaluation.
 #[derive(Debug, Clone)]
-struct Sweep<G: LaneGeometry<L>, const L: usize> {
+struct Sweep<G: LaneGeometry<L, T>, const L: usize, T: LaneReal = f64> {
     q: Vec<G::LinkL>,
     /// Eliminated super-diagonal.
-    off: Vec<Lanes<L>>,
+    off: Vec<Lanes<L, T>>,
     /// Eliminated right-hand side, then the tensions.
-    tension: Vec<Lanes<L>>,
+    tension: Vec<Lanes<L, T>>,
 }
 
 /// Buffers of one lane group, allocated once.
 #[derive(Debug, Clone)]
-pub struct LaneWorkspace<G: LaneGeometry<L>, const L: usize> {
+pub struct LaneWorkspace<G: LaneGeometry<L, T>, const L: usize, T: LaneReal = f64> {
     pub(crate) lay: Layout<G>,
-    sweep: Sweep<G, L>,
-    stages: [Vec<Lanes<L>>; 4],
-    trial: Vec<Lanes<L>>,
+    sweep: Sweep<G, L, T>,
+    stages: [Vec<Lanes<L, T>>; 4],
+    trial: Vec<Lanes<L, T>>,
     /// State at the start of the control period (the guard compares against it).
-    start: Vec<Lanes<L>>,
+    start: Vec<Lanes<L, T>>,
     /// The state being stepped, component-major: `y[j].0[k]` is component j of lane k.
-    pub(crate) y: Vec<Lanes<L>>,
+    pub(crate) y: Vec<Lanes<L, T>>,
     pub(crate) force: G::CartL,
 }
 
-impl<G: LaneGeometry<L>, const L: usize> LaneWorkspace<G, L> {
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWorkspace<G, L, T> {
     pub fn new(n: usize) -> Self {
         let lay = Layout::<G>::new(n);
         let v = || vec![Lanes::zero(); lay.dim()];
@@ -57,26 +57,26 @@ impl<G: LaneGeometry<L>, const L: usize> LaneWorkspace<G, L> {
 
 /// What one control step needs besides the buffers.
 #[derive(Debug, Clone, Copy)]
-pub struct StepSpec<'a, const L: usize> {
-    pub params: &'a LaneParams<L>,
+pub struct StepSpec<'a, const L: usize, T: LaneReal = f64> {
+    pub params: &'a LaneParams<L, T>,
     pub dt: f64,
     pub substeps: usize,
     pub guard: &'a Guard,
 }
 
 #[inline(always)]
-fn load_q<G: LaneGeometry<L>, const L: usize>(
+fn load_q<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     lay: Layout<G>,
-    y: &[Lanes<L>],
+    y: &[Lanes<L, T>],
     i: usize,
 ) -> G::LinkL {
     G::LinkL::load(y, lay.q(i))
 }
 
 #[inline(always)]
-fn load_w<G: LaneGeometry<L>, const L: usize>(
+fn load_w<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     lay: Layout<G>,
-    y: &[Lanes<L>],
+    y: &[Lanes<L, T>],
     i: usize,
 ) -> G::SpinL {
     G::SpinL::load(y, lay.w(i))
@@ -85,16 +85,16 @@ fn load_w<G: LaneGeometry<L>, const L: usize>(
 /// Forward sweep of the tension system (one row built and eliminated per link);
 /// writes `qdot_i` into `dy` and leaves the eliminated rows in the workspace.
 #[inline(always)]
-fn forward_sweep<G: LaneGeometry<L>, const L: usize>(
-    p: &LaneParams<L>,
+fn forward_sweep<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    p: &LaneParams<L, T>,
     lay: Layout<G>,
-    y: &[Lanes<L>],
+    y: &[Lanes<L, T>],
     force: G::CartL,
-    sweep: &mut Sweep<G, L>,
-    dy: &mut [Lanes<L>],
+    sweep: &mut Sweep<G, L, T>,
+    dy: &mut [Lanes<L, T>],
 ) {
     let (q_buf, off_buf, tension) = (&mut sweep.q, &mut sweep.off, &mut sweep.tension);
-    let one = Lanes::splat(1.0);
+    let one = Lanes::splat(T::ONE);
     let mut pivot_inv = Lanes::zero();
     for i in 0..lay.n {
         let q = load_q(lay, y, i);
@@ -122,13 +122,13 @@ fn forward_sweep<G: LaneGeometry<L>, const L: usize>(
 
 /// `dy = [xdot, xdd, qdot_1..n, wdot_1..n]` for every lane.
 #[inline(always)]
-fn derivative<G: LaneGeometry<L>, const L: usize>(
-    p: &LaneParams<L>,
+fn derivative<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    p: &LaneParams<L, T>,
     lay: Layout<G>,
-    y: &[Lanes<L>],
+    y: &[Lanes<L, T>],
     force: G::CartL,
-    sweep: &mut Sweep<G, L>,
-    dy: &mut [Lanes<L>],
+    sweep: &mut Sweep<G, L, T>,
+    dy: &mut [Lanes<L, T>],
 ) {
     forward_sweep(p, lay, y, force, sweep, dy);
     let (q_buf, off_buf, tension) = (&sweep.q, &sweep.off, &mut sweep.tension);
@@ -164,8 +164,14 @@ fn derivative<G: LaneGeometry<L>, const L: usize>(
 
 /// `out = a + c * b`, per component and lane.
 #[inline(always)]
-fn axpy<const L: usize>(out: &mut [Lanes<L>], a: &[Lanes<L>], c: f64, b: &[Lanes<L>]) {
-    if is_dense::<L>() {
+fn axpy<const L: usize, T: LaneReal>(
+    out: &mut [Lanes<L, T>],
+    a: &[Lanes<L, T>],
+    c: f64,
+    b: &[Lanes<L, T>],
+) {
+    let c = T::from_f64(c);
+    if is_dense::<L, T>() {
         let (out, a, b) = (flat_mut(out), flat(a), flat(b));
         let m = out.len().min(a.len()).min(b.len());
         for j in 0..m {
@@ -180,8 +186,9 @@ fn axpy<const L: usize>(out: &mut [Lanes<L>], a: &[Lanes<L>], c: f64, b: &[Lanes
 
 /// `y += c (k1 + 2 (k2 + k3) + k4)`, per component and lane.
 #[inline(always)]
-fn rk4_combine<const L: usize>(y: &mut [Lanes<L>], c: f64, k: [&[Lanes<L>]; 4]) {
-    if is_dense::<L>() {
+fn rk4_combine<const L: usize, T: LaneReal>(y: &mut [Lanes<L, T>], c: f64, k: [&[Lanes<L, T>]; 4]) {
+    let (c, two) = (T::from_f64(c), T::from_f64(2.0));
+    if is_dense::<L, T>() {
         let y = flat_mut(y);
         let (k1, k2, k3, k4) = (flat(k[0]), flat(k[1]), flat(k[2]), flat(k[3]));
         let m = y
@@ -191,11 +198,11 @@ fn rk4_combine<const L: usize>(y: &mut [Lanes<L>], c: f64, k: [&[Lanes<L>]; 4]) 
             .min(k3.len())
             .min(k4.len());
         for j in 0..m {
-            y[j] += c * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
+            y[j] = y[j] + c * (k1[j] + two * (k2[j] + k3[j]) + k4[j]);
         }
     } else {
         let [k1, k2, k3, k4] = k;
-        let (c, two) = (Lanes::splat(c), Lanes::splat(2.0));
+        let (c, two) = (Lanes::splat(c), Lanes::splat(two));
         for j in 0..y.len() {
             y[j] = y[j] + c * (k1[j] + two * (k2[j] + k3[j]) + k4[j]);
         }
@@ -204,9 +211,9 @@ fn rk4_combine<const L: usize>(y: &mut [Lanes<L>], c: f64, k: [&[Lanes<L>]; 4]) 
 
 /// One classical RK4 step of size `h` followed by the projection onto the constraints.
 #[inline(always)]
-fn rk4_substep<G: LaneGeometry<L>, const L: usize>(
-    p: &LaneParams<L>,
-    ws: &mut LaneWorkspace<G, L>,
+fn rk4_substep<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    p: &LaneParams<L, T>,
+    ws: &mut LaneWorkspace<G, L, T>,
     h: f64,
 ) {
     let lay = ws.lay;
@@ -227,8 +234,11 @@ fn rk4_substep<G: LaneGeometry<L>, const L: usize>(
 
 /// Restores `|q_i| = 1` and `w_i . q_i = 0`.
 #[inline(always)]
-fn project<G: LaneGeometry<L>, const L: usize>(lay: Layout<G>, y: &mut [Lanes<L>]) {
-    let one = Lanes::splat(1.0);
+fn project<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    lay: Layout<G>,
+    y: &mut [Lanes<L, T>],
+) {
+    let one = Lanes::splat(T::ONE);
     for i in 0..lay.n {
         let q = load_q(lay, y, i);
         let q = q * (one / q.norm_squared().sqrt());
@@ -240,9 +250,9 @@ fn project<G: LaneGeometry<L>, const L: usize>(lay: Layout<G>, y: &mut [Lanes<L>
 /// Advances `ws.y` by one control period under `ws.force` and returns each lane's
 /// status. Lanes that failed hold garbage in `ws.y`: the caller keeps their old state.
 #[inline(always)]
-pub fn guarded_rk4<G: LaneGeometry<L>, const L: usize>(
-    spec: StepSpec<'_, L>,
-    ws: &mut LaneWorkspace<G, L>,
+pub fn guarded_rk4<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    spec: StepSpec<'_, L, T>,
+    ws: &mut LaneWorkspace<G, L, T>,
 ) -> [StepStatus; L] {
     for j in 0..ws.y.len().min(ws.start.len()) {
         ws.start[j] = ws.y[j];
@@ -257,9 +267,9 @@ pub fn guarded_rk4<G: LaneGeometry<L>, const L: usize>(
 /// The scalar guard's verdict per lane: non-finite, then constraint violation, then
 /// a turn per step too large to resolve.
 #[inline(always)]
-fn classify<G: LaneGeometry<L>, const L: usize>(
-    spec: StepSpec<'_, L>,
-    ws: &LaneWorkspace<G, L>,
+fn classify<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    spec: StepSpec<'_, L, T>,
+    ws: &LaneWorkspace<G, L, T>,
 ) -> [StepStatus; L] {
     let (lay, y, start) = (ws.lay, &ws.y[..], &ws.start[..]);
     // `v - v` is 0 for a finite v and NaN otherwise; the sum is an ordered
@@ -269,7 +279,7 @@ fn classify<G: LaneGeometry<L>, const L: usize>(
         poison = poison + nan_unless_finite(v);
     }
     let finite = poison.finite_mask();
-    let one = Lanes::splat(1.0);
+    let one = Lanes::splat(T::ONE);
     let (mut unit, mut chord2, mut spin2) = (Lanes::zero(), Lanes::zero(), Lanes::zero());
     for i in 0..lay.n {
         let q = load_q(lay, y, i);
@@ -277,9 +287,9 @@ fn classify<G: LaneGeometry<L>, const L: usize>(
         chord2 = chord2.max((q - load_q(lay, start, i)).norm_squared());
         spin2 = spin2.max(load_w(lay, y, i).norm_squared());
     }
-    let violated = unit.greater_mask(Lanes::splat(spec.guard.unit_length_tolerance));
+    let violated = unit.greater_mask(Lanes::splat_f64(spec.guard.unit_length_tolerance));
     let substeps = spec.substeps as f64;
-    let spin_turn = spin2.sqrt() * Lanes::splat(spec.dt) / Lanes::splat(substeps);
+    let spin_turn = spin2.sqrt() * Lanes::splat_f64(spec.dt) / Lanes::splat_f64(substeps);
     let max_turn = spec.guard.max_turn_per_step;
     let chord = chord2.sqrt();
     let mut status = [StepStatus::Ok; L];
@@ -288,7 +298,12 @@ fn classify<G: LaneGeometry<L>, const L: usize>(
             StepStatus::NonFinite
         } else if violated[k] {
             StepStatus::ConstraintViolation
-        } else if spin_turn.0[k].max(swept_per_step(chord.0[k], substeps, max_turn)) > max_turn {
+        } else if spin_turn.0[k].to_f64().max(swept_per_step(
+            chord.0[k].to_f64(),
+            substeps,
+            max_turn,
+        )) > max_turn
+        {
             StepStatus::Unresolved
         } else {
             StepStatus::Ok
@@ -300,7 +315,7 @@ fn classify<G: LaneGeometry<L>, const L: usize>(
 /// `v - v`: 0 where v is finite, NaN where it is infinite or NaN.
 #[inline(always)]
 #[allow(clippy::eq_op)]
-fn nan_unless_finite<const L: usize>(v: Lanes<L>) -> Lanes<L> {
+fn nan_unless_finite<const L: usize, T: LaneReal>(v: Lanes<L, T>) -> Lanes<L, T> {
     v - v
 }
 

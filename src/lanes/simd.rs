@@ -11,27 +11,95 @@
 // dispatched kernels.
 #![allow(clippy::needless_range_loop)]
 
+use std::fmt::Debug;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-/// One number per lane. Aligned to 64 bytes so that eight f64 lanes fill one
-/// cache line and one AVX-512 register.
+/// The number type of a lane: f64, or f32 for twice the lanes per register.
+pub trait LaneReal:
+    Copy
+    + Debug
+    + PartialEq
+    + PartialOrd
+    + Send
+    + Sync
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + 'static
+{
+    const ZERO: Self;
+    const ONE: Self;
+    /// Nearest value (the identity for f64).
+    fn from_f64(v: f64) -> Self;
+    /// Exact.
+    fn to_f64(self) -> f64;
+    fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
+    fn is_finite(self) -> bool;
+    fn is_nan(self) -> bool;
+}
+
+macro_rules! lane_real {
+    ($t:ty) => {
+        impl LaneReal for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            #[inline(always)]
+            fn from_f64(v: f64) -> Self {
+                v as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
+            #[inline(always)]
+            fn is_nan(self) -> bool {
+                <$t>::is_nan(self)
+            }
+        }
+    };
+}
+lane_real!(f64);
+lane_real!(f32);
+
+/// One number per lane. Aligned to 64 bytes so that eight f64 (or sixteen f32)
+/// lanes fill one cache line and one AVX-512 register.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
-pub struct Lanes<const L: usize>(pub [f64; L]);
+pub struct Lanes<const L: usize, T: LaneReal = f64>(pub [T; L]);
 
-impl<const L: usize> Lanes<L> {
+impl<const L: usize, T: LaneReal> Lanes<L, T> {
     #[inline(always)]
-    pub fn splat(v: f64) -> Self {
+    pub fn splat(v: T) -> Self {
         Self([v; L])
     }
     #[inline(always)]
     pub fn zero() -> Self {
-        Self::splat(0.0)
+        Self::splat(T::ZERO)
+    }
+    /// `v` rounded to the lane type, in every lane.
+    #[inline(always)]
+    pub fn splat_f64(v: f64) -> Self {
+        Self::splat(T::from_f64(v))
     }
     // Index loops, not iterator adaptors: they must inline completely into the
     // dispatched kernels, or they would run as baseline code.
     #[inline(always)]
-    fn map(self, f: impl Fn(f64) -> f64) -> Self {
+    fn map(self, f: impl Fn(T) -> T) -> Self {
         let mut out = self.0;
         for k in 0..L {
             out[k] = f(out[k]);
@@ -39,7 +107,7 @@ impl<const L: usize> Lanes<L> {
         Self(out)
     }
     #[inline(always)]
-    fn zip(self, other: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+    fn zip(self, other: Self, f: impl Fn(T, T) -> T) -> Self {
         let mut out = self.0;
         for k in 0..L {
             out[k] = f(out[k], other.0[k]);
@@ -48,11 +116,11 @@ impl<const L: usize> Lanes<L> {
     }
     #[inline(always)]
     pub fn sqrt(self) -> Self {
-        self.map(f64::sqrt)
+        self.map(T::sqrt)
     }
     #[inline(always)]
     pub fn abs(self) -> Self {
-        self.map(f64::abs)
+        self.map(T::abs)
     }
     /// The larger of two numbers per lane, written as compare-and-select so that it
     /// vectorises. Like `f64::max` it returns the other operand when one is NaN;
@@ -60,10 +128,6 @@ impl<const L: usize> Lanes<L> {
     #[inline(always)]
     pub fn max(self, other: Self) -> Self {
         self.zip(other, |a, b| if b > a || a.is_nan() { b } else { a })
-    }
-    #[inline(always)]
-    pub fn min(self, other: Self) -> Self {
-        self.zip(other, f64::min)
     }
     /// Lanes whose value is finite (not NaN, not infinite).
     #[inline(always)]
@@ -87,7 +151,7 @@ impl<const L: usize> Lanes<L> {
 
 macro_rules! lane_binary {
     ($trait:ident, $method:ident, $op:tt) => {
-        impl<const L: usize> $trait for Lanes<L> {
+        impl<const L: usize, T: LaneReal> $trait for Lanes<L, T> {
             type Output = Self;
             #[inline(always)]
             fn $method(self, other: Self) -> Self {
@@ -101,7 +165,7 @@ lane_binary!(Sub, sub, -);
 lane_binary!(Mul, mul, *);
 lane_binary!(Div, div, /);
 
-impl<const L: usize> Neg for Lanes<L> {
+impl<const L: usize, T: LaneReal> Neg for Lanes<L, T> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
@@ -109,29 +173,29 @@ impl<const L: usize> Neg for Lanes<L> {
     }
 }
 
-/// Whether `[Lanes<L>]` is a dense array of numbers (no alignment padding), true
-/// for every `L` that is a multiple of 8.
-pub const fn is_dense<const L: usize>() -> bool {
-    std::mem::size_of::<Lanes<L>>() == 8 * L
+/// Whether `[Lanes<L, T>]` is a dense array of numbers (no alignment padding), true
+/// whenever `L` numbers fill a multiple of 64 bytes.
+pub const fn is_dense<const L: usize, T: LaneReal>() -> bool {
+    std::mem::size_of::<Lanes<L, T>>() == std::mem::size_of::<T>() * L
 }
 
 /// A dense buffer of lanes as one flat slice of numbers, so that element-wise loops
 /// over whole states run over contiguous memory (and LLVM vectorises them along
 /// it rather than gathering across lanes). Callers check [`is_dense`].
 #[inline(always)]
-pub fn flat_mut<const L: usize>(v: &mut [Lanes<L>]) -> &mut [f64] {
-    assert!(is_dense::<L>());
+pub fn flat_mut<const L: usize, T: LaneReal>(v: &mut [Lanes<L, T>]) -> &mut [T] {
+    assert!(is_dense::<L, T>());
     let len = v.len() * L;
-    // SAFETY: `Lanes<L>` is `repr(C)` around `[f64; L]` with no padding (checked).
-    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<f64>(), len) }
+    // SAFETY: `Lanes<L, T>` is `repr(C)` around `[T; L]` with no padding (checked).
+    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<T>(), len) }
 }
 
 /// Shared [`flat_mut`].
 #[inline(always)]
-pub fn flat<const L: usize>(v: &[Lanes<L>]) -> &[f64] {
-    assert!(is_dense::<L>());
+pub fn flat<const L: usize, T: LaneReal>(v: &[Lanes<L, T>]) -> &[T] {
+    assert!(is_dense::<L, T>());
     // SAFETY: as in `flat_mut`.
-    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<f64>(), v.len() * L) }
+    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<T>(), v.len() * L) }
 }
 
 #[cfg(test)]

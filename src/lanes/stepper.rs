@@ -10,7 +10,7 @@
 use super::dispatch::{run_groups, Kernel};
 use super::params::LaneParams;
 use super::rk4::{guarded_rk4, LaneWorkspace, StepSpec};
-use super::simd::Lanes;
+use super::simd::{LaneReal, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
 use crate::batch::{Guard, StepStatus};
 
@@ -23,8 +23,8 @@ pub struct StepPlan<'a> {
 }
 
 /// The envs of one [`LaneStepper::step`] call and where their results go.
-pub struct Groups<'a, const L: usize> {
-    pub params: &'a [LaneParams<L>],
+pub struct Groups<'a, const L: usize, T: LaneReal = f64> {
+    pub params: &'a [LaneParams<L, T>],
     pub states: &'a mut [f64],
     pub forces: &'a [f64],
     pub stepped: Option<&'a [bool]>,
@@ -34,11 +34,11 @@ pub struct Groups<'a, const L: usize> {
 
 /// The buffers of one worker's lane groups, allocated once.
 #[derive(Debug, Clone)]
-pub struct LaneStepper<G: LaneGeometry<L>, const L: usize> {
-    ws: LaneWorkspace<G, L>,
+pub struct LaneStepper<G: LaneGeometry<L, T>, const L: usize, T: LaneReal = f64> {
+    ws: LaneWorkspace<G, L, T>,
 }
 
-impl<G: LaneGeometry<L>, const L: usize> LaneStepper<G, L> {
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
     pub fn new(n_links: usize) -> Self {
         Self {
             ws: LaneWorkspace::new(n_links),
@@ -58,7 +58,7 @@ impl<G: LaneGeometry<L>, const L: usize> LaneStepper<G, L> {
     pub fn step(
         &mut self,
         kernel: Kernel,
-        params: &[LaneParams<L>],
+        params: &[LaneParams<L, T>],
         states: &mut [f64],
         forces: &[f64],
         stepped: Option<&[bool]>,
@@ -81,9 +81,9 @@ impl<G: LaneGeometry<L>, const L: usize> LaneStepper<G, L> {
 /// [`LaneStepper::step`]'s work: transpose in, step, transpose out, group by group.
 /// Inlined into each dispatched kernel so that the transposes get its instructions too.
 #[inline(always)]
-pub(crate) fn step_groups<G: LaneGeometry<L>, const L: usize>(
-    ws: &mut LaneWorkspace<G, L>,
-    g: Groups<'_, L>,
+pub(crate) fn step_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    ws: &mut LaneWorkspace<G, L, T>,
+    g: Groups<'_, L, T>,
 ) {
     let d = ws.lay.dim();
     let n_envs = g.status.len();
@@ -111,7 +111,7 @@ pub(crate) fn step_groups<G: LaneGeometry<L>, const L: usize>(
             if !verdict[lane].is_failure() {
                 let (row, y) = (&mut g.states[env * d..(env + 1) * d], &ws.y[..d]);
                 for j in 0..d {
-                    row[j] = y[j].0[lane];
+                    row[j] = y[j].0[lane].to_f64();
                 }
             }
         }
@@ -121,8 +121,8 @@ pub(crate) fn step_groups<G: LaneGeometry<L>, const L: usize>(
 /// Transposes envs `first..first + filled` into the lanes; lanes past the end
 /// repeat the first env (their results are discarded).
 #[inline(always)]
-fn gather<G: LaneGeometry<L>, const L: usize>(
-    ws: &mut LaneWorkspace<G, L>,
+fn gather<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    ws: &mut LaneWorkspace<G, L, T>,
     states: &[f64],
     forces: &[f64],
     first: usize,
@@ -132,16 +132,16 @@ fn gather<G: LaneGeometry<L>, const L: usize>(
     let f = G::CartL::DIM;
     // Slices of known length let LLVM drop the bounds checks of the inner loops.
     let y = &mut ws.y[..d];
-    let mut force = [Lanes::<L>::zero(); 3];
+    let mut force = [Lanes::<L, T>::zero(); 3];
     for lane in 0..L {
         let env = first + if lane < filled { lane } else { 0 };
         let row = &states[env * d..(env + 1) * d];
         for j in 0..d {
-            y[j].0[lane] = row[j];
+            y[j].0[lane] = T::from_f64(row[j]);
         }
         let push = &forces[env * f..(env + 1) * f];
         for c in 0..f {
-            force[c].0[lane] = push[c];
+            force[c].0[lane] = T::from_f64(push[c]);
         }
     }
     ws.force = G::CartL::load(&force, 0);
