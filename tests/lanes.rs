@@ -424,3 +424,133 @@ fn a_chunk_with_a_chain_per_env_steps_each_env_as_its_own_chain() {
     let other = vec![ChainParams::uniform(3, 1.0, 1.0, 1.0, 9.81).unwrap()];
     assert!(LaneChunk::per_env(&chain, &other, Kernel::Baseline).is_err());
 }
+
+/// Steps the paper's Fig. 1 start (uncontrolled, 1 ms) for `steps` steps with the f32
+/// kernel and with the scalar f64 step, returning (largest mass-position difference
+/// at the end, f32 energy drift, f64 energy drift, peak kinetic energy, f32 failures).
+fn f32_against_f64(steps: usize) -> (f64, f64, f64, f64, usize) {
+    use chaincart::env::{paper_initial_condition, PaperFigure};
+    let chain = Chain::<Spatial>::new(ChainParams::paper());
+    let y0 = paper_initial_condition(PaperFigure::Fig1);
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 1e-3,
+        substeps: 1,
+        guard: &guard,
+    };
+    let params = [LaneParams::<16, f32>::broadcast(chain.params())];
+    let mut lanes = LaneStepper::<Spatial, 16, f32>::new(5);
+    let mut narrow = y0.clone();
+    let mut status = [StepStatus::Ok];
+    let mut wide = y0.clone();
+    let mut worker = GuardedStepper::new(&chain);
+    let opts = StepOptions::default();
+    let e0 = chain.energy(&y0).total();
+    let (mut drift32, mut drift64, mut peak, mut failures) = (0.0f64, 0.0f64, 0.0f64, 0);
+    for _ in 0..steps {
+        lanes.step(
+            Kernel::detect(),
+            &params,
+            &mut narrow,
+            &[0.0; 2],
+            None,
+            plan,
+            &mut status,
+        );
+        failures += status[0].is_failure() as usize;
+        let s = worker.step(
+            &chain,
+            &mut wide,
+            nalgebra::Vector2::zeros(),
+            1e-3,
+            &opts,
+            &guard,
+        );
+        assert!(!s.is_failure());
+        drift32 = drift32.max((chain.energy(&narrow).total() - e0).abs());
+        drift64 = drift64.max((chain.energy(&wide).total() - e0).abs());
+        peak = peak.max(chain.energy(&wide).kinetic);
+    }
+    let positions = |y: &[f64]| -> Vec<f64> {
+        (0..5)
+            .flat_map(|i| {
+                let p = chain.mass_position(y, i);
+                [p.x, p.y, p.z]
+            })
+            .collect()
+    };
+    let (a, b) = (positions(&narrow), positions(&wide));
+    let error = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    (error, drift32, drift64, peak, failures)
+}
+
+#[test]
+fn f32_lanes_follow_the_f64_step_on_the_paper_scene() {
+    let (error, drift32, drift64, peak, failures) = f32_against_f64(1000);
+    eprintln!("1 s: position error {error:e} m, energy drift f32 {:e}, f64 {:e} of the peak kinetic energy", drift32 / peak, drift64 / peak);
+    let (error10, drift32_10, drift64_10, peak10, failures10) = f32_against_f64(10_000);
+    eprintln!(
+        "10 s: position error {error10:e} m, energy drift f32 {:e}, f64 {:e}",
+        drift32_10 / peak10,
+        drift64_10 / peak10
+    );
+    // No false failures of the guard on the paper's scene in f32.
+    assert_eq!(failures + failures10, 0);
+    // After 1 s the masses (0.1 m links) agree to 1e-4 m (seen: about 1.3e-5 m);
+    // later the chaotic fall amplifies any difference, f64 round-off included.
+    assert!(error < 1e-4, "{error}");
+    // Energy drift over 10 s stays within 3e-4 of the peak kinetic energy (seen:
+    // about 9e-5 in f32, 3e-5 in f64, where the integrator's own error dominates).
+    assert!(drift32_10 / peak10 < 3e-4, "{}", drift32_10 / peak10);
+}
+
+#[test]
+fn an_f32_blow_up_is_flagged_and_leaves_its_neighbours_unchanged() {
+    let chain = Chain::<Spatial>::new(ChainParams::paper());
+    let params = [LaneParams::<16, f32>::broadcast(chain.params())];
+    let mut rng = rng(19);
+    let start: Vec<f64> = (0..16)
+        .flat_map(|_| random_spatial_state(&mut rng, 5, 2.0))
+        .collect();
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 1e-3,
+        substeps: 1,
+        guard: &guard,
+    };
+    let mut stepper = LaneStepper::<Spatial, 16, f32>::new(5);
+    let mut run = |forces: &[f64]| {
+        let (mut y, mut status) = (start.clone(), vec![StepStatus::Ok; 16]);
+        stepper.step(
+            Kernel::detect(),
+            &params,
+            &mut y,
+            forces,
+            None,
+            plan,
+            &mut status,
+        );
+        (y, status)
+    };
+    let calm = vec![1.0; 32];
+    let mut wild = calm.clone();
+    wild[2 * 5 + 1] = 1e30;
+    let (reference, ok) = run(&calm);
+    let (y, status) = run(&wild);
+    assert!(ok.iter().all(|s| !s.is_failure()), "{ok:?}");
+    let d = chain.state_dim();
+    for k in 0..16 {
+        let row = |v: &[f64]| bits(&v[k * d..(k + 1) * d]);
+        if k == 5 {
+            assert!(status[k].is_failure());
+            assert_eq!(row(&y), row(&start));
+        } else {
+            assert_eq!(status[k], StepStatus::Ok);
+            assert_eq!(row(&y), row(&reference), "env {k}");
+        }
+    }
+}
