@@ -6,11 +6,15 @@
 //! * `batch/N`: one step of a batch of N paper systems (5 links, rk4), throughput in env-steps.
 //! * `batch_kernel/<path>/N`: the same step (1 ms, guarded) through the per-env path
 //!   (`scalar`) and each lane kernel this CPU runs, side by side in one run.
+//! * `lane_precision/{f64,f32}/4096`: the lane stepper alone on one thread, 8 f64 or
+//!   16 f32 lanes per group, best kernel.
 
 use chaincart::batch::Batch;
+use chaincart::batch::{Guard, StepStatus};
 use chaincart::dense::dense_derivative;
 use chaincart::geometry::planar_to_spatial;
-use chaincart::lanes::Kernel;
+use chaincart::lanes::{Kernel, LaneParams, LaneStepper, StepPlan};
+use chaincart::Spatial;
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector2;
@@ -171,9 +175,54 @@ fn batch_kernels(c: &mut Criterion) {
     group.finish();
 }
 
+/// One thread's lane stepper over `n_envs` paper systems in lanes of `T`.
+fn bench_lane_precision<T: chaincart::lanes::simd::LaneReal, const L: usize>(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    n_envs: usize,
+) where
+    Spatial: chaincart::lanes::LaneGeometry<L, T>,
+{
+    let chain = chain(5);
+    let y0 = moving_state(&chain);
+    let mut states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
+    let forces = vec![0.0; 2 * n_envs];
+    let params = [LaneParams::<L, T>::broadcast(chain.params())];
+    let mut stepper = LaneStepper::<Spatial, L, T>::new(5);
+    let mut status = vec![StepStatus::Ok; n_envs];
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 1e-3,
+        substeps: 1,
+        guard: &guard,
+    };
+    group.throughput(Throughput::Elements(n_envs as u64));
+    group.bench_with_input(BenchmarkId::new(name, n_envs), &n_envs, |b, _| {
+        b.iter(|| {
+            let kernel = Kernel::detect();
+            stepper.step(
+                kernel,
+                &params,
+                &mut states,
+                &forces,
+                None,
+                plan,
+                &mut status,
+            )
+        })
+    });
+}
+
+fn lane_precision(c: &mut Criterion) {
+    let mut group = c.benchmark_group("lane_precision");
+    bench_lane_precision::<f64, 8>(&mut group, "f64", 4096);
+    bench_lane_precision::<f32, 16>(&mut group, "f32", 4096);
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(300)).measurement_time(std::time::Duration::from_millis(800));
-    targets = accelerations, steps, planar_vs_spatial, batch, batch_kernels
+    targets = accelerations, steps, planar_vs_spatial, batch, batch_kernels, lane_precision
 }
 criterion_main!(benches);
