@@ -5,12 +5,13 @@
 //! * `planar_vs_spatial/<scene>/n`: one rk4 step of each model on the same in-plane motion.
 //! * `batch/N`: one step of a batch of N paper systems (5 links, rk4), throughput in env-steps.
 //! * `batch_kernel/<path>/N`: the same step (1 ms, guarded) through the per-env path
-//!   (`scalar`) and each lane kernel this CPU runs, side by side in one run.
+//!   (`scalar`), each lane kernel this CPU runs, and the best kernel in f32 (`f32`),
+//!   side by side in one run.
 //! * `lane_precision/{f64,f32}/4096`: the lane stepper alone on one thread, 8 f64 or
 //!   16 f32 lanes per group, best kernel.
 
 use chaincart::batch::Batch;
-use chaincart::batch::{Guard, StepStatus};
+use chaincart::batch::{Guard, Precision, StepStatus};
 use chaincart::dense::dense_derivative;
 use chaincart::geometry::planar_to_spatial;
 use chaincart::lanes::{Kernel, LaneParams, LaneStepper, StepPlan};
@@ -155,13 +156,21 @@ fn batch_kernels(c: &mut Criterion) {
             .filter(|k| k.is_available())
             .map(Some),
     );
-    for kernel in paths {
-        let name = kernel.map_or("scalar", Kernel::name);
+    let f32_path = (Some(Kernel::detect()), Precision::F32);
+    let paths = paths
+        .map(|k| (k, Precision::F64))
+        .chain(std::iter::once(f32_path));
+    for (kernel, precision) in paths {
+        let name = match precision {
+            Precision::F32 => "f32",
+            Precision::F64 => kernel.map_or("scalar", Kernel::name),
+        };
         for n_envs in [1usize, 4096] {
             let chain = chain(5);
             let y0 = moving_state(&chain);
             let mut batch = Batch::new(chain, n_envs, 1e-3, StepOptions::default()).unwrap();
             batch.set_kernel(kernel).unwrap();
+            batch.set_precision(precision).unwrap();
             let states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
             let forces = vec![0.0; 2 * n_envs];
             batch.states_mut().copy_from_slice(&states);

@@ -14,7 +14,10 @@
 use crate::error::{check_finite, check_len, check_positive, ChainError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::{Method, StepOptions, Stepper};
-use crate::lanes::{Kernel, LaneGeometry, LaneParams, LaneStepper, StepPlan, LANES};
+use crate::lanes::simd::LaneReal;
+use crate::lanes::{
+    Kernel, LaneGeometry, LaneParams, LaneScene, LaneStepper, StepPlan, LANES, LANES_F32,
+};
 use crate::model::Chain;
 use rayon::prelude::*;
 
@@ -168,15 +171,69 @@ type ChunkItem<'a, G> = (
     &'a mut GuardedStepper<G>,
 );
 
+/// Number type of the lane physics of a [`Batch`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Precision {
+    /// f64: every env bit-identical to the per-env path.
+    #[default]
+    F64,
+    /// f32 (twice the lanes): faster, within the accuracy documented in `docs/simd.md`.
+    F32,
+}
+
 /// The lane path of a batch: kernel, broadcast parameters, one stepper per work item.
-struct LanePath<G: LaneGeometry<LANES>> {
+struct LanePath<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
     kernel: Kernel,
-    params: [LaneParams<LANES>; 1],
-    workers: Vec<LaneStepper<G, LANES>>,
+    params: [LaneParams<L, T>; 1],
+    workers: Vec<LaneStepper<G, L, T>>,
+}
+
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
+    fn new(chain: &Chain<G>, n_envs: usize, kernel: Kernel) -> Self {
+        Self {
+            kernel,
+            params: [LaneParams::broadcast(chain.params())],
+            workers: (0..n_envs.div_ceil(LANE_CHUNK))
+                .map(|_| LaneStepper::new(chain.n_links()))
+                .collect(),
+        }
+    }
+
+    /// Steps every env (env-major `states`) in work items of [`LANE_CHUNK`] envs.
+    fn step(
+        &mut self,
+        states: &mut [f64],
+        forces: &[f64],
+        status: &mut [StepStatus],
+        plan: StepPlan<'_>,
+    ) {
+        let n_envs = status.len();
+        let (d, f) = (states.len() / n_envs, forces.len() / n_envs);
+        let (kernel, params) = (self.kernel, &self.params[..]);
+        let work = |(((states, forces), status), worker): LaneItem<'_, G, L, T>| {
+            worker.step(kernel, params, states, forces, None, plan, status);
+        };
+        if n_envs <= LANE_CHUNK {
+            work((((states, forces), status), &mut self.workers[0]));
+        } else {
+            states
+                .par_chunks_mut(LANE_CHUNK * d)
+                .zip(forces.par_chunks(LANE_CHUNK * f))
+                .zip(status.par_chunks_mut(LANE_CHUNK))
+                .zip(self.workers.par_iter_mut())
+                .for_each(work);
+        }
+    }
+}
+
+/// The lane path in the chosen precision.
+enum LaneMode<G: LaneScene> {
+    F64(LanePath<G, LANES, f64>),
+    F32(LanePath<G, LANES_F32, f32>),
 }
 
 /// N states of one chain with one integrator setting.
-pub struct Batch<G: LaneGeometry<LANES>> {
+pub struct Batch<G: LaneScene> {
     chain: Chain<G>,
     opts: StepOptions,
     dt: f64,
@@ -186,10 +243,10 @@ pub struct Batch<G: LaneGeometry<LANES>> {
     status: Vec<StepStatus>,
     workers: Vec<GuardedStepper<G>>,
     /// Set when the lane kernel steps this batch (rk4, at least [`MIN_LANE_ENVS`] envs).
-    lanes: Option<LanePath<G>>,
+    lanes: Option<LaneMode<G>>,
 }
 
-impl<G: LaneGeometry<LANES>> Batch<G> {
+impl<G: LaneScene> Batch<G> {
     /// `n_envs` copies of `initial` (or of the hanging equilibrium if `None`).
     pub fn new(chain: Chain<G>, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
         if n_envs == 0 {
@@ -226,7 +283,41 @@ impl<G: LaneGeometry<LANES>> Batch<G> {
 
     /// The lane kernel stepping this batch, or `None` for the per-env path.
     pub fn kernel(&self) -> Option<Kernel> {
-        self.lanes.as_ref().map(|l| l.kernel)
+        self.lanes.as_ref().map(|l| match l {
+            LaneMode::F64(path) => path.kernel,
+            LaneMode::F32(path) => path.kernel,
+        })
+    }
+
+    /// Number type of the lane physics (f64 unless [`Batch::set_precision`] chose f32).
+    pub fn precision(&self) -> Precision {
+        match self.lanes {
+            Some(LaneMode::F32(_)) => Precision::F32,
+            _ => Precision::F64,
+        }
+    }
+
+    /// Steps the lane physics in f64 or f32. f32 needs the lane kernel (rk4; see
+    /// [`Batch::set_kernel`]) and gives up bit-identity with the per-env path.
+    pub fn set_precision(&mut self, precision: Precision) -> Result<()> {
+        let kernel = match (self.kernel(), precision) {
+            (Some(kernel), _) => kernel,
+            (None, Precision::F64) => return Ok(()),
+            (None, Precision::F32) => {
+                return Err(ChainError::InvalidParameter {
+                    name: "precision",
+                    value: 32.0,
+                    expected: "f64 unless the batch steps with a lane kernel (rk4)",
+                })
+            }
+        };
+        if precision != self.precision() {
+            self.lanes = Some(match precision {
+                Precision::F64 => LaneMode::F64(LanePath::new(&self.chain, self.n_envs, kernel)),
+                Precision::F32 => LaneMode::F32(LanePath::new(&self.chain, self.n_envs, kernel)),
+            });
+        }
+        Ok(())
     }
 
     /// Chooses the lane kernel (`None`: the per-env path). Both give the same bits;
@@ -245,15 +336,14 @@ impl<G: LaneGeometry<LANES>> Batch<G> {
                 expected: "None unless the integrator is rk4 (the only one with a lane kernel)",
             });
         }
-        let n = self.chain.n_links();
-        let lanes = self.lanes.get_or_insert_with(|| LanePath {
-            kernel,
-            params: [LaneParams::broadcast(self.chain.params())],
-            workers: (0..self.n_envs.div_ceil(LANE_CHUNK))
-                .map(|_| LaneStepper::new(n))
-                .collect(),
-        });
-        lanes.kernel = kernel;
+        let (chain, n_envs) = (&self.chain, self.n_envs);
+        match self
+            .lanes
+            .get_or_insert_with(|| LaneMode::F64(LanePath::new(chain, n_envs, kernel)))
+        {
+            LaneMode::F64(path) => path.kernel = kernel,
+            LaneMode::F32(path) => path.kernel = kernel,
+        }
         Ok(())
     }
 
@@ -356,39 +446,24 @@ impl<G: LaneGeometry<LANES>> Batch<G> {
         Ok(())
     }
 
-    /// [`Batch::step`] through the lane kernel, work items of [`LANE_CHUNK`] envs.
+    /// [`Batch::step`] through the lane kernel.
     fn step_lanes(&mut self, forces: &[f64]) {
-        let (d, f) = (self.state_dim(), self.chain.force_dim());
-        let Some(lanes) = self.lanes.as_mut() else {
-            return;
-        };
-        let (kernel, params) = (lanes.kernel, &lanes.params[..]);
         let plan = StepPlan {
             dt: self.dt,
             substeps: self.opts.substeps,
             guard: &self.guard,
         };
-        let work = |(((states, forces), status), worker): LaneItem<'_, G>| {
-            worker.step(kernel, params, states, forces, None, plan, status);
-        };
-        if self.n_envs <= LANE_CHUNK {
-            work((
-                ((&mut self.states[..], forces), &mut self.status[..]),
-                &mut lanes.workers[0],
-            ));
-        } else {
-            self.states
-                .par_chunks_mut(LANE_CHUNK * d)
-                .zip(forces.par_chunks(LANE_CHUNK * f))
-                .zip(self.status.par_chunks_mut(LANE_CHUNK))
-                .zip(lanes.workers.par_iter_mut())
-                .for_each(work);
+        let (states, status) = (&mut self.states[..], &mut self.status[..]);
+        match self.lanes.as_mut() {
+            Some(LaneMode::F64(path)) => path.step(states, forces, status, plan),
+            Some(LaneMode::F32(path)) => path.step(states, forces, status, plan),
+            None => {}
         }
     }
 }
 
 /// One parallel work item of the lane path.
-type LaneItem<'a, G> = (
+type LaneItem<'a, G, const L: usize, T> = (
     ((&'a mut [f64], &'a [f64]), &'a mut [StepStatus]),
-    &'a mut LaneStepper<G, LANES>,
+    &'a mut LaneStepper<G, L, T>,
 );

@@ -4,7 +4,7 @@
 
 mod common;
 
-use chaincart::batch::{Guard, GuardedStepper, StepStatus};
+use chaincart::batch::{Guard, GuardedStepper, Precision, StepStatus};
 use chaincart::geometry::{Geometry, Vector};
 use chaincart::lanes::{Kernel, LaneGeometry, LaneParams, LaneStepper, StepPlan};
 use chaincart::{Chain, ChainParams, Method, Planar, Spatial, StepOptions};
@@ -274,6 +274,15 @@ fn per_lane_parameters_must_match_the_link_count() {
 
 /// Final states of a random paper batch after 20 rk4 steps in a pool of `threads`.
 fn batch_run(threads: usize, n_envs: usize, kernel: Option<Kernel>) -> (Vec<u64>, Vec<StepStatus>) {
+    batch_run_in(threads, n_envs, kernel, Precision::F64)
+}
+
+fn batch_run_in(
+    threads: usize,
+    n_envs: usize,
+    kernel: Option<Kernel>,
+    precision: Precision,
+) -> (Vec<u64>, Vec<StepStatus>) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -281,7 +290,9 @@ fn batch_run(threads: usize, n_envs: usize, kernel: Option<Kernel>) -> (Vec<u64>
     pool.install(|| {
         let (mut batch, _) = common::batches::random_batch(n_envs, Method::Rk4, 21);
         batch.set_kernel(kernel).unwrap();
+        batch.set_precision(precision).unwrap();
         assert_eq!(batch.kernel(), kernel);
+        assert_eq!(batch.precision(), precision);
         let mut statuses = vec![];
         for step in 0..20 {
             let mut f = common::batches::forces(n_envs, step);
@@ -553,4 +564,49 @@ fn an_f32_blow_up_is_flagged_and_leaves_its_neighbours_unchanged() {
             assert_eq!(row(&y), row(&reference), "env {k}");
         }
     }
+}
+
+#[test]
+fn f32_batches_are_deterministic_across_kernels_threads_and_sizes() {
+    for n_envs in [7, 33, 4097] {
+        let detect = Some(Kernel::detect());
+        let reference = batch_run_in(1, n_envs, detect, Precision::F32);
+        let f64_run = batch_run(1, n_envs, None);
+        assert!(reference != f64_run, "f32 must differ from f64 somewhere");
+        // Same verdicts as f64 on these moderate states, apart from the pushed env.
+        let agree = reference
+            .1
+            .iter()
+            .zip(&f64_run.1)
+            .filter(|(a, b)| a == b)
+            .count();
+        assert!(
+            agree * 10 >= 9 * reference.1.len(),
+            "{agree} of {}",
+            reference.1.len()
+        );
+        for kernel in available_kernels() {
+            for threads in [1, 2] {
+                assert!(
+                    batch_run_in(threads, n_envs, Some(kernel), Precision::F32) == reference,
+                    "N = {n_envs}, {} kernel, {threads} threads",
+                    kernel.name()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn f32_needs_the_lane_kernel() {
+    let (mut batch, _) = common::batches::random_batch(64, Method::Rkmk4, 1);
+    let e = batch.set_precision(Precision::F32).unwrap_err();
+    assert!(e.to_string().contains("precision"), "{e}");
+    batch.set_precision(Precision::F64).unwrap();
+    let (mut rk4, _) = common::batches::random_batch(64, Method::Rk4, 1);
+    rk4.set_precision(Precision::F32).unwrap();
+    rk4.set_kernel(Some(Kernel::Baseline)).unwrap();
+    assert_eq!(rk4.precision(), Precision::F32);
+    rk4.set_kernel(None).unwrap();
+    assert_eq!(rk4.precision(), Precision::F64);
 }

@@ -24,8 +24,16 @@ pub mod vector;
 pub use chunk::{ChunkLanes, ChunkWorker, LaneChunk};
 pub use dispatch::Kernel;
 pub use params::LaneParams;
+pub use simd::LaneReal;
 pub use stepper::{LaneStepper, StepPlan};
 pub use vector::LaneGeometry;
 
 /// Lanes per group in f64: one AVX-512 register, two AVX2 registers, four SSE2 ones.
 pub const LANES: usize = 8;
+
+/// Lanes per group in f32 (the same registers, twice the numbers).
+pub const LANES_F32: usize = 16;
+
+/// A scene with lane kernels in both precisions (the spatial and the planar one).
+pub trait LaneScene: LaneGeometry<LANES> + LaneGeometry<LANES_F32, f32> {}
+impl<G: LaneGeometry<LANES> + LaneGeometry<LANES_F32, f32>> LaneScene for G {}
