@@ -4,18 +4,25 @@
 //! * `step/<method>/n`: one control step (1 substep) of the spatial model.
 //! * `planar_vs_spatial/<scene>/n`: one rk4 step of each model on the same in-plane motion.
 //! * `batch/N`: one step of a batch of N paper systems (5 links, rk4), throughput in env-steps.
+//! * `batch_kernel/<path>/N`: the same step (1 ms, guarded) through the per-env path
+//!   (`scalar`), each lane kernel this CPU runs, and the best kernel in f32 (`f32`),
+//!   side by side in one run.
+//! * `lane_precision/{f64,f32}/4096`: the lane stepper alone on one thread, 8 f64 or
+//!   16 f32 lanes per group, best kernel.
 //! * `env_batch/<variant>/n<links>/N`: one step of the RL task layer's batch (planar,
 //!   default task, rk4 with 2 substeps, short episodes so resets are included) with the
 //!   reality gap off, with cart mass, link masses and lengths redrawn at every reset
 //!   (`randomized`), and with sensor noise plus a one-step delay (`noise_delay`).
 
 use chaincart::batch::Batch;
+use chaincart::batch::{Guard, Precision, StepStatus};
 use chaincart::dense::dense_derivative;
 use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
 };
 use chaincart::geometry::planar_to_spatial;
-use chaincart::{Chain, Planar};
+use chaincart::lanes::{Kernel, LaneParams, LaneStepper, StepPlan};
+use chaincart::{Chain, Planar, Spatial};
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector2;
@@ -215,9 +222,90 @@ fn env_batch(c: &mut Criterion) {
     group.finish();
 }
 
+fn batch_kernels(c: &mut Criterion) {
+    let mut group = c.benchmark_group("batch_kernel");
+    let paths = std::iter::once(None).chain(
+        Kernel::ALL
+            .into_iter()
+            .filter(|k| k.is_available())
+            .map(Some),
+    );
+    let f32_path = (Some(Kernel::detect()), Precision::F32);
+    let paths = paths
+        .map(|k| (k, Precision::F64))
+        .chain(std::iter::once(f32_path));
+    for (kernel, precision) in paths {
+        let name = match precision {
+            Precision::F32 => "f32",
+            Precision::F64 => kernel.map_or("scalar", Kernel::name),
+        };
+        for n_envs in [1usize, 4096] {
+            let chain = chain(5);
+            let y0 = moving_state(&chain);
+            let mut batch = Batch::new(chain, n_envs, 1e-3, StepOptions::default()).unwrap();
+            batch.set_kernel(kernel).unwrap();
+            batch.set_precision(precision).unwrap();
+            let states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
+            let forces = vec![0.0; 2 * n_envs];
+            batch.states_mut().copy_from_slice(&states);
+            group.throughput(Throughput::Elements(n_envs as u64));
+            group.bench_with_input(BenchmarkId::new(name, n_envs), &n_envs, |b, _| {
+                // Keep stepping the same (slowly moving) states: no copy in the timed loop.
+                b.iter(|| batch.step(black_box(&forces)).unwrap())
+            });
+        }
+    }
+    group.finish();
+}
+
+/// One thread's lane stepper over `n_envs` paper systems in lanes of `T`.
+fn bench_lane_precision<T: chaincart::lanes::simd::LaneReal, const L: usize>(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    n_envs: usize,
+) where
+    Spatial: chaincart::lanes::LaneGeometry<L, T>,
+{
+    let chain = chain(5);
+    let y0 = moving_state(&chain);
+    let mut states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
+    let forces = vec![0.0; 2 * n_envs];
+    let params = [LaneParams::<L, T>::broadcast(chain.params())];
+    let mut stepper = LaneStepper::<Spatial, L, T>::new(5);
+    let mut status = vec![StepStatus::Ok; n_envs];
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 1e-3,
+        substeps: 1,
+        guard: &guard,
+    };
+    group.throughput(Throughput::Elements(n_envs as u64));
+    group.bench_with_input(BenchmarkId::new(name, n_envs), &n_envs, |b, _| {
+        b.iter(|| {
+            let kernel = Kernel::detect();
+            stepper.step(
+                kernel,
+                &params,
+                &mut states,
+                &forces,
+                None,
+                plan,
+                &mut status,
+            )
+        })
+    });
+}
+
+fn lane_precision(c: &mut Criterion) {
+    let mut group = c.benchmark_group("lane_precision");
+    bench_lane_precision::<f64, 8>(&mut group, "f64", 4096);
+    bench_lane_precision::<f32, 16>(&mut group, "f32", 4096);
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(300)).measurement_time(std::time::Duration::from_millis(800));
-    targets = accelerations, steps, planar_vs_spatial, batch, env_batch
+    targets = accelerations, steps, planar_vs_spatial, batch, batch_kernels, lane_precision, env_batch
 }
 criterion_main!(benches);

@@ -6,16 +6,31 @@
 //! depend on the number of threads and every env is stepped by the same code on
 //! its own data, so results are bit-identical whatever the thread count. Nothing
 //! is allocated in [`Batch::step`].
+//!
+//! With rk4, batches of [`MIN_LANE_ENVS`] or more envs are stepped by the lane
+//! kernel of [`crate::lanes`] (one env per SIMD lane), which gives every env the
+//! same bits as the per-env path.
 
 use crate::error::{check_finite, check_len, check_positive, InputError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::{Method, StepOptions, Stepper};
+use crate::lanes::simd::LaneReal;
+use crate::lanes::{
+    Kernel, LaneGeometry, LaneParams, LaneScene, LaneStepper, StepPlan, LANES, LANES_F32,
+};
 use crate::model::Chain;
 use rayon::prelude::*;
 
 /// Envs per parallel work item: large enough to amortise scheduling, small enough
 /// to balance 2..64 cores at N = 4096.
 pub const CHUNK: usize = 32;
+
+/// Envs per parallel work item of the lane kernel (a multiple of [`LANES`]): the
+/// lanes are independent, so this changes no result, only the scheduling.
+pub const LANE_CHUNK: usize = 128;
+
+/// Smallest batch stepped by the lane kernel: below it the per-env path is faster.
+pub const MIN_LANE_ENVS: usize = 4;
 
 /// Outcome of the last step of one env.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -156,8 +171,69 @@ type ChunkItem<'a, G> = (
     &'a mut GuardedStepper<G>,
 );
 
+/// Number type of the lane physics of a [`Batch`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Precision {
+    /// f64: every env bit-identical to the per-env path.
+    #[default]
+    F64,
+    /// f32 (twice the lanes): faster, within the accuracy documented in `docs/simd.md`.
+    F32,
+}
+
+/// The lane path of a batch: kernel, broadcast parameters, one stepper per work item.
+struct LanePath<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
+    kernel: Kernel,
+    params: [LaneParams<L, T>; 1],
+    workers: Vec<LaneStepper<G, L, T>>,
+}
+
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
+    fn new(chain: &Chain<G>, n_envs: usize, kernel: Kernel) -> Self {
+        Self {
+            kernel,
+            params: [LaneParams::broadcast(chain.params())],
+            workers: (0..n_envs.div_ceil(LANE_CHUNK))
+                .map(|_| LaneStepper::new(chain.n_links()))
+                .collect(),
+        }
+    }
+
+    /// Steps every env (env-major `states`) in work items of [`LANE_CHUNK`] envs.
+    fn step(
+        &mut self,
+        states: &mut [f64],
+        forces: &[f64],
+        status: &mut [StepStatus],
+        plan: StepPlan<'_>,
+    ) {
+        let n_envs = status.len();
+        let (d, f) = (states.len() / n_envs, forces.len() / n_envs);
+        let (kernel, params) = (self.kernel, &self.params[..]);
+        let work = |(((states, forces), status), worker): LaneItem<'_, G, L, T>| {
+            worker.step(kernel, params, states, forces, None, plan, status);
+        };
+        if n_envs <= LANE_CHUNK {
+            work((((states, forces), status), &mut self.workers[0]));
+        } else {
+            states
+                .par_chunks_mut(LANE_CHUNK * d)
+                .zip(forces.par_chunks(LANE_CHUNK * f))
+                .zip(status.par_chunks_mut(LANE_CHUNK))
+                .zip(self.workers.par_iter_mut())
+                .for_each(work);
+        }
+    }
+}
+
+/// The lane path in the chosen precision.
+enum LaneMode<G: LaneScene> {
+    F64(LanePath<G, LANES, f64>),
+    F32(LanePath<G, LANES_F32, f32>),
+}
+
 /// N states of one chain with one integrator setting.
-pub struct Batch<G: Geometry> {
+pub struct Batch<G: LaneScene> {
     chain: Chain<G>,
     opts: StepOptions,
     dt: f64,
@@ -166,9 +242,11 @@ pub struct Batch<G: Geometry> {
     states: Vec<f64>,
     status: Vec<StepStatus>,
     workers: Vec<GuardedStepper<G>>,
+    /// Set when the lane kernel steps this batch (rk4, at least [`MIN_LANE_ENVS`] envs).
+    lanes: Option<LaneMode<G>>,
 }
 
-impl<G: Geometry> Batch<G> {
+impl<G: LaneScene> Batch<G> {
     /// `n_envs` copies of `initial` (or of the hanging equilibrium if `None`).
     pub fn new(chain: Chain<G>, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
         if n_envs == 0 {
@@ -188,7 +266,7 @@ impl<G: Geometry> Batch<G> {
         let workers = (0..n_envs.div_ceil(CHUNK))
             .map(|_| GuardedStepper::new(&chain))
             .collect();
-        Ok(Self {
+        let mut batch = Self {
             chain,
             opts,
             dt,
@@ -197,7 +275,80 @@ impl<G: Geometry> Batch<G> {
             states,
             status: vec![StepStatus::Ok; n_envs],
             workers,
+            lanes: None,
+        };
+        if opts.method == Method::Rk4 && n_envs >= MIN_LANE_ENVS {
+            batch.set_kernel(Some(Kernel::detect()))?;
+        }
+        Ok(batch)
+    }
+
+    /// The lane kernel stepping this batch, or `None` for the per-env path.
+    pub fn kernel(&self) -> Option<Kernel> {
+        self.lanes.as_ref().map(|l| match l {
+            LaneMode::F64(path) => path.kernel,
+            LaneMode::F32(path) => path.kernel,
         })
+    }
+
+    /// Number type of the lane physics (f64 unless [`Batch::set_precision`] chose f32).
+    pub fn precision(&self) -> Precision {
+        match self.lanes {
+            Some(LaneMode::F32(_)) => Precision::F32,
+            _ => Precision::F64,
+        }
+    }
+
+    /// Steps the lane physics in f64 or f32. f32 needs the lane kernel (rk4; see
+    /// [`Batch::set_kernel`]) and gives up bit-identity with the per-env path.
+    pub fn set_precision(&mut self, precision: Precision) -> Result<()> {
+        let kernel = match (self.kernel(), precision) {
+            (Some(kernel), _) => kernel,
+            (None, Precision::F64) => return Ok(()),
+            (None, Precision::F32) => {
+                return Err(InputError::InvalidParameter {
+                    name: "precision",
+                    value: 32.0,
+                    expected: "f64 unless the batch steps with a lane kernel (rk4)",
+                }
+                .into())
+            }
+        };
+        if precision != self.precision() {
+            self.lanes = Some(match precision {
+                Precision::F64 => LaneMode::F64(LanePath::new(&self.chain, self.n_envs, kernel)),
+                Precision::F32 => LaneMode::F32(LanePath::new(&self.chain, self.n_envs, kernel)),
+            });
+        }
+        Ok(())
+    }
+
+    /// Chooses the lane kernel (`None`: the per-env path). Both give the same bits;
+    /// this exists to compare them. Errors if the CPU lacks the kernel or the
+    /// integrator is not rk4.
+    pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
+        let Some(kernel) = kernel else {
+            self.lanes = None;
+            return Ok(());
+        };
+        kernel.checked()?;
+        if self.opts.method != Method::Rk4 {
+            return Err(InputError::InvalidParameter {
+                name: "kernel",
+                value: kernel as u8 as f64,
+                expected: "None unless the integrator is rk4 (the only one with a lane kernel)",
+            }
+            .into());
+        }
+        let (chain, n_envs) = (&self.chain, self.n_envs);
+        match self
+            .lanes
+            .get_or_insert_with(|| LaneMode::F64(LanePath::new(chain, n_envs, kernel)))
+        {
+            LaneMode::F64(path) => path.kernel = kernel,
+            LaneMode::F32(path) => path.kernel = kernel,
+        }
+        Ok(())
     }
 
     pub fn chain(&self) -> &Chain<G> {
@@ -267,6 +418,10 @@ impl<G: Geometry> Batch<G> {
     /// their last good state and report why in [`Batch::status`].
     pub fn step(&mut self, forces: &[f64]) -> Result<()> {
         self.check_forces(forces)?;
+        if self.lanes.is_some() {
+            self.step_lanes(forces);
+            return Ok(());
+        }
         let d = self.state_dim();
         let f = self.chain.force_dim();
         let (chain, opts, dt, guard) = (&self.chain, &self.opts, self.dt, &self.guard);
@@ -295,4 +450,25 @@ impl<G: Geometry> Batch<G> {
         }
         Ok(())
     }
+
+    /// [`Batch::step`] through the lane kernel.
+    fn step_lanes(&mut self, forces: &[f64]) {
+        let plan = StepPlan {
+            dt: self.dt,
+            substeps: self.opts.substeps,
+            guard: &self.guard,
+        };
+        let (states, status) = (&mut self.states[..], &mut self.status[..]);
+        match self.lanes.as_mut() {
+            Some(LaneMode::F64(path)) => path.step(states, forces, status, plan),
+            Some(LaneMode::F32(path)) => path.step(states, forces, status, plan),
+            None => {}
+        }
+    }
 }
+
+/// One parallel work item of the lane path.
+type LaneItem<'a, G, const L: usize, T> = (
+    ((&'a mut [f64], &'a [f64]), &'a mut [StepStatus]),
+    &'a mut LaneStepper<G, L, T>,
+);

@@ -35,6 +35,7 @@ pub mod error;
 pub mod geometry;
 pub mod integrate;
 pub mod invariants;
+pub mod lanes;
 pub mod limits;
 pub mod model;
 pub mod params;

@@ -3,7 +3,7 @@
 
 mod common;
 
-use chaincart::batch::{Guard, GuardedStepper, CHUNK};
+use chaincart::batch::{Guard, GuardedStepper, Precision, CHUNK};
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions};
 use common::batches::{forces, random_batch};
 use nalgebra::Vector2;
@@ -42,6 +42,20 @@ fn stepping_allocates_nothing() {
                 method.name()
             );
         }
+    }
+    // The f32 lane path.
+    for n_envs in [CHUNK, 8 * CHUNK] {
+        let (mut batch, _) = random_batch(n_envs, Method::Rk4, 8);
+        batch.set_precision(Precision::F32).unwrap();
+        let f = forces(n_envs, 1);
+        batch.step(&f).unwrap();
+        let (before, before_here) = counts();
+        for _ in 0..5 {
+            batch.step(&f).unwrap();
+        }
+        let (after, after_here) = counts();
+        assert_eq!(after_here - before_here, 0, "f32 N = {n_envs}");
+        assert!(after - before <= 5, "f32 N = {n_envs}: {}", after - before);
     }
     // And a single guarded step.
     let chain = SpatialChain::new(ChainParams::paper());

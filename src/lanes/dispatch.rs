@@ -1,0 +1,110 @@
+//! Run-time choice of the compiled kernel. The lane kernel is compiled once per
+//! instruction set below (the generic body is inlined into each clone, which carries
+//! the target features) and the best one the CPU supports is picked by feature
+//! detection, so the shipped library is built for baseline x86-64 and still uses
+//! AVX2 or AVX-512 where present. No clone enables FMA: results are the same on all.
+
+use super::rk4::LaneWorkspace;
+use super::simd::LaneReal;
+use super::stepper::{step_groups, Groups};
+use super::vector::LaneGeometry;
+use crate::error::{InputError, Result};
+
+/// One compiled variant of the lane kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// The build's baseline instruction set (SSE2 on x86-64, NEON on aarch64).
+    Baseline,
+    /// x86-64 with AVX2 (256-bit registers).
+    Avx2,
+    /// x86-64 with AVX-512F (512-bit registers).
+    Avx512,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 3] = [Kernel::Baseline, Kernel::Avx2, Kernel::Avx512];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Baseline => "baseline",
+            Kernel::Avx2 => "avx2",
+            Kernel::Avx512 => "avx512",
+        }
+    }
+
+    /// Whether this CPU can run the kernel.
+    pub fn is_available(self) -> bool {
+        match self {
+            Kernel::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The widest kernel this CPU runs.
+    pub fn detect() -> Kernel {
+        *Kernel::ALL
+            .iter()
+            .rev()
+            .find(|k| k.is_available())
+            .unwrap_or(&Kernel::Baseline)
+    }
+
+    /// `self`, or an error naming it if this CPU cannot run it.
+    pub fn checked(self) -> Result<Kernel> {
+        if self.is_available() {
+            Ok(self)
+        } else {
+            Err(InputError::InvalidParameter {
+                name: "kernel",
+                value: self as u8 as f64,
+                expected: "a kernel this CPU supports (see Kernel::is_available)",
+            }
+            .into())
+        }
+    }
+}
+
+/// [`step_groups`] compiled for `kernel`. A kernel the CPU lacks is never run:
+/// it falls back to the baseline one (callers check with [`Kernel::checked`]).
+pub fn run_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    kernel: Kernel,
+    ws: &mut LaneWorkspace<G, L, T>,
+    groups: Groups<'_, L, T>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if kernel == Kernel::Avx512 && kernel.is_available() {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            return unsafe { groups_avx512(ws, groups) };
+        }
+        if kernel == Kernel::Avx2 && kernel.is_available() {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            return unsafe { groups_avx2(ws, groups) };
+        }
+    }
+    let _ = kernel; // only read on x86-64
+    step_groups(ws, groups)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2")]
+unsafe fn groups_avx2<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    ws: &mut LaneWorkspace<G, L, T>,
+    groups: Groups<'_, L, T>,
+) {
+    step_groups(ws, groups)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2,avx512f")]
+unsafe fn groups_avx512<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    ws: &mut LaneWorkspace<G, L, T>,
+    groups: Groups<'_, L, T>,
+) {
+    step_groups(ws, groups)
+}

@@ -1,0 +1,39 @@
+//! One env per SIMD lane: the guarded rk4 control step of many independent chains
+//! at once, with the state laid out component-major across lanes.
+//!
+//! * [`simd`]: `L` numbers per value, plain arrays that LLVM vectorises.
+//! * [`vector`]: lane vectors and the spatial/planar scene operations on them.
+//! * [`params`]: chain parameters per lane (a shared chain is a broadcast).
+//! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
+//! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
+//! * [`stepper`]: env-major batches in and out of lane groups.
+//! * [`chunk`]: a chunk worker for scene-generic batches (the env batch).
+//!
+//! Each lane computes exactly what the scalar code computes for its env (no fused
+//! multiply-adds, same operation order), so results do not depend on the lane width,
+//! the kernel chosen or which envs share a group. See `docs/simd.md`.
+
+pub mod chunk;
+pub mod dispatch;
+pub mod params;
+pub mod rk4;
+pub mod simd;
+pub mod stepper;
+pub mod vector;
+
+pub use chunk::{ChunkLanes, ChunkWorker, LaneChunk};
+pub use dispatch::Kernel;
+pub use params::LaneParams;
+pub use simd::LaneReal;
+pub use stepper::{LaneStepper, StepPlan};
+pub use vector::LaneGeometry;
+
+/// Lanes per group in f64: one AVX-512 register, two AVX2 registers, four SSE2 ones.
+pub const LANES: usize = 8;
+
+/// Lanes per group in f32 (the same registers, twice the numbers).
+pub const LANES_F32: usize = 16;
+
+/// A scene with lane kernels in both precisions (the spatial and the planar one).
+pub trait LaneScene: LaneGeometry<LANES> + LaneGeometry<LANES_F32, f32> {}
+impl<G: LaneGeometry<LANES> + LaneGeometry<LANES_F32, f32>> LaneScene for G {}
