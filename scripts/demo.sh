@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The main job: train PPO (stable-baselines3) on the default scene and compare it with
-# the LQR baseline (`python -m chaincart_env compare`), writing tables, pictures and the
-# model into ./runs/compare. About 5 minutes on two cores. Extra arguments go to
-# compare (e.g. --timesteps 100000, --out runs/other, --scene inverted-1, --algo sac).
+# the LQR baseline over start sizes and model mismatch (`python -m chaincart_env
+# compare`), writing report.md, tables, pictures and the models into ./runs/compare.
+# About a minute on two cores after set-up. Extra arguments go to compare (e.g.
+# --seeds 0,1,2, --sweep delay=0,1,2, --out runs/other, --scene inverted-1, --algo sac).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 

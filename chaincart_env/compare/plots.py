@@ -104,10 +104,13 @@ def draw_sweep(ax: Any, rows: Sequence[dict[str, Any]], axis_label: str) -> None
     as a band (``summarize_sweep`` rows of one axis)."""
     policies = list(dict.fromkeys(r["policy"] for r in rows))
     colors = _policy_colors(policies)
-    for policy in policies:
+    styles = ("-", "--", "-.", ":")
+    for k, policy in enumerate(policies):
         mine = sorted((r for r in rows if r["policy"] == policy), key=lambda r: r["value"])
         x = np.array([r["value"] for r in mine])
-        ax.plot(x, [r["success_rate"] for r in mine], marker="o", color=colors[policy], label=policy)
+        # Line styles differ so that policies with equal curves stay visible.
+        ax.plot(x, [r["success_rate"] for r in mine], marker="o", ls=styles[k % len(styles)], color=colors[policy],
+                label=policy)
         ax.fill_between(x, [r["ci_low"] for r in mine], [r["ci_high"] for r in mine], color=colors[policy], alpha=0.2)
     ax.set(xlabel=axis_label, ylabel="success rate", ylim=(-0.05, 1.05), title=f"success vs {axis_label}")
     ax.grid(alpha=0.3)
