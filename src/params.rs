@@ -19,7 +19,8 @@ pub struct ChainParams {
     outboard_mass: Vec<f64>,
 }
 
-fn check_positive_links(name: &'static str, values: &[f64]) -> Result<()> {
+/// Rejects a per-link list with an entry that is not a finite number > 0, naming it.
+pub(crate) fn check_positive_links(name: &'static str, values: &[f64]) -> Result<()> {
     for (link, &value) in values.iter().enumerate() {
         if !(value.is_finite() && value > 0.0) {
             return Err(InputError::InvalidLinkParameter {

@@ -20,7 +20,8 @@
 //! (likewise), gravity. Each draw is `u` uniform in `[0, 1)` mapped as
 //! [`Distribution::sample`] says.
 
-use crate::error::{InputError, Result};
+use crate::error::{check_positive, InputError, Result};
+use crate::params::check_positive_links;
 use crate::params::ChainParams;
 use rand::Rng;
 
@@ -291,22 +292,11 @@ impl ParamValues {
     }
 
     fn validate(&self, kind: Kind, n: usize) -> Result<()> {
-        let positive = |name, value: f64| {
-            if value.is_finite() && value > 0.0 {
-                Ok(())
-            } else {
-                Err(InputError::InvalidParameter {
-                    name,
-                    value,
-                    expected: "a finite number > 0",
-                })
-            }
-        };
         if let Some(v) = self.cart_mass {
-            positive(Param::CartMass.qualified(kind), v)?;
+            check_positive(Param::CartMass.qualified(kind), v)?;
         }
         if let Some(v) = self.gravity {
-            positive(Param::Gravity.qualified(kind), v)?;
+            check_positive(Param::Gravity.qualified(kind), v)?;
         }
         for (p, values) in [
             (Param::LinkMasses, &self.link_masses),
@@ -322,17 +312,7 @@ impl ParamValues {
                 }
                 .into());
             }
-            for (link, &value) in values.iter().enumerate() {
-                if !(value.is_finite() && value > 0.0) {
-                    return Err(InputError::InvalidLinkParameter {
-                        name,
-                        link,
-                        value,
-                        expected: "a finite number > 0",
-                    }
-                    .into());
-                }
-            }
+            check_positive_links(name, values)?;
         }
         Ok(())
     }

@@ -1,4 +1,4 @@
-"""Robustness (issue 7): bad input everywhere, random configs and actions, threads, memory.
+"""Robustness: bad input everywhere, random configs and actions, threads, memory.
 
 Hypothesis drives random scenes (masses and lengths over several decades, forces up
 to 1e6 N, steps from 1e-4 s to 0.1 s, every fixed-step integrator) and random action
