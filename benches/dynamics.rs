@@ -137,14 +137,14 @@ fn planar_vs_spatial(c: &mut Criterion) {
 
 fn batch(c: &mut Criterion) {
     let mut group = c.benchmark_group("batch");
-    for n_envs in [1usize, 64, 4096] {
+    for num_envs in [1usize, 64, 4096] {
         let chain = chain(5);
         let y0 = moving_state(&chain);
-        let mut batch = Batch::new(chain, n_envs, 1e-3, StepOptions::default()).unwrap();
-        let states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
-        let forces = vec![0.0; 2 * n_envs];
-        group.throughput(Throughput::Elements(n_envs as u64));
-        group.bench_with_input(BenchmarkId::from_parameter(n_envs), &n_envs, |b, _| {
+        let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
+        let states: Vec<f64> = y0.iter().copied().cycle().take(num_envs * y0.len()).collect();
+        let forces = vec![0.0; 2 * num_envs];
+        group.throughput(Throughput::Elements(num_envs as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(num_envs), &num_envs, |b, _| {
             b.iter(|| {
                 // Restart from the same states so every iteration does the same work.
                 batch.states_mut().copy_from_slice(&states);
@@ -186,26 +186,26 @@ fn env_batch(c: &mut Criterion) {
     let mut group = c.benchmark_group("env_batch");
     for variant in ["off", "randomized", "noise_delay"] {
         for n in [2usize, 5] {
-            for n_envs in [1usize, 256, 4096] {
+            for num_envs in [1usize, 256, 4096] {
                 let chain =
                     Chain::<Planar>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
                 let mut b = EnvBatch::new(
                     chain,
                     env_task(n, variant),
-                    n_envs,
+                    num_envs,
                     0,
                     AutoresetMode::NextStep,
                     false,
                 )
                 .unwrap();
                 let d = b.state_dim();
-                let actions: Vec<f32> = (0..n_envs).map(|k| ((k % 7) as f32 - 3.0) * 0.1).collect();
-                let mut obs = vec![0.0f32; n_envs * d];
-                let mut rewards = vec![0.0; n_envs];
-                let (mut terminated, mut truncated) = (vec![false; n_envs], vec![false; n_envs]);
-                group.throughput(Throughput::Elements(n_envs as u64));
-                let id = BenchmarkId::new(format!("{variant}/n{n}"), n_envs);
-                group.bench_with_input(id, &n_envs, |bencher, _| {
+                let actions: Vec<f32> = (0..num_envs).map(|k| ((k % 7) as f32 - 3.0) * 0.1).collect();
+                let mut obs = vec![0.0f32; num_envs * d];
+                let mut rewards = vec![0.0; num_envs];
+                let (mut terminated, mut truncated) = (vec![false; num_envs], vec![false; num_envs]);
+                group.throughput(Throughput::Elements(num_envs as u64));
+                let id = BenchmarkId::new(format!("{variant}/n{n}"), num_envs);
+                group.bench_with_input(id, &num_envs, |bencher, _| {
                     bencher.iter(|| {
                         let out = StepOutputs {
                             obs: &mut obs,
@@ -239,17 +239,17 @@ fn batch_kernels(c: &mut Criterion) {
             Precision::F32 => "f32",
             Precision::F64 => kernel.map_or("scalar", Kernel::name),
         };
-        for n_envs in [1usize, 4096] {
+        for num_envs in [1usize, 4096] {
             let chain = chain(5);
             let y0 = moving_state(&chain);
-            let mut batch = Batch::new(chain, n_envs, 1e-3, StepOptions::default()).unwrap();
+            let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
             batch.set_kernel(kernel).unwrap();
             batch.set_precision(precision).unwrap();
-            let states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
-            let forces = vec![0.0; 2 * n_envs];
+            let states: Vec<f64> = y0.iter().copied().cycle().take(num_envs * y0.len()).collect();
+            let forces = vec![0.0; 2 * num_envs];
             batch.states_mut().copy_from_slice(&states);
-            group.throughput(Throughput::Elements(n_envs as u64));
-            group.bench_with_input(BenchmarkId::new(name, n_envs), &n_envs, |b, _| {
+            group.throughput(Throughput::Elements(num_envs as u64));
+            group.bench_with_input(BenchmarkId::new(name, num_envs), &num_envs, |b, _| {
                 // Keep stepping the same (slowly moving) states: no copy in the timed loop.
                 b.iter(|| batch.step(black_box(&forces)).unwrap())
             });
@@ -258,29 +258,29 @@ fn batch_kernels(c: &mut Criterion) {
     group.finish();
 }
 
-/// One thread's lane stepper over `n_envs` paper systems in lanes of `T`.
+/// One thread's lane stepper over `num_envs` paper systems in lanes of `T`.
 fn bench_lane_precision<T: chaincart::lanes::simd::LaneReal, const L: usize>(
     group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
-    n_envs: usize,
+    num_envs: usize,
 ) where
     Spatial: chaincart::lanes::LaneGeometry<L, T>,
 {
     let chain = chain(5);
     let y0 = moving_state(&chain);
-    let mut states: Vec<f64> = y0.iter().copied().cycle().take(n_envs * y0.len()).collect();
-    let forces = vec![0.0; 2 * n_envs];
+    let mut states: Vec<f64> = y0.iter().copied().cycle().take(num_envs * y0.len()).collect();
+    let forces = vec![0.0; 2 * num_envs];
     let params = [LaneParams::<L, T>::broadcast(chain.params())];
     let mut stepper = LaneStepper::<Spatial, L, T>::new(5);
-    let mut status = vec![StepStatus::Ok; n_envs];
+    let mut status = vec![StepStatus::Ok; num_envs];
     let guard = Guard::default();
     let plan = StepPlan {
         dt: 1e-3,
         substeps: 1,
         guard: &guard,
     };
-    group.throughput(Throughput::Elements(n_envs as u64));
-    group.bench_with_input(BenchmarkId::new(name, n_envs), &n_envs, |b, _| {
+    group.throughput(Throughput::Elements(num_envs as u64));
+    group.bench_with_input(BenchmarkId::new(name, num_envs), &num_envs, |b, _| {
         b.iter(|| {
             let kernel = Kernel::detect();
             stepper.step(

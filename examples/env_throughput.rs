@@ -48,23 +48,23 @@ fn cpu_seconds() -> f64 {
 }
 
 /// Million env-steps per CPU second, best of `repeats` runs of about 0.3 CPU seconds.
-fn rate(n: usize, n_envs: usize, variant: &str, repeats: usize) -> f64 {
+fn rate(n: usize, num_envs: usize, variant: &str, repeats: usize) -> f64 {
     let chain = Chain::<Planar>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
     let mut b = EnvBatch::new(
         chain,
         task(n, variant),
-        n_envs,
+        num_envs,
         0,
         AutoresetMode::NextStep,
         false,
     )
     .unwrap();
     let d = b.state_dim();
-    let actions: Vec<f32> = (0..n_envs).map(|k| ((k % 7) as f32 - 3.0) * 0.1).collect();
-    let mut obs = vec![0.0f32; n_envs * d];
-    let mut rewards = vec![0.0; n_envs];
-    let (mut terminated, mut truncated) = (vec![false; n_envs], vec![false; n_envs]);
-    let steps = (4_000 / n_envs).max(1);
+    let actions: Vec<f32> = (0..num_envs).map(|k| ((k % 7) as f32 - 3.0) * 0.1).collect();
+    let mut obs = vec![0.0f32; num_envs * d];
+    let mut rewards = vec![0.0; num_envs];
+    let (mut terminated, mut truncated) = (vec![false; num_envs], vec![false; num_envs]);
+    let steps = (4_000 / num_envs).max(1);
     let mut best: f64 = 0.0;
     for _ in 0..repeats {
         let (t0, mut done) = (cpu_seconds(), 0usize);
@@ -78,7 +78,7 @@ fn rate(n: usize, n_envs: usize, variant: &str, repeats: usize) -> f64 {
                 };
                 b.step(&actions, out).unwrap();
             }
-            done += steps * n_envs;
+            done += steps * num_envs;
         }
         best = best.max(done as f64 / (cpu_seconds() - t0) / 1e6);
     }
@@ -86,13 +86,13 @@ fn rate(n: usize, n_envs: usize, variant: &str, repeats: usize) -> f64 {
 }
 
 /// Million env-steps per CPU second of the physics batch alone (no task layer).
-fn raw_rate(n: usize, n_envs: usize) -> f64 {
+fn raw_rate(n: usize, num_envs: usize) -> f64 {
     let chain = Chain::<Planar>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
     let opts = StepOptions::new(Method::Rk4, 2).unwrap();
-    let mut b = chaincart::batch::Batch::new(chain, n_envs, 0.02, opts).unwrap();
+    let mut b = chaincart::batch::Batch::new(chain, num_envs, 0.02, opts).unwrap();
     let y0: Vec<f64> = b.states().to_vec();
-    let forces = vec![0.1; n_envs];
-    let steps = (4_000 / n_envs).max(1);
+    let forces = vec![0.1; num_envs];
+    let steps = (4_000 / num_envs).max(1);
     let mut best: f64 = 0.0;
     for _ in 0..3 {
         let (t0, mut done) = (cpu_seconds(), 0usize);
@@ -101,7 +101,7 @@ fn raw_rate(n: usize, n_envs: usize) -> f64 {
             for _ in 0..steps {
                 b.step(&forces).unwrap();
             }
-            done += steps * n_envs;
+            done += steps * num_envs;
         }
         best = best.max(done as f64 / (cpu_seconds() - t0) / 1e6);
     }
@@ -132,7 +132,7 @@ fn main() {
         for n in [2, 5] {
             let r: Vec<String> = [1, 256, 4096]
                 .iter()
-                .map(|&n_envs| format!("{:.2}", rate(n, n_envs, variant, 3)))
+                .map(|&num_envs| format!("{:.2}", rate(n, num_envs, variant, 3)))
                 .collect();
             println!("| {variant} | {n} | {} |", r.join(" | "));
         }

@@ -204,11 +204,11 @@ pub enum AnyBatch {
 }
 
 impl AnyBatch {
-    /// A batch of `n_envs` copies of `chain` at its base state, stepping by `dt` with `opts`.
-    pub fn new(chain: AnyChain, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
+    /// A batch of `num_envs` copies of `chain` at its base state, stepping by `dt` with `opts`.
+    pub fn new(chain: AnyChain, num_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
         Ok(match chain {
-            AnyChain::Spatial(c) => AnyBatch::Spatial(Batch::new(c, n_envs, dt, opts)?),
-            AnyChain::Planar(c) => AnyBatch::Planar(Batch::new(c, n_envs, dt, opts)?),
+            AnyChain::Spatial(c) => AnyBatch::Spatial(Batch::new(c, num_envs, dt, opts)?),
+            AnyChain::Planar(c) => AnyBatch::Planar(Batch::new(c, num_envs, dt, opts)?),
         })
     }
 }

@@ -189,11 +189,11 @@ struct LanePath<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
 }
 
 impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
-    fn new(chain: &Chain<G>, n_envs: usize, kernel: Kernel) -> Self {
+    fn new(chain: &Chain<G>, num_envs: usize, kernel: Kernel) -> Self {
         Self {
             kernel,
             params: [LaneParams::broadcast(chain.params())],
-            workers: (0..n_envs.div_ceil(LANE_CHUNK))
+            workers: (0..num_envs.div_ceil(LANE_CHUNK))
                 .map(|_| LaneStepper::new(chain.n_links()))
                 .collect(),
         }
@@ -207,13 +207,13 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
         status: &mut [StepStatus],
         plan: StepPlan<'_>,
     ) {
-        let n_envs = status.len();
-        let (d, f) = (states.len() / n_envs, forces.len() / n_envs);
+        let num_envs = status.len();
+        let (d, f) = (states.len() / num_envs, forces.len() / num_envs);
         let (kernel, params) = (self.kernel, &self.params[..]);
         let work = |(((states, forces), status), worker): LaneItem<'_, G, L, T>| {
             worker.step(kernel, params, states, forces, None, plan, status);
         };
-        if n_envs <= LANE_CHUNK {
+        if num_envs <= LANE_CHUNK {
             work((((states, forces), status), &mut self.workers[0]));
         } else {
             states
@@ -238,7 +238,7 @@ pub struct Batch<G: LaneScene> {
     opts: StepOptions,
     dt: f64,
     guard: Guard,
-    n_envs: usize,
+    num_envs: usize,
     states: Vec<f64>,
     status: Vec<StepStatus>,
     workers: Vec<GuardedStepper<G>>,
@@ -247,9 +247,9 @@ pub struct Batch<G: LaneScene> {
 }
 
 impl<G: LaneScene> Batch<G> {
-    /// `n_envs` copies of `initial` (or of the hanging equilibrium if `None`).
-    pub fn new(chain: Chain<G>, n_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
-        if n_envs == 0 {
+    /// `num_envs` copies of `initial` (or of the hanging equilibrium if `None`).
+    pub fn new(chain: Chain<G>, num_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
+        if num_envs == 0 {
             return Err(InputError::InvalidParameter {
                 name: "num_envs",
                 value: 0.0,
@@ -257,13 +257,13 @@ impl<G: LaneScene> Batch<G> {
             }
             .into());
         }
-        crate::limits::check_rows("n_envs", n_envs, chain.state_dim())?;
+        crate::limits::check_rows("num_envs", num_envs, chain.state_dim())?;
         check_positive("dt", dt)?;
         opts.validate()?;
         let dim = chain.state_dim();
         let hanging = chain.equilibrium(&vec![1.0; chain.n_links()])?;
-        let states = hanging.iter().copied().cycle().take(n_envs * dim).collect();
-        let workers = (0..n_envs.div_ceil(CHUNK))
+        let states = hanging.iter().copied().cycle().take(num_envs * dim).collect();
+        let workers = (0..num_envs.div_ceil(CHUNK))
             .map(|_| GuardedStepper::new(&chain))
             .collect();
         let mut batch = Self {
@@ -271,13 +271,13 @@ impl<G: LaneScene> Batch<G> {
             opts,
             dt,
             guard: Guard::default(),
-            n_envs,
+            num_envs,
             states,
-            status: vec![StepStatus::Ok; n_envs],
+            status: vec![StepStatus::Ok; num_envs],
             workers,
             lanes: None,
         };
-        if opts.method == Method::Rk4 && n_envs >= MIN_LANE_ENVS {
+        if opts.method == Method::Rk4 && num_envs >= MIN_LANE_ENVS {
             batch.set_kernel(Some(Kernel::detect()))?;
         }
         Ok(batch)
@@ -316,8 +316,8 @@ impl<G: LaneScene> Batch<G> {
         };
         if precision != self.precision() {
             self.lanes = Some(match precision {
-                Precision::F64 => LaneMode::F64(LanePath::new(&self.chain, self.n_envs, kernel)),
-                Precision::F32 => LaneMode::F32(LanePath::new(&self.chain, self.n_envs, kernel)),
+                Precision::F64 => LaneMode::F64(LanePath::new(&self.chain, self.num_envs, kernel)),
+                Precision::F32 => LaneMode::F32(LanePath::new(&self.chain, self.num_envs, kernel)),
             });
         }
         Ok(())
@@ -340,10 +340,10 @@ impl<G: LaneScene> Batch<G> {
             }
             .into());
         }
-        let (chain, n_envs) = (&self.chain, self.n_envs);
+        let (chain, num_envs) = (&self.chain, self.num_envs);
         match self
             .lanes
-            .get_or_insert_with(|| LaneMode::F64(LanePath::new(chain, n_envs, kernel)))
+            .get_or_insert_with(|| LaneMode::F64(LanePath::new(chain, num_envs, kernel)))
         {
             LaneMode::F64(path) => path.kernel = kernel,
             LaneMode::F32(path) => path.kernel = kernel,
@@ -354,8 +354,8 @@ impl<G: LaneScene> Batch<G> {
     pub fn chain(&self) -> &Chain<G> {
         &self.chain
     }
-    pub fn n_envs(&self) -> usize {
-        self.n_envs
+    pub fn num_envs(&self) -> usize {
+        self.num_envs
     }
     pub fn dt(&self) -> f64 {
         self.dt
@@ -390,7 +390,7 @@ impl<G: LaneScene> Batch<G> {
 
     /// Overwrites env `env`'s state (validated: length, finiteness) and clears its status.
     pub fn set_state(&mut self, env: usize, state: &[f64]) -> Result<()> {
-        if env >= self.n_envs {
+        if env >= self.num_envs {
             return Err(InputError::InvalidParameter {
                 name: "env index",
                 value: env as f64,
@@ -409,7 +409,7 @@ impl<G: LaneScene> Batch<G> {
     /// Checks a force array for the whole batch before anything is stepped, so a bad
     /// force for one env changes no env.
     pub fn check_forces(&self, forces: &[f64]) -> Result<()> {
-        check_len("forces", forces, self.n_envs * self.chain.force_dim())?;
+        check_len("forces", forces, self.num_envs * self.chain.force_dim())?;
         check_finite("forces", forces)
     }
 
@@ -434,7 +434,7 @@ impl<G: LaneScene> Batch<G> {
                 *st = worker.step(chain, y, G::Cart::load(u), dt, opts, guard);
             }
         };
-        if self.n_envs <= CHUNK {
+        if self.num_envs <= CHUNK {
             // One chunk: step it on this thread and skip the pool's wake-up cost.
             work((
                 ((&mut self.states[..], forces), &mut self.status[..]),

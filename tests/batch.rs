@@ -8,15 +8,15 @@ use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
 use common::batches::{forces, random_batch};
 use nalgebra::Vector2;
 
-fn run_in_pool(threads: usize, n_envs: usize, method: Method) -> Vec<f64> {
+fn run_in_pool(threads: usize, num_envs: usize, method: Method) -> Vec<f64> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
-        let (mut batch, _) = random_batch(n_envs, method, 3);
+        let (mut batch, _) = random_batch(num_envs, method, 3);
         for step in 0..50 {
-            batch.step(&forces(n_envs, step)).unwrap();
+            batch.step(&forces(num_envs, step)).unwrap();
         }
         batch.states().to_vec()
     })
@@ -39,10 +39,10 @@ fn results_are_bit_identical_for_one_and_two_threads() {
 
 #[test]
 fn batch_equals_stepping_each_env_alone() {
-    let n_envs = 2 * CHUNK + 5;
-    let (mut batch, states) = random_batch(n_envs, Method::Rkmk4, 4);
+    let num_envs = 2 * CHUNK + 5;
+    let (mut batch, states) = random_batch(num_envs, Method::Rkmk4, 4);
     for step in 0..20 {
-        batch.step(&forces(n_envs, step)).unwrap();
+        batch.step(&forces(num_envs, step)).unwrap();
     }
     let chain = SpatialChain::new(ChainParams::paper());
     let opts = StepOptions {
@@ -53,7 +53,7 @@ fn batch_equals_stepping_each_env_alone() {
     for (k, y0) in states.iter().enumerate() {
         let mut y = y0.clone();
         for step in 0..20 {
-            let f = forces(n_envs, step);
+            let f = forces(num_envs, step);
             stepper
                 .step(
                     &chain,
@@ -70,10 +70,10 @@ fn batch_equals_stepping_each_env_alone() {
 
 #[test]
 fn a_bad_force_changes_no_env() {
-    let n_envs = 40;
-    let (mut batch, _) = random_batch(n_envs, Method::Rk4, 5);
+    let num_envs = 40;
+    let (mut batch, _) = random_batch(num_envs, Method::Rk4, 5);
     let before = batch.states().to_vec();
-    let mut f = forces(n_envs, 0);
+    let mut f = forces(num_envs, 0);
     f[2 * 17 + 1] = f64::NAN;
     let err = batch.step(&f).unwrap_err();
     assert!(err.to_string().contains("forces[35] = NaN"), "{err}");
@@ -84,10 +84,10 @@ fn a_bad_force_changes_no_env() {
 
 #[test]
 fn a_blow_up_in_one_env_leaves_the_others_untouched() {
-    let n_envs = 3 * CHUNK;
-    let (mut batch, states) = random_batch(n_envs, Method::Rk4, 6);
-    let (mut reference, _) = random_batch(n_envs, Method::Rk4, 6);
-    let mut f = forces(n_envs, 0);
+    let num_envs = 3 * CHUNK;
+    let (mut batch, states) = random_batch(num_envs, Method::Rk4, 6);
+    let (mut reference, _) = random_batch(num_envs, Method::Rk4, 6);
+    let mut f = forces(num_envs, 0);
     let g = f.clone();
     f[2 * 40] = 1e9; // far past what a 2 ms step resolves
     batch.step(&f).unwrap();

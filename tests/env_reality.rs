@@ -48,9 +48,9 @@ fn randomization() -> Randomization {
     }
 }
 
-fn batch<G: Geometry>(t: TaskConfig, n_envs: usize, seed: u64, mode: AutoresetMode) -> EnvBatch<G> {
+fn batch<G: Geometry>(t: TaskConfig, num_envs: usize, seed: u64, mode: AutoresetMode) -> EnvBatch<G> {
     let n = t.target.len();
-    EnvBatch::new(Chain::new(nominal(n)), t, n_envs, seed, mode, false).unwrap()
+    EnvBatch::new(Chain::new(nominal(n)), t, num_envs, seed, mode, false).unwrap()
 }
 
 /// Output buffers and a step with them.
@@ -63,7 +63,7 @@ struct Out {
 
 impl Out {
     fn new<G: Geometry>(b: &EnvBatch<G>) -> Self {
-        let n = b.n_envs();
+        let n = b.num_envs();
         Self {
             obs: vec![0.0; n * b.state_dim()],
             rewards: vec![0.0; n],
@@ -85,8 +85,8 @@ impl Out {
     }
 }
 
-fn actions(step: usize, n_envs: usize, f: usize, env0: usize) -> Vec<f64> {
-    (0..n_envs * f)
+fn actions(step: usize, num_envs: usize, f: usize, env0: usize) -> Vec<f64> {
+    (0..num_envs * f)
         .map(|j| 1.5 * (0.3 * step as f64 + 0.9 * (env0 + j / f) as f64 + j as f64).sin())
         .collect()
 }
@@ -96,10 +96,10 @@ fn history<G: Geometry>(b: &mut EnvBatch<G>, steps: usize, env0: usize) -> Vec<V
     let mut out = Out::new(b);
     let mut h = Vec::new();
     for s in 0..steps {
-        out.step(b, &actions(s, b.n_envs(), b.force_dim(), env0));
+        out.step(b, &actions(s, b.num_envs(), b.force_dim(), env0));
         let mut row = out.obs.clone();
         row.extend(&out.rewards);
-        for k in 0..b.n_envs() {
+        for k in 0..b.num_envs() {
             let p = b.env_params(k).unwrap();
             row.push(p.cart_mass());
             row.extend(p.masses());
@@ -123,8 +123,8 @@ fn everything_on(n: usize) -> TaskConfig {
 
 #[test]
 fn env_i_of_a_randomised_batch_is_the_single_env_seeded_seed_plus_i() {
-    let n_envs = 2 * CHUNK + 3;
-    let mut big = batch::<Spatial>(everything_on(2), n_envs, 100, AutoresetMode::SameStep);
+    let num_envs = 2 * CHUNK + 3;
+    let mut big = batch::<Spatial>(everything_on(2), num_envs, 100, AutoresetMode::SameStep);
     let h_big = history(&mut big, 60, 0);
     for env in [0, 1, CHUNK, 2 * CHUNK + 2] {
         let mut one = batch::<Spatial>(
@@ -136,7 +136,7 @@ fn env_i_of_a_randomised_batch_is_the_single_env_seeded_seed_plus_i() {
         // The single env sees env `env`'s actions.
         let mut out = Out::new(&one);
         for (s, row) in h_big.iter().enumerate() {
-            let a = actions(s, n_envs, 2, 0);
+            let a = actions(s, num_envs, 2, 0);
             out.step(&mut one, &a[2 * env..2 * env + 2]);
             let d = one.state_dim();
             assert_eq!(
@@ -155,14 +155,14 @@ fn env_i_of_a_randomised_batch_is_the_single_env_seeded_seed_plus_i() {
 
 #[test]
 fn randomised_runs_reproduce_for_any_thread_count() {
-    let n_envs = 4 * CHUNK + 1;
+    let num_envs = 4 * CHUNK + 1;
     let go = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         pool.install(|| {
-            let mut b = batch::<Planar>(everything_on(3), n_envs, 7, AutoresetMode::NextStep);
+            let mut b = batch::<Planar>(everything_on(3), num_envs, 7, AutoresetMode::NextStep);
             history(&mut b, 70, 0)
         })
     };
@@ -185,7 +185,7 @@ fn randomisation_leaves_the_start_states_unchanged() {
         randomised.env_params(1).unwrap()
     );
     assert!(plain.per_env_params().is_none());
-    assert_eq!(randomised.per_env_params().unwrap().n_envs(), 50);
+    assert_eq!(randomised.per_env_params().unwrap().num_envs(), 50);
 }
 
 /// Every env of a randomised batch (after several resets) steps bit for bit as a
@@ -202,8 +202,8 @@ fn an_env_of_a_randomised_batch_steps_as_a_chain_with_its_parameters() {
     let mut checked = 0;
     for s in 0..20 {
         let before = b.states().to_vec();
-        let params: Vec<ChainParams> = (0..b.n_envs()).map(|k| b.env_params(k).unwrap()).collect();
-        let a = actions(s, b.n_envs(), 2, 0);
+        let params: Vec<ChainParams> = (0..b.num_envs()).map(|k| b.env_params(k).unwrap()).collect();
+        let a = actions(s, b.num_envs(), 2, 0);
         out.step(&mut b, &a);
         for (k, p) in params.iter().enumerate() {
             if b.events()[k] != 0 {
@@ -245,11 +245,11 @@ fn sampled_parameters_lie_in_their_ranges_with_the_right_distribution() {
         },
         per_link: false,
     });
-    let n_envs = 4000;
-    let b = batch::<Planar>(t, n_envs, 123, AutoresetMode::NextStep);
+    let num_envs = 4000;
+    let b = batch::<Planar>(t, num_envs, 123, AutoresetMode::NextStep);
     let p = b.per_env_params().unwrap();
     let (mut cart, mut mass, mut log_g) = (Vec::new(), Vec::new(), Vec::new());
-    for k in 0..n_envs {
+    for k in 0..num_envs {
         let c = p.cart_mass[k];
         assert!((0.7..1.3).contains(&c), "cart_mass {c}");
         cart.push(c);

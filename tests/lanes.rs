@@ -31,25 +31,25 @@ fn bits(v: &[f64]) -> Vec<u64> {
     v.iter().map(|x| x.to_bits()).collect()
 }
 
-/// Steps `n_envs` envs (each its own random chain, state and forces) `steps` times
+/// Steps `num_envs` envs (each its own random chain, state and forces) `steps` times
 /// with the lane kernel and each alone with the scalar guarded stepper, and asserts
 /// identical bits and statuses. Some envs spin fast or are pushed hard so that the
 /// guard fails some steps. Returns how many env-steps failed.
 fn compare<G: LaneGeometry<L> + RandomState, const L: usize>(
     kernel: Kernel,
     n: usize,
-    n_envs: usize,
+    num_envs: usize,
     substeps: usize,
     seed: u64,
 ) -> usize {
-    compare_with_ratios::<G, L>(kernel, n, n_envs, substeps, seed, 10.0)
+    compare_with_ratios::<G, L>(kernel, n, num_envs, substeps, seed, 10.0)
 }
 
 /// [`compare`] with link masses and lengths spread over `ratio`.
 fn compare_with_ratios<G: LaneGeometry<L> + RandomState, const L: usize>(
     kernel: Kernel,
     n: usize,
-    n_envs: usize,
+    num_envs: usize,
     substeps: usize,
     seed: u64,
     ratio: f64,
@@ -58,27 +58,27 @@ fn compare_with_ratios<G: LaneGeometry<L> + RandomState, const L: usize>(
     let (dt, steps) = (2e-3, 6);
     let guard = Guard::default();
     let opts = StepOptions::new(Method::Rk4, substeps).unwrap();
-    let chains: Vec<Chain<G>> = (0..n_envs)
+    let chains: Vec<Chain<G>> = (0..num_envs)
         .map(|_| Chain::new(random_params(&mut rng, n, ratio, ratio)))
         .collect();
-    let mut params: Vec<LaneParams<L>> = (0..n_envs.div_ceil(L))
+    let mut params: Vec<LaneParams<L>> = (0..num_envs.div_ceil(L))
         .map(|_| LaneParams::broadcast(&ChainParams::uniform(n, 1.0, 1.0, 1.0, 1.0).unwrap()))
         .collect();
     for (k, chain) in chains.iter().enumerate() {
         params[k / L].set_lane(k % L, chain.params()).unwrap();
     }
-    let mut states: Vec<f64> = (0..n_envs)
+    let mut states: Vec<f64> = (0..num_envs)
         .flat_map(|k| G::random_state(&mut rng, n, if k % 5 == 4 { 400.0 } else { 3.0 }))
         .collect();
     let mut scalar = states.clone();
     let f = G::Cart::DIM;
-    let d = states.len() / n_envs;
+    let d = states.len() / num_envs;
     let mut lanes = LaneStepper::<G, L>::new(n);
     let mut worker = GuardedStepper::new(&chains[0]);
-    let mut status = vec![StepStatus::Ok; n_envs];
+    let mut status = vec![StepStatus::Ok; num_envs];
     let mut failures = 0;
     for step in 0..steps {
-        let forces: Vec<f64> = (0..n_envs * f)
+        let forces: Vec<f64> = (0..num_envs * f)
             .map(|j| {
                 let scale = if j % 7 == step { 1e5 } else { 10.0 };
                 scale * rng.random_range(-1.0..1.0)
@@ -273,13 +273,13 @@ fn per_lane_parameters_must_match_the_link_count() {
 }
 
 /// Final states of a random paper batch after 20 rk4 steps in a pool of `threads`.
-fn batch_run(threads: usize, n_envs: usize, kernel: Option<Kernel>) -> (Vec<u64>, Vec<StepStatus>) {
-    batch_run_in(threads, n_envs, kernel, Precision::F64)
+fn batch_run(threads: usize, num_envs: usize, kernel: Option<Kernel>) -> (Vec<u64>, Vec<StepStatus>) {
+    batch_run_in(threads, num_envs, kernel, Precision::F64)
 }
 
 fn batch_run_in(
     threads: usize,
-    n_envs: usize,
+    num_envs: usize,
     kernel: Option<Kernel>,
     precision: Precision,
 ) -> (Vec<u64>, Vec<StepStatus>) {
@@ -288,16 +288,16 @@ fn batch_run_in(
         .build()
         .unwrap();
     pool.install(|| {
-        let (mut batch, _) = common::batches::random_batch(n_envs, Method::Rk4, 21);
+        let (mut batch, _) = common::batches::random_batch(num_envs, Method::Rk4, 21);
         batch.set_kernel(kernel).unwrap();
         batch.set_precision(precision).unwrap();
         assert_eq!(batch.kernel(), kernel);
         assert_eq!(batch.precision(), precision);
         let mut statuses = vec![];
         for step in 0..20 {
-            let mut f = common::batches::forces(n_envs, step);
+            let mut f = common::batches::forces(num_envs, step);
             // One env is pushed far past what a step resolves, now and then.
-            f[2 * (n_envs / 2)] *= if step % 4 == 1 { 1e9 } else { 1.0 };
+            f[2 * (num_envs / 2)] *= if step % 4 == 1 { 1e9 } else { 1.0 };
             batch.step(&f).unwrap();
             statuses.extend_from_slice(batch.status());
         }
@@ -307,14 +307,14 @@ fn batch_run_in(
 
 #[test]
 fn batches_are_bit_identical_across_kernels_threads_and_sizes() {
-    for n_envs in [1, 7, 33, 4097] {
-        let reference = batch_run(1, n_envs, None);
+    for num_envs in [1, 7, 33, 4097] {
+        let reference = batch_run(1, num_envs, None);
         assert!(reference.1.iter().any(|s| s.is_failure()));
         for kernel in available_kernels() {
             for threads in [1, 2] {
                 assert!(
-                    batch_run(threads, n_envs, Some(kernel)) == reference,
-                    "N = {n_envs}, {} kernel, {threads} threads",
+                    batch_run(threads, num_envs, Some(kernel)) == reference,
+                    "N = {num_envs}, {} kernel, {threads} threads",
                     kernel.name()
                 );
             }
@@ -338,25 +338,25 @@ fn rk4_batches_pick_the_lane_kernel_and_other_methods_refuse_it() {
 fn a_chunk_with_a_chain_per_env_steps_each_env_as_its_own_chain() {
     use chaincart::lanes::{ChunkLanes, LaneChunk, LANES};
     let mut rng = rng(12);
-    let n_envs = 2 * LANES + 3;
-    let params: Vec<ChainParams> = (0..n_envs)
+    let num_envs = 2 * LANES + 3;
+    let params: Vec<ChainParams> = (0..num_envs)
         .map(|_| random_params(&mut rng, 4, 10.0, 10.0))
         .collect();
     let chain = Chain::<Spatial>::new(params[0].clone());
     let mut lanes = LaneChunk::per_env(&chain, &params, Kernel::detect()).unwrap();
-    let mut states: Vec<f64> = (0..n_envs)
+    let mut states: Vec<f64> = (0..num_envs)
         .flat_map(|_| random_spatial_state(&mut rng, 4, 3.0))
         .collect();
     let start = states.clone();
-    let forces: Vec<f64> = (0..2 * n_envs).map(|j| (j % 7) as f64 - 3.0).collect();
+    let forces: Vec<f64> = (0..2 * num_envs).map(|j| (j % 7) as f64 - 3.0).collect();
     let guard = Guard::default();
     let plan = StepPlan {
         dt: 1e-3,
         substeps: 2,
         guard: &guard,
     };
-    let mut status = vec![StepStatus::SolverFailure; n_envs];
-    lanes.step(&mut states, &forces, &vec![true; n_envs], plan, &mut status);
+    let mut status = vec![StepStatus::SolverFailure; num_envs];
+    lanes.step(&mut states, &forces, &vec![true; num_envs], plan, &mut status);
     let d = chain.state_dim();
     let opts = StepOptions::new(Method::Rk4, 2).unwrap();
     for (k, p) in params.iter().enumerate() {
@@ -503,10 +503,10 @@ fn an_f32_blow_up_is_flagged_and_leaves_its_neighbours_unchanged() {
 
 #[test]
 fn f32_batches_are_deterministic_across_kernels_threads_and_sizes() {
-    for n_envs in [7, 33, 4097] {
+    for num_envs in [7, 33, 4097] {
         let detect = Some(Kernel::detect());
-        let reference = batch_run_in(1, n_envs, detect, Precision::F32);
-        let f64_run = batch_run(1, n_envs, None);
+        let reference = batch_run_in(1, num_envs, detect, Precision::F32);
+        let f64_run = batch_run(1, num_envs, None);
         assert!(reference != f64_run, "f32 must differ from f64 somewhere");
         // Same verdicts as f64 on these moderate states, apart from the pushed env.
         let agree = reference
@@ -523,8 +523,8 @@ fn f32_batches_are_deterministic_across_kernels_threads_and_sizes() {
         for kernel in available_kernels() {
             for threads in [1, 2] {
                 assert!(
-                    batch_run_in(threads, n_envs, Some(kernel), Precision::F32) == reference,
-                    "N = {n_envs}, {} kernel, {threads} threads",
+                    batch_run_in(threads, num_envs, Some(kernel), Precision::F32) == reference,
+                    "N = {num_envs}, {} kernel, {threads} threads",
                     kernel.name()
                 );
             }

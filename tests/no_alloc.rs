@@ -18,9 +18,9 @@ static GLOBAL: CountingAllocator = CountingAllocator;
 #[test]
 fn stepping_allocates_nothing() {
     for method in Method::ALL {
-        for n_envs in [1, CHUNK, 8 * CHUNK] {
-            let (mut batch, _) = random_batch(n_envs, method, 7);
-            let f = forces(n_envs, 1);
+        for num_envs in [1, CHUNK, 8 * CHUNK] {
+            let (mut batch, _) = random_batch(num_envs, method, 7);
+            let f = forces(num_envs, 1);
             batch.step(&f).unwrap(); // warm up the thread pool
             let (before, before_here) = counts();
             for _ in 0..5 {
@@ -29,33 +29,33 @@ fn stepping_allocates_nothing() {
             let (after, after_here) = counts();
             let (during, here) = (after - before, after_here - before_here);
             eprintln!(
-                "{} N = {n_envs}: {during} allocations in 5 steps ({here} on the calling thread)",
+                "{} N = {num_envs}: {during} allocations in 5 steps ({here} on the calling thread)",
                 method.name()
             );
             // The calling thread, which steps single-chunk batches itself, allocates
             // nothing; across all threads a stray allocation or two can come from the
             // test harness, and anything that scaled with N would show far more.
-            assert_eq!(here, 0, "{} N = {n_envs}", method.name());
+            assert_eq!(here, 0, "{} N = {num_envs}", method.name());
             assert!(
                 during <= 5,
-                "{} N = {n_envs}: {during} allocations",
+                "{} N = {num_envs}: {during} allocations",
                 method.name()
             );
         }
     }
     // The f32 lane path.
-    for n_envs in [CHUNK, 8 * CHUNK] {
-        let (mut batch, _) = random_batch(n_envs, Method::Rk4, 8);
+    for num_envs in [CHUNK, 8 * CHUNK] {
+        let (mut batch, _) = random_batch(num_envs, Method::Rk4, 8);
         batch.set_precision(Precision::F32).unwrap();
-        let f = forces(n_envs, 1);
+        let f = forces(num_envs, 1);
         batch.step(&f).unwrap();
         let (before, before_here) = counts();
         for _ in 0..5 {
             batch.step(&f).unwrap();
         }
         let (after, after_here) = counts();
-        assert_eq!(after_here - before_here, 0, "f32 N = {n_envs}");
-        assert!(after - before <= 5, "f32 N = {n_envs}: {}", after - before);
+        assert_eq!(after_here - before_here, 0, "f32 N = {num_envs}");
+        assert!(after - before <= 5, "f32 N = {num_envs}: {}", after - before);
     }
     // And a single guarded step.
     let chain = SpatialChain::new(ChainParams::paper());

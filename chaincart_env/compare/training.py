@@ -23,7 +23,6 @@ from chaincart_env.sb3 import ChainCartVecEnv
 __all__ = [
     "ALGORITHMS",
     "steps_trained",
-    "DEFAULT_HYPERPARAMETERS",
     "TRAINING_EPISODE_COLUMNS",
     "EpisodeCsvLogger",
     "TrainingResult",
@@ -33,11 +32,6 @@ __all__ = [
 
 #: The stable-baselines3 algorithms the main job offers.
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
-
-#: Keyword arguments of each algorithm's constructor on top of SB3's defaults.
-#: PPO: SB3's defaults solve the default scene; these are kept. Off-policy methods:
-#: SB3's defaults too (their budget is not tuned here).
-DEFAULT_HYPERPARAMETERS: dict[str, dict[str, Any]] = {"ppo": {}, "sac": {}, "td3": {}}
 
 
 def algorithm_class(name: str) -> type[BaseAlgorithm]:
@@ -170,7 +164,7 @@ def train(
     cls = algorithm_class(algo)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
-    kwargs = {**DEFAULT_HYPERPARAMETERS[algo.lower()], **(hyperparameters or {})}
+    kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and (directory / CHECKPOINT_DIR).is_dir()

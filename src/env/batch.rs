@@ -77,7 +77,7 @@ impl Real for f64 {
 
 /// Per-step outputs written into caller-provided buffers, env-major.
 pub struct StepOutputs<'a, T: Real> {
-    /// `n_envs * state_dim` observations (the state, cast to `T`).
+    /// `num_envs * state_dim` observations (the state, cast to `T`).
     pub obs: &'a mut [T],
     pub rewards: &'a mut [f64],
     pub terminated: &'a mut [bool],
@@ -141,7 +141,7 @@ pub struct EnvBatch<G: Geometry> {
     base: Vec<f64>,
     mode: AutoresetMode,
     diagnostics: bool,
-    n_envs: usize,
+    num_envs: usize,
     widths: Widths,
     data: EnvData,
     workers: Vec<Worker<G>>,
@@ -186,16 +186,16 @@ fn seed_env(data: &mut EnvData, k: usize, seed: u64) {
 }
 
 impl<G: Geometry> EnvBatch<G> {
-    /// `n_envs` envs, env i seeded with `seed + i` (wrapping) and reset once.
+    /// `num_envs` envs, env i seeded with `seed + i` (wrapping) and reset once.
     pub fn new(
         chain: Chain<G>,
         task: TaskConfig,
-        n_envs: usize,
+        num_envs: usize,
         seed: u64,
         mode: AutoresetMode,
         diagnostics: bool,
     ) -> Result<Self> {
-        if n_envs == 0 {
+        if num_envs == 0 {
             return Err(InputError::InvalidParameter {
                 name: "num_envs",
                 value: 0.0,
@@ -203,7 +203,7 @@ impl<G: Geometry> EnvBatch<G> {
             }
             .into());
         }
-        crate::limits::check_rows("num_envs", n_envs, chain.state_dim())?;
+        crate::limits::check_rows("num_envs", num_envs, chain.state_dim())?;
         task.validate(chain.n_links())?;
         task.reality.validate(chain.n_links(), chain.state_dim())?;
         let true_chain = Chain::new(task.reality.true_params(chain.params())?);
@@ -212,30 +212,30 @@ impl<G: Geometry> EnvBatch<G> {
         let widths = Widths::new(&chain, &task.reality);
         let unseeded = ChaCha8Rng::seed_from_u64(0);
         let mut data = EnvData {
-            states: vec![0.0; n_envs * d],
+            states: vec![0.0; num_envs * d],
             slots: vec![
                 Slot {
                     rng: unseeded.clone(),
                     steps: 0,
                     ended: false,
                 };
-                n_envs
+                num_envs
             ],
             params: if widths.param_scalars == 1 {
-                EnvParams::filled(true_chain.params(), n_envs)
+                EnvParams::filled(true_chain.params(), num_envs)
             } else {
                 EnvParams::empty(chain.n_links())
             },
-            param_rngs: vec![unseeded.clone(); n_envs * widths.param_scalars],
-            noise_rngs: vec![unseeded; n_envs * widths.noise_rng],
-            noisy_obs: vec![0.0; n_envs * widths.noisy],
-            queue: vec![0.0; n_envs * widths.queue],
-            last_force: vec![0.0; n_envs * widths.last_force],
+            param_rngs: vec![unseeded.clone(); num_envs * widths.param_scalars],
+            noise_rngs: vec![unseeded; num_envs * widths.noise_rng],
+            noisy_obs: vec![0.0; num_envs * widths.noisy],
+            queue: vec![0.0; num_envs * widths.queue],
+            last_force: vec![0.0; num_envs * widths.last_force],
         };
-        for k in 0..n_envs {
+        for k in 0..num_envs {
             seed_env(&mut data, k, seed.wrapping_add(k as u64));
         }
-        let workers = (0..n_envs.div_ceil(CHUNK))
+        let workers = (0..num_envs.div_ceil(CHUNK))
             .map(|_| Worker::new(&true_chain))
             .collect();
         let mut batch = Self {
@@ -243,18 +243,18 @@ impl<G: Geometry> EnvBatch<G> {
             base,
             mode,
             diagnostics,
-            n_envs,
+            num_envs,
             widths,
             data,
             workers,
-            events: vec![0; n_envs],
-            errors: vec![0.0; 2 * n_envs],
-            finals: vec![0.0; n_envs * d],
-            diag: vec![0.0; DIAGNOSTICS.len() * n_envs],
+            events: vec![0; num_envs],
+            errors: vec![0.0; 2 * num_envs],
+            finals: vec![0.0; num_envs * d],
+            diag: vec![0.0; DIAGNOSTICS.len() * num_envs],
             chain,
             true_chain,
         };
-        for env in 0..n_envs {
+        for env in 0..num_envs {
             batch.reset_one(env);
         }
         Ok(batch)
@@ -273,8 +273,8 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn diagnostics_enabled(&self) -> bool {
         self.diagnostics
     }
-    pub fn n_envs(&self) -> usize {
-        self.n_envs
+    pub fn num_envs(&self) -> usize {
+        self.num_envs
     }
     /// Length of one state and of one observation.
     pub fn state_dim(&self) -> usize {
@@ -356,7 +356,7 @@ impl<G: Geometry> EnvBatch<G> {
     }
 
     fn check_env(&self, env: usize) -> Result<()> {
-        if env < self.n_envs {
+        if env < self.num_envs {
             Ok(())
         } else {
             Err(InputError::InvalidParameter {
@@ -401,7 +401,7 @@ impl<G: Geometry> EnvBatch<G> {
         mask: Option<&[bool]>,
         obs: &mut [T],
     ) -> Result<()> {
-        let n = self.n_envs;
+        let n = self.num_envs;
         if let Some(s) = seeds {
             check_size("seeds", s.len(), n)?;
         }
@@ -422,11 +422,11 @@ impl<G: Geometry> EnvBatch<G> {
         self.write_obs(obs)
     }
 
-    /// Checks a whole action array before anything is stepped: length `n_envs *
+    /// Checks a whole action array before anything is stepped: length `num_envs *
     /// force_dim`, every entry finite, and (autoreset disabled) no env whose episode
     /// has ended. A bad action for one env therefore changes no env.
     pub fn check_actions<A: Real>(&self, actions: &[A]) -> Result<()> {
-        check_size("actions", actions.len(), self.n_envs * self.force_dim())?;
+        check_size("actions", actions.len(), self.num_envs * self.force_dim())?;
         if let Some(index) = actions.iter().position(|a| !a.to_f64().is_finite()) {
             return Err(InputError::NonFinite {
                 name: "actions",
@@ -460,7 +460,7 @@ impl<G: Geometry> EnvBatch<G> {
         out: StepOutputs<'_, T>,
     ) -> Result<usize> {
         self.check_actions(actions)?;
-        let (n, d) = (self.n_envs, self.state_dim());
+        let (n, d) = (self.num_envs, self.state_dim());
         check_size("obs", out.obs.len(), n * d)?;
         check_size("rewards", out.rewards.len(), n)?;
         check_size("terminated", out.terminated.len(), n)?;
@@ -506,7 +506,7 @@ impl<G: Geometry> EnvBatch<G> {
     /// (checked: sizes, finite states and parameters).
     pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
         let d = &mut self.data;
-        let n = self.n_envs;
+        let n = self.num_envs;
         check_size("snapshot states", snap.states.len(), d.states.len())?;
         check_size("snapshot rng", snap.rng.len(), n)?;
         check_size("snapshot steps", snap.steps.len(), n)?;
@@ -521,7 +521,7 @@ impl<G: Geometry> EnvBatch<G> {
             snap.noise_rng.len(),
             d.noise_rngs.len(),
         )?;
-        check_size("snapshot params", snap.params.n_envs(), d.params.n_envs())?;
+        check_size("snapshot params", snap.params.num_envs(), d.params.num_envs())?;
         check_size(
             "snapshot noisy_obs",
             snap.noisy_obs.len(),
@@ -538,7 +538,7 @@ impl<G: Geometry> EnvBatch<G> {
             d.last_force.len(),
         )?;
         crate::error::check_finite("snapshot states", &snap.states)?;
-        for k in 0..snap.params.n_envs() {
+        for k in 0..snap.params.num_envs() {
             snap.params.get(k)?;
         }
         d.states.copy_from_slice(&snap.states);
@@ -586,17 +586,17 @@ impl AnyEnvBatch {
     pub fn new(
         chain: AnyChain,
         task: TaskConfig,
-        n_envs: usize,
+        num_envs: usize,
         seed: u64,
         mode: AutoresetMode,
         diagnostics: bool,
     ) -> Result<Self> {
         Ok(match chain {
             AnyChain::Spatial(c) => {
-                AnyEnvBatch::Spatial(EnvBatch::new(c, task, n_envs, seed, mode, diagnostics)?)
+                AnyEnvBatch::Spatial(EnvBatch::new(c, task, num_envs, seed, mode, diagnostics)?)
             }
             AnyChain::Planar(c) => {
-                AnyEnvBatch::Planar(EnvBatch::new(c, task, n_envs, seed, mode, diagnostics)?)
+                AnyEnvBatch::Planar(EnvBatch::new(c, task, num_envs, seed, mode, diagnostics)?)
             }
         })
     }
@@ -612,8 +612,8 @@ impl AnyEnvBatch {
     pub fn diagnostics_enabled(&self) -> bool {
         dispatch!(AnyEnvBatch, self, b => b.diagnostics_enabled())
     }
-    pub fn n_envs(&self) -> usize {
-        dispatch!(AnyEnvBatch, self, b => b.n_envs())
+    pub fn num_envs(&self) -> usize {
+        dispatch!(AnyEnvBatch, self, b => b.num_envs())
     }
     pub fn n_links(&self) -> usize {
         dispatch!(AnyEnvBatch, self, b => b.chain().n_links())

@@ -523,14 +523,14 @@ pub struct EnvParams {
 }
 
 impl EnvParams {
-    /// `n_envs` copies of `p`.
-    pub fn filled(p: &ChainParams, n_envs: usize) -> Self {
+    /// `num_envs` copies of `p`.
+    pub fn filled(p: &ChainParams, num_envs: usize) -> Self {
         Self {
             n_links: p.n_links(),
-            cart_mass: vec![p.cart_mass(); n_envs],
-            link_masses: p.masses().repeat(n_envs),
-            link_lengths: p.lengths().repeat(n_envs),
-            gravity: vec![p.gravity(); n_envs],
+            cart_mass: vec![p.cart_mass(); num_envs],
+            link_masses: p.masses().repeat(num_envs),
+            link_lengths: p.lengths().repeat(num_envs),
+            gravity: vec![p.gravity(); num_envs],
         }
     }
     /// No per-env storage (the batch shares one parameter set).
@@ -548,7 +548,7 @@ impl EnvParams {
         self.n_links
     }
     /// Number of envs stored (0 when shared).
-    pub fn n_envs(&self) -> usize {
+    pub fn num_envs(&self) -> usize {
         self.cart_mass.len()
     }
     /// Env `i`'s parameters as a checked [`ChainParams`].

@@ -88,7 +88,7 @@ fn run<G: Geometry>(
     action_offset: usize,
     total_envs: usize,
 ) -> Vec<Vec<Record>> {
-    let (n, d, f) = (b.n_envs(), b.state_dim(), b.force_dim());
+    let (n, d, f) = (b.num_envs(), b.state_dim(), b.force_dim());
     let mut out = Out::<f64>::new(n, d);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut history = Vec::new();
@@ -104,7 +104,7 @@ fn run<G: Geometry>(
 }
 
 fn env_i_matches_a_single_env<G: Geometry>(mode: AutoresetMode) {
-    let n_envs = 2 * CHUNK + 5; // several chunks, so the parallel path runs
+    let num_envs = 2 * CHUNK + 5; // several chunks, so the parallel path runs
     let mut t = task(2);
     t.start_noise = 0.3; // large enough that some episodes leave the track
     t.max_force = 30.0;
@@ -112,16 +112,16 @@ fn env_i_matches_a_single_env<G: Geometry>(mode: AutoresetMode) {
     let mut big = EnvBatch::new(
         Chain::<G>::new(params(2)),
         t.clone(),
-        n_envs,
+        num_envs,
         seed,
         mode,
         true,
     )
     .unwrap();
     let steps = 90; // more than two episodes of 40 steps
-    let all = run(&mut big, steps, 5, 0, n_envs);
+    let all = run(&mut big, steps, 5, 0, num_envs);
     let mut ended = 0;
-    for env in [0, 1, CHUNK - 1, CHUNK, n_envs - 1] {
+    for env in [0, 1, CHUNK - 1, CHUNK, num_envs - 1] {
         let mut one = EnvBatch::new(
             Chain::<G>::new(params(2)),
             t.clone(),
@@ -131,7 +131,7 @@ fn env_i_matches_a_single_env<G: Geometry>(mode: AutoresetMode) {
             true,
         )
         .unwrap();
-        let mine = run(&mut one, steps, 5, env, n_envs);
+        let mine = run(&mut one, steps, 5, env, num_envs);
         for (k, (a, b)) in all.iter().zip(&mine).enumerate() {
             assert_eq!(a[env], b[0], "env {env}, step {k}, {mode:?}");
             ended += (b[0].event & event::ENDED != 0) as usize;
@@ -153,7 +153,7 @@ fn env_i_of_a_batch_is_the_single_env_seeded_seed_plus_i() {
 
 #[test]
 fn results_do_not_depend_on_the_thread_count() {
-    let n_envs = 5 * CHUNK + 3;
+    let num_envs = 5 * CHUNK + 3;
     let go = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -165,13 +165,13 @@ fn results_do_not_depend_on_the_thread_count() {
             let mut b = EnvBatch::new(
                 Chain::<Spatial>::new(params(3)),
                 t,
-                n_envs,
+                num_envs,
                 42,
                 AutoresetMode::SameStep,
                 false,
             )
             .unwrap();
-            let h = run(&mut b, 60, 9, 0, n_envs);
+            let h = run(&mut b, 60, 9, 0, num_envs);
             (h, b.states().to_vec())
         })
     };

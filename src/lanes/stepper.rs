@@ -86,9 +86,9 @@ pub(crate) fn step_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     g: Groups<'_, L, T>,
 ) {
     let d = ws.lay.dim();
-    let n_envs = g.status.len();
-    for (group, first) in (0..n_envs).step_by(L).enumerate() {
-        let filled = L.min(n_envs - first);
+    let num_envs = g.status.len();
+    for (group, first) in (0..num_envs).step_by(L).enumerate() {
+        let filled = L.min(num_envs - first);
         if g.stepped
             .is_some_and(|s| !s[first..first + filled].contains(&true))
         {

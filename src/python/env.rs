@@ -70,7 +70,7 @@ fn step_into<'py, T: Element + Real>(
     actions: &Actions<'py>,
     obs_shape: &[usize],
 ) -> PyResult<StepArrays<'py, T>> {
-    let n = batch.n_envs();
+    let n = batch.num_envs();
     let obs = new_array::<T>(py, obs_shape);
     let rewards = new_array::<f64>(py, &[n]);
     let terminated = new_array::<bool>(py, &[n]);
@@ -151,16 +151,16 @@ impl EnvBatch {
         if single {
             vec![self.batch.state_dim()]
         } else {
-            vec![self.batch.n_envs(), self.batch.state_dim()]
+            vec![self.batch.num_envs(), self.batch.state_dim()]
         }
     }
     fn check_single(&self) -> PyResult<()> {
-        if self.batch.n_envs() == 1 {
+        if self.batch.num_envs() == 1 {
             Ok(())
         } else {
             Err(error(format!(
                 "step_one/reset_one need num_envs = 1, this batch has {}",
-                self.batch.n_envs()
+                self.batch.num_envs()
             )))
         }
     }
@@ -262,7 +262,7 @@ impl EnvBatch {
 
     #[getter]
     fn num_envs(&self) -> usize {
-        self.batch.n_envs()
+        self.batch.num_envs()
     }
     #[getter]
     fn state_dim(&self) -> usize {
@@ -331,7 +331,7 @@ impl EnvBatch {
             Some(p) => param_arrays(py, p),
             None => param_arrays(
                 py,
-                &EnvParams::filled(self.batch.true_params(), self.batch.n_envs()),
+                &EnvParams::filled(self.batch.true_params(), self.batch.num_envs()),
             ),
         }
     }
@@ -391,7 +391,7 @@ impl EnvBatch {
         check_shape(
             "actions",
             actions.shape(),
-            &[self.batch.n_envs(), self.batch.force_dim()],
+            &[self.batch.num_envs(), self.batch.force_dim()],
         )?;
         let shape = self.obs_shape(false);
         if self.obs_f64 {
@@ -464,7 +464,7 @@ impl EnvBatch {
     /// `(e_q, e_w)` per env after the last step (before any same-step reset), shape
     /// `(num_envs, 2)`.
     fn errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.batch.n_envs();
+        let n = self.batch.num_envs();
         Ok(PyArray1::from_slice(py, self.batch.errors())
             .reshape([n, 2])?
             .into_any())
@@ -484,7 +484,7 @@ impl EnvBatch {
     /// `DIAGNOSTICS` per env of the last step (zeros unless enabled), shape
     /// `(num_envs, 5)`.
     fn diagnostics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.batch.n_envs();
+        let n = self.batch.num_envs();
         Ok(PyArray1::from_slice(py, self.batch.diagnostics())
             .reshape([n, DIAGNOSTICS.len()])?
             .into_any())
@@ -493,7 +493,7 @@ impl EnvBatch {
     /// `obs_noise` is set), shape `(num_envs, state_dim)`.
     fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let shape = self.obs_shape(false);
-        let n = self.batch.n_envs() * self.batch.state_dim();
+        let n = self.batch.num_envs() * self.batch.state_dim();
         Ok(if self.obs_f64 {
             let mut v = vec![0.0f64; n];
             self.batch.write_obs(&mut v)?;
@@ -512,14 +512,14 @@ impl EnvBatch {
     }
     /// Steps taken in each env's current episode.
     fn step_counts<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
-        let v: Vec<u64> = (0..self.batch.n_envs())
+        let v: Vec<u64> = (0..self.batch.num_envs())
             .map(|k| self.batch.step_count(k))
             .collect();
         PyArray1::from_vec(py, v)
     }
     /// Which envs' episodes have ended without a reset since.
     fn ended<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
-        let v: Vec<bool> = (0..self.batch.n_envs())
+        let v: Vec<bool> = (0..self.batch.num_envs())
             .map(|k| self.batch.has_ended(k))
             .collect();
         PyArray1::from_vec(py, v)
@@ -534,7 +534,7 @@ impl EnvBatch {
     /// of arrays, for `restore`.
     fn snapshot<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let s = self.batch.snapshot();
-        let n = self.batch.n_envs();
+        let n = self.batch.num_envs();
         let d = PyDict::new(py);
         d.set_item(
             "states",
@@ -565,7 +565,7 @@ impl EnvBatch {
 
     /// Continues from a `snapshot` of a batch with the same num_envs and state_dim.
     fn restore(&mut self, snapshot: &Bound<'_, PyDict>) -> PyResult<()> {
-        let n = self.batch.n_envs();
+        let n = self.batch.num_envs();
         let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
             snapshot
                 .get_item(key)?
@@ -621,7 +621,7 @@ impl EnvBatch {
     fn __repr__(&self) -> String {
         format!(
             "EnvBatch(num_envs={}, state_dim={}, planar={}, autoreset_mode={:?})",
-            self.batch.n_envs(),
+            self.batch.num_envs(),
             self.batch.state_dim(),
             if self.batch.is_planar() {
                 "True"

@@ -265,16 +265,16 @@ pub fn params_dict<'py>(py: Python<'py>, p: &ChainParams) -> PyResult<Bound<'py,
 
 /// Per-env parameters as a dict of arrays with a leading `num_envs` axis.
 pub fn param_arrays<'py>(py: Python<'py>, p: &EnvParams) -> PyResult<Bound<'py, PyDict>> {
-    let (n_envs, n) = (p.n_envs(), p.n_links());
+    let (num_envs, n) = (p.num_envs(), p.n_links());
     let d = PyDict::new(py);
     d.set_item("cart_mass", PyArray1::from_slice(py, &p.cart_mass))?;
     d.set_item(
         "link_masses",
-        PyArray1::from_slice(py, &p.link_masses).reshape([n_envs, n])?,
+        PyArray1::from_slice(py, &p.link_masses).reshape([num_envs, n])?,
     )?;
     d.set_item(
         "link_lengths",
-        PyArray1::from_slice(py, &p.link_lengths).reshape([n_envs, n])?,
+        PyArray1::from_slice(py, &p.link_lengths).reshape([num_envs, n])?,
     )?;
     d.set_item("gravity", PyArray1::from_slice(py, &p.gravity))?;
     Ok(d)

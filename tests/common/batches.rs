@@ -5,7 +5,7 @@ use chaincart::batch::Batch;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions};
 
 pub fn random_batch(
-    n_envs: usize,
+    num_envs: usize,
     method: Method,
     seed: u64,
 ) -> (Batch<chaincart::Spatial>, Vec<Vec<f64>>) {
@@ -13,7 +13,7 @@ pub fn random_batch(
     let chain = SpatialChain::new(ChainParams::paper());
     let mut batch = Batch::new(
         chain,
-        n_envs,
+        num_envs,
         2e-3,
         StepOptions {
             method,
@@ -21,7 +21,7 @@ pub fn random_batch(
         },
     )
     .unwrap();
-    let states: Vec<Vec<f64>> = (0..n_envs)
+    let states: Vec<Vec<f64>> = (0..num_envs)
         .map(|_| random_spatial_state(&mut rng, 5, 1.0))
         .collect();
     for (k, y) in states.iter().enumerate() {
@@ -30,8 +30,8 @@ pub fn random_batch(
     (batch, states)
 }
 
-pub fn forces(n_envs: usize, step: usize) -> Vec<f64> {
-    (0..2 * n_envs)
+pub fn forces(num_envs: usize, step: usize) -> Vec<f64> {
+    (0..2 * num_envs)
         .map(|j| ((j * 7 + step * 13) % 11) as f64 - 5.0)
         .collect()
 }
