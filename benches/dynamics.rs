@@ -141,7 +141,12 @@ fn batch(c: &mut Criterion) {
         let chain = chain(5);
         let y0 = moving_state(&chain);
         let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
-        let states: Vec<f64> = y0.iter().copied().cycle().take(num_envs * y0.len()).collect();
+        let states: Vec<f64> = y0
+            .iter()
+            .copied()
+            .cycle()
+            .take(num_envs * y0.len())
+            .collect();
         let forces = vec![0.0; 2 * num_envs];
         group.throughput(Throughput::Elements(num_envs as u64));
         group.bench_with_input(BenchmarkId::from_parameter(num_envs), &num_envs, |b, _| {
@@ -199,10 +204,13 @@ fn env_batch(c: &mut Criterion) {
                 )
                 .unwrap();
                 let d = b.state_dim();
-                let actions: Vec<f32> = (0..num_envs).map(|k| ((k % 7) as f32 - 3.0) * 0.1).collect();
+                let actions: Vec<f32> = (0..num_envs)
+                    .map(|k| ((k % 7) as f32 - 3.0) * 0.1)
+                    .collect();
                 let mut obs = vec![0.0f32; num_envs * d];
                 let mut rewards = vec![0.0; num_envs];
-                let (mut terminated, mut truncated) = (vec![false; num_envs], vec![false; num_envs]);
+                let (mut terminated, mut truncated) =
+                    (vec![false; num_envs], vec![false; num_envs]);
                 group.throughput(Throughput::Elements(num_envs as u64));
                 let id = BenchmarkId::new(format!("{variant}/n{n}"), num_envs);
                 group.bench_with_input(id, &num_envs, |bencher, _| {
@@ -245,7 +253,12 @@ fn batch_kernels(c: &mut Criterion) {
             let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
             batch.set_kernel(kernel).unwrap();
             batch.set_precision(precision).unwrap();
-            let states: Vec<f64> = y0.iter().copied().cycle().take(num_envs * y0.len()).collect();
+            let states: Vec<f64> = y0
+                .iter()
+                .copied()
+                .cycle()
+                .take(num_envs * y0.len())
+                .collect();
             let forces = vec![0.0; 2 * num_envs];
             batch.states_mut().copy_from_slice(&states);
             group.throughput(Throughput::Elements(num_envs as u64));
@@ -268,7 +281,12 @@ fn bench_lane_precision<T: chaincart::lanes::simd::LaneReal, const L: usize>(
 {
     let chain = chain(5);
     let y0 = moving_state(&chain);
-    let mut states: Vec<f64> = y0.iter().copied().cycle().take(num_envs * y0.len()).collect();
+    let mut states: Vec<f64> = y0
+        .iter()
+        .copied()
+        .cycle()
+        .take(num_envs * y0.len())
+        .collect();
     let forces = vec![0.0; 2 * num_envs];
     let params = [LaneParams::<L, T>::broadcast(chain.params())];
     let mut stepper = LaneStepper::<Spatial, L, T>::new(5);

@@ -60,7 +60,9 @@ fn rate(n: usize, num_envs: usize, variant: &str, repeats: usize) -> f64 {
     )
     .unwrap();
     let d = b.state_dim();
-    let actions: Vec<f32> = (0..num_envs).map(|k| ((k % 7) as f32 - 3.0) * 0.1).collect();
+    let actions: Vec<f32> = (0..num_envs)
+        .map(|k| ((k % 7) as f32 - 3.0) * 0.1)
+        .collect();
     let mut obs = vec![0.0f32; num_envs * d];
     let mut rewards = vec![0.0; num_envs];
     let (mut terminated, mut truncated) = (vec![false; num_envs], vec![false; num_envs]);

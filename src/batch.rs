@@ -262,7 +262,12 @@ impl<G: LaneScene> Batch<G> {
         opts.validate()?;
         let dim = chain.state_dim();
         let hanging = chain.equilibrium(&vec![1.0; chain.n_links()])?;
-        let states = hanging.iter().copied().cycle().take(num_envs * dim).collect();
+        let states = hanging
+            .iter()
+            .copied()
+            .cycle()
+            .take(num_envs * dim)
+            .collect();
         let workers = (0..num_envs.div_ceil(CHUNK))
             .map(|_| GuardedStepper::new(&chain))
             .collect();

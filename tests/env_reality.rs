@@ -48,7 +48,12 @@ fn randomization() -> Randomization {
     }
 }
 
-fn batch<G: Geometry>(t: TaskConfig, num_envs: usize, seed: u64, mode: AutoresetMode) -> EnvBatch<G> {
+fn batch<G: Geometry>(
+    t: TaskConfig,
+    num_envs: usize,
+    seed: u64,
+    mode: AutoresetMode,
+) -> EnvBatch<G> {
     let n = t.target.len();
     EnvBatch::new(Chain::new(nominal(n)), t, num_envs, seed, mode, false).unwrap()
 }
@@ -202,7 +207,9 @@ fn an_env_of_a_randomised_batch_steps_as_a_chain_with_its_parameters() {
     let mut checked = 0;
     for s in 0..20 {
         let before = b.states().to_vec();
-        let params: Vec<ChainParams> = (0..b.num_envs()).map(|k| b.env_params(k).unwrap()).collect();
+        let params: Vec<ChainParams> = (0..b.num_envs())
+            .map(|k| b.env_params(k).unwrap())
+            .collect();
         let a = actions(s, b.num_envs(), 2, 0);
         out.step(&mut b, &a);
         for (k, p) in params.iter().enumerate() {

@@ -273,7 +273,11 @@ fn per_lane_parameters_must_match_the_link_count() {
 }
 
 /// Final states of a random paper batch after 20 rk4 steps in a pool of `threads`.
-fn batch_run(threads: usize, num_envs: usize, kernel: Option<Kernel>) -> (Vec<u64>, Vec<StepStatus>) {
+fn batch_run(
+    threads: usize,
+    num_envs: usize,
+    kernel: Option<Kernel>,
+) -> (Vec<u64>, Vec<StepStatus>) {
     batch_run_in(threads, num_envs, kernel, Precision::F64)
 }
 
@@ -356,7 +360,13 @@ fn a_chunk_with_a_chain_per_env_steps_each_env_as_its_own_chain() {
         guard: &guard,
     };
     let mut status = vec![StepStatus::SolverFailure; num_envs];
-    lanes.step(&mut states, &forces, &vec![true; num_envs], plan, &mut status);
+    lanes.step(
+        &mut states,
+        &forces,
+        &vec![true; num_envs],
+        plan,
+        &mut status,
+    );
     let d = chain.state_dim();
     let opts = StepOptions::new(Method::Rk4, 2).unwrap();
     for (k, p) in params.iter().enumerate() {

@@ -55,7 +55,11 @@ fn stepping_allocates_nothing() {
         }
         let (after, after_here) = counts();
         assert_eq!(after_here - before_here, 0, "f32 N = {num_envs}");
-        assert!(after - before <= 5, "f32 N = {num_envs}: {}", after - before);
+        assert!(
+            after - before <= 5,
+            "f32 N = {num_envs}: {}",
+            after - before
+        );
     }
     // And a single guarded step.
     let chain = SpatialChain::new(ChainParams::paper());

@@ -521,7 +521,11 @@ impl<G: Geometry> EnvBatch<G> {
             snap.noise_rng.len(),
             d.noise_rngs.len(),
         )?;
-        check_size("snapshot params", snap.params.num_envs(), d.params.num_envs())?;
+        check_size(
+            "snapshot params",
+            snap.params.num_envs(),
+            d.params.num_envs(),
+        )?;
         check_size(
             "snapshot noisy_obs",
             snap.noisy_obs.len(),

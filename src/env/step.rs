@@ -361,10 +361,16 @@ pub(super) fn run_range<G: Geometry, T: Real, A: Real>(
     let (data_a, data_b) = data.split_at(mid, &ctx.widths);
     let (out_a, out_b) = out.split_at(mid, &ctx.widths);
     let (workers_a, workers_b) = workers.split_at_mut(chunks / 2);
-    rayon::join(
-        || run_range(ctx, data_a, out_a, workers_a),
-        || run_range(ctx, data_b, out_b, workers_b),
-    );
+    let first = || run_range(ctx, data_a, out_a, workers_a);
+    let second = || run_range(ctx, data_b, out_b, workers_b);
+    if rayon::current_num_threads() > 1 {
+        rayon::join(first, second);
+    } else {
+        // A one-thread pool gains nothing from `join`, and handing the work to its
+        // thread (waking it on every step) costs more than stepping a chunk here.
+        first();
+        second();
+    }
 }
 
 /// Steps the envs of one chunk, in order, on this thread.
