@@ -37,6 +37,7 @@ pub const MIN_LANE_ENVS: usize = 4;
 #[repr(u8)]
 pub enum StepStatus {
     #[default]
+    /// The step succeeded.
     Ok = 0,
     /// The state became NaN or infinite; the env keeps its last good state.
     NonFinite = 1,
@@ -55,9 +56,11 @@ pub enum StepStatus {
 pub const MAX_TURN_PER_STEP: f64 = 0.5;
 
 impl StepStatus {
+    /// Whether the step failed (the env kept its last good state).
     pub fn is_failure(self) -> bool {
         self != StepStatus::Ok
     }
+    /// What happened, in words, for messages.
     pub fn describe(self) -> &'static str {
         match self {
             StepStatus::Ok => "ok",
@@ -90,6 +93,7 @@ impl Default for Guard {
 }
 
 impl Guard {
+    /// Checks every tolerance (finite, > 0).
     pub fn validate(&self) -> Result<()> {
         check_positive("unit_length_tolerance", self.unit_length_tolerance)?;
         check_positive("max_turn_per_step", self.max_turn_per_step)
@@ -105,6 +109,7 @@ pub struct GuardedStepper<G: Geometry> {
 }
 
 impl<G: Geometry> GuardedStepper<G> {
+    /// Buffers sized for `chain`.
     pub fn new(chain: &Chain<G>) -> Self {
         Self {
             stepper: Stepper::new(chain),
@@ -356,18 +361,23 @@ impl<G: LaneScene> Batch<G> {
         Ok(())
     }
 
+    /// The chain every env steps.
     pub fn chain(&self) -> &Chain<G> {
         &self.chain
     }
+    /// Number of envs.
     pub fn num_envs(&self) -> usize {
         self.num_envs
     }
+    /// Control period (s).
     pub fn dt(&self) -> f64 {
         self.dt
     }
+    /// Integrator and substeps.
     pub fn options(&self) -> &StepOptions {
         &self.opts
     }
+    /// Length of one env's state.
     pub fn state_dim(&self) -> usize {
         self.chain.state_dim()
     }
@@ -375,9 +385,11 @@ impl<G: LaneScene> Batch<G> {
     pub fn states(&self) -> &[f64] {
         &self.states
     }
+    /// Every env's state, env-major, for writing.
     pub fn states_mut(&mut self) -> &mut [f64] {
         &mut self.states
     }
+    /// Env `env`'s state.
     pub fn state(&self, env: usize) -> &[f64] {
         let d = self.state_dim();
         &self.states[env * d..(env + 1) * d]

@@ -8,11 +8,14 @@
 //! * [`model`]: exact O(n) accelerations; [`dense`]: the paper's O(n^3) form (oracle).
 //! * [`integrate`]: rk4, rkmk4, variational, lie_euler, adaptive.
 //! * [`invariants`]: energy, momentum, constraint residuals, the paper's errors.
-//! * [`batch`]: struct-of-arrays batches stepped in parallel.
+//! * [`batch`]: struct-of-arrays batches stepped in parallel; [`lanes`]: their rk4 step
+//!   with one env per SIMD lane.
 //! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati, LQR.
 //! * [`render`]: software rendering of chain states into RGB frames.
 //! * [`limits`]: the largest sizes accepted; [`scaling`]: timing against the number of links.
 //! * [`env`](mod@env): the RL task (target, start, reward, termination, autoreset) over a batch.
+
+#![warn(missing_docs)]
 
 /// Runs `$body` with `$x` bound to the value inside `$value`, an enum `$kind` with
 /// the variants `Spatial` and `Planar` (the run-time choice of scene), so that one

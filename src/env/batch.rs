@@ -49,7 +49,9 @@ pub const DIAGNOSTICS: [&str; 5] = [
 
 /// Element type of caller-provided observation and action buffers.
 pub trait Real: Copy + Send + Sync + 'static {
+    /// The number closest to `v`.
     fn from_f64(v: f64) -> Self;
+    /// The number as f64.
     fn to_f64(self) -> f64;
 }
 impl Real for f32 {
@@ -79,8 +81,11 @@ impl Real for f64 {
 pub struct StepOutputs<'a, T: Real> {
     /// `num_envs * state_dim` observations (the state, cast to `T`).
     pub obs: &'a mut [T],
+    /// One reward per env.
     pub rewards: &'a mut [f64],
+    /// Per env: the episode terminated (off track or failed).
     pub terminated: &'a mut [bool],
+    /// Per env: the episode reached its time limit.
     pub truncated: &'a mut [bool],
 }
 
@@ -88,21 +93,27 @@ pub struct StepOutputs<'a, T: Real> {
 /// flags), enough to continue a batch identically after [`EnvBatch::restore`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Snapshot {
+    /// Every env's state, env-major.
     pub states: Vec<f64>,
     /// Per env: ChaCha8 key (32 bytes), stream (8, little-endian) and word position
     /// (16, little-endian).
     pub rng: Vec<[u8; RNG_BYTES]>,
+    /// Per env: steps taken in the current episode.
     pub steps: Vec<u64>,
+    /// Per env: the episode has ended and awaits its reset.
     pub ended: Vec<bool>,
     /// Per env, the parameter and observation-noise streams (empty when off).
     pub param_rng: Vec<[u8; RNG_BYTES]>,
+    /// Per env: the observation-noise stream (same layout as `rng`).
     pub noise_rng: Vec<[u8; RNG_BYTES]>,
     /// Per-env parameters (empty vectors when the batch shares one set).
     pub params: EnvParams,
     /// Each env's current noisy observation, delayed actions and last applied force
     /// (empty when the feature is off).
     pub noisy_obs: Vec<f64>,
+    /// Per env: the delayed actions, oldest first.
     pub action_queue: Vec<f64>,
+    /// Per env: the force applied last (for the rate limit).
     pub last_force: Vec<f64>,
 }
 
@@ -264,15 +275,19 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn chain(&self) -> &Chain<G> {
         &self.chain
     }
+    /// The task.
     pub fn task(&self) -> &TaskConfig {
         &self.task
     }
+    /// How ended episodes are reset.
     pub fn mode(&self) -> AutoresetMode {
         self.mode
     }
+    /// Whether every step records energies and residuals.
     pub fn diagnostics_enabled(&self) -> bool {
         self.diagnostics
     }
+    /// Number of envs.
     pub fn num_envs(&self) -> usize {
         self.num_envs
     }
@@ -292,6 +307,7 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn states(&self) -> &[f64] {
         &self.data.states
     }
+    /// Env `env`'s state.
     pub fn state(&self, env: usize) -> &[f64] {
         let d = self.state_dim();
         &self.data.states[env * d..(env + 1) * d]
@@ -582,11 +598,14 @@ fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
 
 /// An env batch in either scene, chosen at run time.
 pub enum AnyEnvBatch {
+    /// Envs of the spatial model.
     Spatial(EnvBatch<Spatial>),
+    /// Envs of the planar model.
     Planar(EnvBatch<Planar>),
 }
 
 impl AnyEnvBatch {
+    /// A batch of `num_envs` envs of `chain` with `task`, seeded from `seed` (env i: `seed + i`).
     pub fn new(
         chain: AnyChain,
         task: TaskConfig,
@@ -604,60 +623,79 @@ impl AnyEnvBatch {
             }
         })
     }
+    /// Whether the envs run the planar model.
     pub fn is_planar(&self) -> bool {
         matches!(self, AnyEnvBatch::Planar(_))
     }
+    /// The task.
     pub fn task(&self) -> &TaskConfig {
         dispatch!(AnyEnvBatch, self, b => b.task())
     }
+    /// How ended episodes are reset.
     pub fn mode(&self) -> AutoresetMode {
         dispatch!(AnyEnvBatch, self, b => b.mode())
     }
+    /// Whether every step records energies and residuals.
     pub fn diagnostics_enabled(&self) -> bool {
         dispatch!(AnyEnvBatch, self, b => b.diagnostics_enabled())
     }
+    /// Number of envs.
     pub fn num_envs(&self) -> usize {
         dispatch!(AnyEnvBatch, self, b => b.num_envs())
     }
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         dispatch!(AnyEnvBatch, self, b => b.chain().n_links())
     }
+    /// Length of one env's state.
     pub fn state_dim(&self) -> usize {
         dispatch!(AnyEnvBatch, self, b => b.state_dim())
     }
+    /// Length of one env's force.
     pub fn force_dim(&self) -> usize {
         dispatch!(AnyEnvBatch, self, b => b.force_dim())
     }
+    /// The start state before noise.
     pub fn base_state(&self) -> &[f64] {
         dispatch!(AnyEnvBatch, self, b => b.base_state())
     }
+    /// Every env's state, env-major.
     pub fn states(&self) -> &[f64] {
         dispatch!(AnyEnvBatch, self, b => b.states())
     }
+    /// Steps env `env` has taken in its episode.
     pub fn step_count(&self, env: usize) -> u64 {
         dispatch!(AnyEnvBatch, self, b => b.step_count(env))
     }
+    /// Whether env `env`'s episode has ended.
     pub fn has_ended(&self, env: usize) -> bool {
         dispatch!(AnyEnvBatch, self, b => b.has_ended(env))
     }
+    /// Per env, the event bits of the last step.
     pub fn events(&self) -> &[u8] {
         dispatch!(AnyEnvBatch, self, b => b.events())
     }
+    /// Per env, `(e_q, e_w)` after the last step.
     pub fn errors(&self) -> &[f64] {
         dispatch!(AnyEnvBatch, self, b => b.errors())
     }
+    /// Same-step mode: the last state of each env whose episode just ended.
     pub fn final_states(&self) -> &[f64] {
         dispatch!(AnyEnvBatch, self, b => b.final_states())
     }
+    /// Per env, the diagnostics of the last step (when enabled).
     pub fn diagnostics(&self) -> &[f64] {
         dispatch!(AnyEnvBatch, self, b => b.diagnostics())
     }
+    /// Writes every env's observation into `obs`.
     pub fn write_obs<T: Real>(&self, obs: &mut [T]) -> Result<()> {
         dispatch!(AnyEnvBatch, self, b => b.write_obs(obs))
     }
+    /// Puts env `env` in `state` (checked).
     pub fn set_state(&mut self, env: usize, state: &[f64]) -> Result<()> {
         dispatch!(AnyEnvBatch, self, b => b.set_state(env, state))
     }
+    /// Resets the envs (all, or those in the mask) and writes their observations.
     pub fn reset<T: Real>(
         &mut self,
         seeds: Option<&[Option<u64>]>,
@@ -666,9 +704,11 @@ impl AnyEnvBatch {
     ) -> Result<()> {
         dispatch!(AnyEnvBatch, self, b => b.reset(seeds, mask, obs))
     }
+    /// Checks a batch of actions (length, finite) before any env moves.
     pub fn check_actions<A: Real>(&self, actions: &[A]) -> Result<()> {
         dispatch!(AnyEnvBatch, self, b => b.check_actions(actions))
     }
+    /// Steps every env by one control period and writes the outputs.
     pub fn step<T: Real, A: Real>(
         &mut self,
         actions: &[A],
@@ -676,18 +716,23 @@ impl AnyEnvBatch {
     ) -> Result<usize> {
         dispatch!(AnyEnvBatch, self, b => b.step(actions, out))
     }
+    /// The true parameters shared before randomisation.
     pub fn true_params(&self) -> &ChainParams {
         dispatch!(AnyEnvBatch, self, b => b.true_params())
     }
+    /// Env `env`'s current true parameters.
     pub fn env_params(&self, env: usize) -> Result<ChainParams> {
         dispatch!(AnyEnvBatch, self, b => b.env_params(env))
     }
+    /// Every env's own parameters, when they differ per env.
     pub fn per_env_params(&self) -> Option<&EnvParams> {
         dispatch!(AnyEnvBatch, self, b => b.per_env_params())
     }
+    /// A copy of everything that evolves.
     pub fn snapshot(&self) -> Snapshot {
         dispatch!(AnyEnvBatch, self, b => b.snapshot())
     }
+    /// Continues from a snapshot of this batch.
     pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
         dispatch!(AnyEnvBatch, self, b => b.restore(snap))
     }

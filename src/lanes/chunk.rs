@@ -102,6 +102,7 @@ pub struct ChunkWorker<G: Geometry> {
 }
 
 impl<G: Geometry> ChunkWorker<G> {
+    /// A worker that steps env by env until lanes are enabled.
     pub fn new(chain: &Chain<G>) -> Self {
         Self {
             guarded: GuardedStepper::new(chain),
@@ -120,6 +121,7 @@ impl<G: Geometry> ChunkWorker<G> {
         });
     }
 
+    /// Whether the chunk steps through the lane kernel.
     pub fn uses_lanes(&self) -> bool {
         self.queue.is_some()
     }

@@ -22,8 +22,10 @@ pub enum Kernel {
 }
 
 impl Kernel {
+    /// Every kernel, slowest first.
     pub const ALL: [Kernel; 3] = [Kernel::Baseline, Kernel::Avx2, Kernel::Avx512];
 
+    /// The kernel's name.
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Baseline => "baseline",
@@ -69,7 +71,7 @@ impl Kernel {
     }
 }
 
-/// [`step_groups`] compiled for `kernel`. A kernel the CPU lacks is never run:
+/// `step_groups` compiled for `kernel`. A kernel the CPU lacks is never run:
 /// it falls back to the baseline one (callers check with [`Kernel::checked`]).
 pub fn run_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     kernel: Kernel,

@@ -34,6 +34,7 @@ impl<const L: usize, T: LaneReal> LaneParams<L, T> {
         out
     }
 
+    /// Number of links.
     pub fn n_links(&self) -> usize {
         self.lengths.len()
     }

@@ -36,6 +36,7 @@ pub struct LaneWorkspace<G: LaneGeometry<L, T>, const L: usize, T: LaneReal = f6
 }
 
 impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWorkspace<G, L, T> {
+    /// Buffers for `n` links.
     pub fn new(n: usize) -> Self {
         let lay = Layout::<G>::new(n);
         let v = || vec![Lanes::zero(); lay.dim()];
@@ -58,9 +59,13 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWorkspace<G, L, T> 
 /// What one control step needs besides the buffers.
 #[derive(Debug, Clone, Copy)]
 pub struct StepSpec<'a, const L: usize, T: LaneReal = f64> {
+    /// The lanes' parameters.
     pub params: &'a LaneParams<L, T>,
+    /// Control period (s).
     pub dt: f64,
+    /// Integrator steps per control period.
     pub substeps: usize,
+    /// When a step counts as failed.
     pub guard: &'a Guard,
 }
 

@@ -29,15 +29,21 @@ pub trait LaneReal:
     + Neg<Output = Self>
     + 'static
 {
+    /// Zero.
     const ZERO: Self;
+    /// One.
     const ONE: Self;
     /// Nearest value (the identity for f64).
     fn from_f64(v: f64) -> Self;
     /// Exact.
     fn to_f64(self) -> f64;
+    /// The square root.
     fn sqrt(self) -> Self;
+    /// The absolute value.
     fn abs(self) -> Self;
+    /// Neither NaN nor infinite.
     fn is_finite(self) -> bool;
+    /// Not a number.
     fn is_nan(self) -> bool;
 }
 
@@ -84,10 +90,12 @@ pub struct Lanes<const L: usize, T: LaneReal = f64>(pub [T; L]);
 
 impl<const L: usize, T: LaneReal> Lanes<L, T> {
     #[inline(always)]
+    /// Every lane holding `v`.
     pub fn splat(v: T) -> Self {
         Self([v; L])
     }
     #[inline(always)]
+    /// Every lane zero.
     pub fn zero() -> Self {
         Self::splat(T::ZERO)
     }
@@ -115,10 +123,12 @@ impl<const L: usize, T: LaneReal> Lanes<L, T> {
         Self(out)
     }
     #[inline(always)]
+    /// Lane-wise square root.
     pub fn sqrt(self) -> Self {
         self.map(T::sqrt)
     }
     #[inline(always)]
+    /// Lane-wise absolute value.
     pub fn abs(self) -> Self {
         self.map(T::abs)
     }

@@ -17,18 +17,27 @@ use crate::batch::{Guard, StepStatus};
 /// How a control period is stepped: period, integrator substeps, failure guard.
 #[derive(Debug, Clone, Copy)]
 pub struct StepPlan<'a> {
+    /// Control period (s).
     pub dt: f64,
+    /// Integrator steps per control period.
     pub substeps: usize,
+    /// When a step counts as failed.
     pub guard: &'a Guard,
 }
 
 /// The envs of one [`LaneStepper::step`] call and where their results go.
 pub struct Groups<'a, const L: usize, T: LaneReal = f64> {
+    /// Parameters of each group of lanes.
     pub params: &'a [LaneParams<L, T>],
+    /// The envs' states, env-major.
     pub states: &'a mut [f64],
+    /// One force per env.
     pub forces: &'a [f64],
+    /// Which envs step (all when `None`).
     pub stepped: Option<&'a [bool]>,
+    /// Period, substeps and guard.
     pub plan: StepPlan<'a>,
+    /// Where each env's status goes.
     pub status: &'a mut [StepStatus],
 }
 
@@ -39,12 +48,14 @@ pub struct LaneStepper<G: LaneGeometry<L, T>, const L: usize, T: LaneReal = f64>
 }
 
 impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
+    /// A stepper for chains of `n_links` links.
     pub fn new(n_links: usize) -> Self {
         Self {
             ws: LaneWorkspace::new(n_links),
         }
     }
 
+    /// Length of one env's state.
     pub fn state_dim(&self) -> usize {
         self.ws.lay.dim()
     }

@@ -25,16 +25,20 @@ pub trait LaneVector<const L: usize, T: LaneReal = f64>:
     + Sub<Output = Self>
     + Mul<Lanes<L, T>, Output = Self>
 {
+    /// Number of components.
     const DIM: usize;
+    /// The zero vector in every lane.
     fn zero() -> Self;
     /// `x_0 y_0 + x_1 y_1 + ...`, summed left to right like the scalar `dot`.
     fn dot(self, other: Self) -> Lanes<L, T>;
     #[inline(always)]
+    /// Lane-wise squared norm.
     fn norm_squared(self) -> Lanes<L, T> {
         self.dot(self)
     }
     /// Components `y[at..at + DIM]` of a component-major state.
     fn load(y: &[Lanes<L, T>], at: usize) -> Self;
+    /// Writes the vector's components from index `at` of a component-major buffer.
     fn store(self, y: &mut [Lanes<L, T>], at: usize);
 }
 
@@ -106,15 +110,25 @@ impl<const D: usize, const L: usize, T: LaneReal> Mul<Lanes<L, T>> for LaneVec<D
 
 /// The scene operations of [`crate::geometry::Geometry`] on lanes.
 pub trait LaneGeometry<const L: usize, T: LaneReal = f64>: crate::geometry::Geometry {
+    /// The cart vector, across lanes.
     type CartL: LaneVector<L, T>;
+    /// A link direction, across lanes.
     type LinkL: LaneVector<L, T>;
+    /// An angular velocity, across lanes.
     type SpinL: LaneVector<L, T>;
+    /// `w x q`, lane by lane.
     fn lanes_velocity(w: Self::SpinL, q: Self::LinkL) -> Self::LinkL;
+    /// `q x a`, lane by lane (the angular velocity of a tangent velocity).
     fn lanes_spin(q: Self::LinkL, a: Self::LinkL) -> Self::SpinL;
+    /// The horizontal part of a vector, lane by lane.
     fn lanes_horizontal(v: Self::LinkL) -> Self::CartL;
+    /// A cart vector embedded in space, lane by lane.
     fn lanes_lift(x: Self::CartL) -> Self::LinkL;
+    /// The component along gravity (e3), lane by lane.
     fn lanes_down(v: Self::LinkL) -> Lanes<L, T>;
+    /// `e3` in every lane.
     fn lanes_down_unit() -> Self::LinkL;
+    /// `w` with its component along `q` removed, lane by lane.
     fn lanes_tangent(w: Self::SpinL, q: Self::LinkL) -> Self::SpinL;
 }
 
