@@ -21,7 +21,7 @@ pub mod simd;
 pub mod stepper;
 pub mod vector;
 
-pub use chunk::{ChunkLanes, ChunkWorker, LaneChunk};
+pub use chunk::{ChunkLanes, LaneChunk};
 pub use dispatch::Kernel;
 pub use params::LaneParams;
 pub use simd::LaneReal;
