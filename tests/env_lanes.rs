@@ -127,11 +127,16 @@ impl Trace {
     }
 }
 
-/// What one run is: batch shape, seed, physics path, thread count.
+/// What one run is: batch shape, seed, physics path, thread count, and which
+/// actions it is fed: env k gets the actions of env `first_env + k` of a stream drawn
+/// for `total` envs from `action_seed` (so env i of a big batch and a single env see
+/// the same actions).
 #[derive(Debug, Clone, Copy)]
 struct Run {
     num_envs: usize,
     seed: u64,
+    action_seed: u64,
+    first_env: usize,
     mode: AutoresetMode,
     path: Path,
     threads: usize,
@@ -139,8 +144,8 @@ struct Run {
 }
 
 /// Steps a batch of `run.num_envs` envs of `task` with actions drawn for `total` envs
-/// (env i always sees the same actions, whatever the batch size) and records all
-/// outputs. With `blow_up`, env `blow_up` starts from a state no step resolves.
+/// and records all outputs. With `blow_up`, env `blow_up` starts from a state no step
+/// resolves.
 fn trace<G: Spin>(
     chain: &Chain<G>,
     task: &TaskConfig,
@@ -170,7 +175,8 @@ fn trace<G: Spin>(
             let y = G::spun_up(chain, b.state(env), 1e4);
             b.set_state(env, &y).unwrap();
         }
-        let mut rng = ChaCha8Rng::seed_from_u64(run.seed ^ 0x5eed);
+        let mut rng = ChaCha8Rng::seed_from_u64(run.action_seed);
+        let first = run.first_env * f;
         let (mut obs, mut rewards) = (vec![0.0f64; n * d], vec![0.0; n]);
         let (mut terminated, mut truncated) = (vec![false; n], vec![false; n]);
         let mut t = Trace {
@@ -187,7 +193,7 @@ fn trace<G: Spin>(
                 terminated: &mut terminated,
                 truncated: &mut truncated,
             };
-            b.step(&all[..n * f], out).unwrap();
+            b.step(&all[first..first + n * f], out).unwrap();
             let mut row = vec![];
             for k in 0..n {
                 let env_rows: [&[f64]; 6] = [
@@ -217,6 +223,8 @@ fn lanes_match_env_by_env<G: Spin>(n: usize, reality: bool, mode: AutoresetMode)
     let run = Run {
         num_envs,
         seed: 100 + n as u64,
+        action_seed: 1,
+        first_env: 0,
         mode,
         path: Path::PerEnv,
         threads: 1,
@@ -278,6 +286,8 @@ fn results_do_not_depend_on_threads_batch_size_or_lane_grouping() {
     let base = Run {
         num_envs: total,
         seed: 7,
+        action_seed: 2,
+        first_env: 0,
         mode: AutoresetMode::NextStep,
         path: Path::PerEnv,
         threads: 1,
@@ -304,11 +314,11 @@ fn results_do_not_depend_on_threads_batch_size_or_lane_grouping() {
         let single = Run {
             num_envs: 1,
             seed: base.seed + env as u64,
+            first_env: env,
             path: Path::Default,
             ..base
         };
-        // The single env sees the actions env i saw: its own stream, shifted.
-        let alone = trace_shifted(&chain, &task, single, env, total);
+        let alone = trace(&chain, &task, single, total, None);
         let width = reference.per_step[0].len() / total;
         for (step, row) in reference.per_step.iter().enumerate() {
             assert_eq!(
@@ -317,60 +327,15 @@ fn results_do_not_depend_on_threads_batch_size_or_lane_grouping() {
                 "env {env}, step {step}"
             );
         }
-    }
-}
-
-/// [`trace`] of a batch of one that is fed the actions env `env` of a batch of `total`
-/// (seeded `run.seed - env`) was fed.
-fn trace_shifted<G: Geometry>(
-    chain: &Chain<G>,
-    task: &TaskConfig,
-    run: Run,
-    env: usize,
-    total: usize,
-) -> Trace {
-    let action_seed = (run.seed - env as u64) ^ 0x5eed;
-    let mut b = EnvBatch::new(chain.clone(), task.clone(), 1, run.seed, run.mode, true).unwrap();
-    assert_eq!(b.kernel(), None, "a batch of one steps env by env");
-    let (d, f) = (b.state_dim(), b.force_dim());
-    let mut rng = ChaCha8Rng::seed_from_u64(action_seed);
-    let (mut obs, mut rewards) = (vec![0.0f64; d], vec![0.0]);
-    let (mut terminated, mut truncated) = (vec![false], vec![false]);
-    let mut t = Trace {
-        per_step: vec![],
-        events: vec![],
-    };
-    for _ in 0..run.steps {
-        let all: Vec<f64> = (0..total * f)
-            .map(|_| rng.random_range(-1.5..1.5))
-            .collect();
-        let out = StepOutputs {
-            obs: &mut obs,
-            rewards: &mut rewards,
-            terminated: &mut terminated,
-            truncated: &mut truncated,
-        };
-        b.step(&all[env * f..(env + 1) * f], out).unwrap();
-        let rows: [&[f64]; 6] = [
-            &obs,
-            &[
-                rewards[0],
-                terminated[0] as u8 as f64,
-                truncated[0] as u8 as f64,
-            ],
-            b.errors(),
-            b.final_states(),
-            b.diagnostics(),
-            b.state(0),
-        ];
-        t.per_step.push(
-            rows.iter()
-                .flat_map(|r| r.iter().map(|v| v.to_bits()))
-                .collect(),
+        assert_eq!(
+            alone.events,
+            reference.events[env..]
+                .iter()
+                .step_by(total)
+                .copied()
+                .collect::<Vec<_>>()
         );
-        t.events.extend_from_slice(b.events());
     }
-    t
 }
 
 #[test]
@@ -383,6 +348,8 @@ fn a_blow_up_among_lane_neighbours_leaves_them_unchanged() {
             let run = Run {
                 num_envs: 16,
                 seed: 3,
+                action_seed: 3,
+                first_env: 0,
                 mode: AutoresetMode::Disabled,
                 path: Path::Lanes(kernel, precision),
                 threads: 1,
@@ -462,6 +429,8 @@ fn f32_env_batches_are_deterministic_across_kernels_threads_and_sizes() {
     let base = Run {
         num_envs: total,
         seed: 11,
+        action_seed: 4,
+        first_env: 0,
         mode: AutoresetMode::SameStep,
         path: Path::Lanes(Kernel::detect(), Precision::F32),
         threads: 1,
