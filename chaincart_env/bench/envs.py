@@ -34,7 +34,7 @@ __all__ = ["throughput_section", "links_config"]
 
 def links_config(n_links: int) -> ChainCartConfig:
     """The throughput benchmark's task for ``n_links``: the default scene's system and
-    task (rk4, 1 substep, 20 ms), made spatial so that every n costs the full 3-D model."""
+    task (rk4, 2 substeps, 20 ms), made spatial so that every n costs the full 3-D model."""
     return ChainCartConfig(n_links=n_links, planar=False)
 
 
@@ -266,9 +266,48 @@ def _reality_table(ctx: BenchContext, rng: np.random.Generator) -> None:
     ctx.report.table(["links", "N", *REALITY_VARIANTS], rows, 0)
 
 
+def _planar_link_rates(ctx: BenchContext, num_envs: int, precision: str, rng: np.random.Generator) -> tuple[float, float]:
+    """Env-steps/s of the raw batch and of ChainCartVectorEnv, one planar link (the
+    default scene's system with one link, CartPole-sized), physics in ``precision``."""
+    config = ChainCartConfig(n_links=1)
+    vec = ChainCartVectorEnv(num_envs, config)
+    native = vec._batch  # the Rust call the vector env wraps
+    native.set_precision(precision)
+    vec.reset(seed=0)
+    actions = rng.uniform(-1, 1, (num_envs, config.force_dim)).astype(np.float32)
+    r_vec, r_native = 0.0, 0.0
+    for _ in range(max(2, ctx.settings.repeats)):
+        r_vec = max(r_vec, rate(lambda: vec.step(actions), ctx.settings.min_time, 1))
+        r_native = max(r_native, rate(lambda: native.step(actions), ctx.settings.min_time, 1))
+    vec.close()
+    return num_envs * r_native, num_envs * r_vec
+
+
+def _planar_link_table(ctx: BenchContext, rng: np.random.Generator) -> None:
+    """One planar link against CartPoleVectorEnv at the largest N, side by side in one run."""
+    num_envs = max(ctx.settings.sizes)
+    cartpole = _cartpole_vector_rate(ctx, num_envs, rng)
+    rows = [["CartPoleVectorEnv (NumPy)", "", fmt_rate(cartpole), ""]]
+    results: dict[str, Any] = {"cartpole": cartpole}
+    for precision in ("f64", "f32"):
+        raw, vec = _planar_link_rates(ctx, num_envs, precision, rng)
+        results[precision] = {"raw": raw, "vector": vec}
+        rows.append([f"ChainCartVectorEnv, 1 planar link, {precision}", fmt_rate(raw), fmt_rate(vec), fmt_ratio(vec, cartpole)])
+    ctx.results["planar_link"] = {"num_envs": num_envs, **results}
+    ctx.report.heading(f"One planar link vs CartPoleVectorEnv, N = {num_envs}: env-steps/s")
+    config = ChainCartConfig(n_links=1)
+    ctx.report.paragraph(
+        f"The default scene's system with one link (planar, {config.integrator} x{config.substeps}, "
+        f"{config.dt * 1e3:g} ms; CartPole's is one Euler step of 20 ms), measured in the same run. "
+        "raw = native `EnvBatch.step`; vector = `ChainCartVectorEnv.step`; f32 = `EnvBatch.set_precision(\"f32\")`."
+    )
+    ctx.report.table(["env", "raw", "vector", "vector vs CartPoleVectorEnv"], rows, 0)
+
+
 def throughput_section(ctx: BenchContext) -> None:
     rng = np.random.default_rng(0)
     _single_env_table(ctx, rng)
     _raw_model_table(ctx)
     _vector_tables(ctx, rng)
+    _planar_link_table(ctx, rng)
     _reality_table(ctx, rng)

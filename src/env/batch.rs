@@ -635,40 +635,24 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
         let d = &mut self.data;
         let n = self.num_envs;
-        check_size("snapshot states", snap.states.len(), d.states.len())?;
-        check_size("snapshot rng", snap.rng.len(), n)?;
-        check_size("snapshot steps", snap.steps.len(), n)?;
-        check_size("snapshot ended", snap.ended.len(), n)?;
-        check_size(
-            "snapshot param_rng",
-            snap.param_rng.len(),
-            d.param_rngs.len(),
-        )?;
-        check_size(
-            "snapshot noise_rng",
-            snap.noise_rng.len(),
-            d.noise_rngs.len(),
-        )?;
-        check_size(
-            "snapshot params",
-            snap.params.num_envs(),
-            d.params.num_envs(),
-        )?;
-        check_size(
-            "snapshot noisy_obs",
-            snap.noisy_obs.len(),
-            d.noisy_obs.len(),
-        )?;
-        check_size(
-            "snapshot action_queue",
-            snap.action_queue.len(),
-            d.queue.len(),
-        )?;
-        check_size(
-            "snapshot last_force",
-            snap.last_force.len(),
-            d.last_force.len(),
-        )?;
+        // Each part of the snapshot against the batch: name, length given, length
+        // expected (one line each, which rustfmt would spread over five).
+        #[rustfmt::skip]
+        let sizes: [(&'static str, usize, usize); 10] = [
+            ("snapshot states", snap.states.len(), d.states.len()),
+            ("snapshot rng", snap.rng.len(), n),
+            ("snapshot steps", snap.steps.len(), n),
+            ("snapshot ended", snap.ended.len(), n),
+            ("snapshot param_rng", snap.param_rng.len(), d.param_rngs.len()),
+            ("snapshot noise_rng", snap.noise_rng.len(), d.noise_rngs.len()),
+            ("snapshot params", snap.params.num_envs(), d.params.num_envs()),
+            ("snapshot noisy_obs", snap.noisy_obs.len(), d.noisy_obs.len()),
+            ("snapshot action_queue", snap.action_queue.len(), d.queue.len()),
+            ("snapshot last_force", snap.last_force.len(), d.last_force.len()),
+        ];
+        for (name, got, expected) in sizes {
+            check_size(name, got, expected)?;
+        }
         crate::error::check_finite("snapshot states", &snap.states)?;
         for k in 0..snap.params.num_envs() {
             snap.params.get(k)?;
