@@ -441,6 +441,9 @@ fn run_chunk<G: Geometry, T: Real, A: Real>(
 /// (b) one lane step of the envs that step; (c) per stepped env, score, diagnostics,
 /// same-step reset and observation. A failed env keeps its last good state (the
 /// lane path writes back only successful lanes) and its lane neighbours are untouched.
+/// Kept out of line: one call per chunk, and the env-by-env loop stays as compact as
+/// it was without it.
+#[inline(never)]
 fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
     mut data: DataRange<'_>,
@@ -491,16 +494,15 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         if !l.stepped[k] {
             continue;
         }
-        let mut e = data.env(k, w);
+        let e = data.env(k, w);
         // The env's own chain is only read by the diagnostics: load it only for them.
         let chain = if ctx.diagnostics {
             env_chain(ctx, scratch, &e.params)
         } else {
             ctx.chain
         };
-        let reset = finish_step(ctx, chain, &mut e, out.env(k, w), l.status[k], l.a2[k]);
-        if reset {
-            load_lane_params(scratch, &mut *l.lanes, k, &e.params);
+        if finish_step(ctx, chain, e, out.env(k, w), l.status[k], l.a2[k]) {
+            load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
         }
     }
 }
@@ -749,7 +751,7 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         &task.step_options,
         &task.guard,
     );
-    finish_step(ctx, chain, &mut e, o, status, a2);
+    finish_step(ctx, chain, e, o, status, a2);
 }
 
 /// After env `e`'s physics (status `status`, squared applied action `a2`): step count,
@@ -760,7 +762,7 @@ fn step_env<G: Geometry, T: Real, A: Real>(
 fn finish_step<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
     chain: &Chain<G>,
-    e: &mut EnvMut<'_>,
+    mut e: EnvMut<'_>,
     mut o: EnvOut<'_, T, A>,
     status: StepStatus,
     a2: f64,
@@ -779,12 +781,12 @@ fn finish_step<G: Geometry, T: Real, A: Real>(
                 None => o.finals.copy_from_slice(e.y),
                 Some(rng) => add_noise(&task.reality, e.y, rng, o.finals),
             }
-            reset_env(ctx, e);
+            reset_env(ctx, &mut e);
             reset = true;
         } else {
             e.slot.ended = true;
         }
     }
-    emit_obs(&task.reality, e, o.obs);
+    emit_obs(&task.reality, &mut e, o.obs);
     reset
 }
