@@ -420,6 +420,17 @@ fn batches_choose_lanes_for_rk4_from_min_lane_envs_and_f32_needs_rk4() {
     assert_eq!(one.precision(), Precision::F32);
     one.set_kernel(None).unwrap();
     assert_eq!(one.precision(), Precision::F64);
+    // A guard tighter than f32 round-off would fail good steps: refused, by name.
+    let mut t = task(2, false);
+    t.guard.unit_length_tolerance = 1e-9;
+    let mut tight =
+        EnvBatch::new(chain::<Planar>(2), t, 8, 0, AutoresetMode::NextStep, false).unwrap();
+    let e = tight.set_precision(Precision::F32).unwrap_err().to_string();
+    assert!(
+        e.contains("unit_length_tolerance = 0.000000001") && e.contains("5e-7"),
+        "{e}"
+    );
+    assert_eq!(tight.precision(), Precision::F64);
 }
 
 #[test]

@@ -29,6 +29,11 @@ use crate::params::ChainParams;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+/// Smallest guard `unit_length_tolerance` an env batch accepts in f32: after the
+/// projection, `| |q_i| - 1 |` computed in f32 is a few f32 rounding errors (a few
+/// 1e-7), so a tighter tolerance would fail good steps.
+pub const F32_MIN_UNIT_LENGTH_TOLERANCE: f64 = 5e-7;
+
 /// Bits of [`EnvBatch::events`], one byte per env, set by the last step or reset.
 pub mod event {
     /// The episode ended on this step (terminated or truncated).
@@ -410,6 +415,15 @@ impl<G: Geometry> EnvBatch<G> {
             return Ok(());
         }
         self.check_rk4("precision", 32.0)?;
+        let tolerance = self.task.guard.unit_length_tolerance;
+        if precision == Precision::F32 && tolerance < F32_MIN_UNIT_LENGTH_TOLERANCE {
+            return Err(InputError::InvalidParameter {
+                name: "guard unit_length_tolerance",
+                value: tolerance,
+                expected: "at least 5e-7 in f32 (its round-off alone reaches a few 1e-7 and would fail good steps), or precision f64",
+            }
+            .into());
+        }
         self.lanes_or_error(kernel.unwrap_or_else(Kernel::detect), precision)
     }
 
