@@ -10,7 +10,7 @@ mod common;
 
 use chaincart::batch::{Precision, MIN_LANE_ENVS};
 use chaincart::env::{
-    event, AutoresetMode, Distribution, EnvBatch, PaperFigure, ParamRandomization, Start,
+    event, AutoresetMode, Distribution, EnvBatch, PaperFigure, ParamRandomization, Real, Start,
     StepOutputs, TaskConfig,
 };
 use chaincart::geometry::Geometry;
@@ -97,6 +97,36 @@ fn chain<G: Geometry>(n: usize) -> Chain<G> {
     Chain::new(ChainParams::uniform(n, 1.0, 0.1, 0.3, 9.81).unwrap())
 }
 
+/// Caller-side output buffers of a batch step.
+struct Outputs<T: Real> {
+    obs: Vec<T>,
+    rewards: Vec<f64>,
+    terminated: Vec<bool>,
+    truncated: Vec<bool>,
+}
+
+impl<T: Real + Default> Outputs<T> {
+    fn new(num_envs: usize, state_dim: usize) -> Self {
+        Self {
+            obs: vec![T::default(); num_envs * state_dim],
+            rewards: vec![0.0; num_envs],
+            terminated: vec![false; num_envs],
+            truncated: vec![false; num_envs],
+        }
+    }
+
+    /// One step of `b` under `actions` into these buffers.
+    fn step<G: Geometry>(&mut self, b: &mut EnvBatch<G>, actions: &[f64]) {
+        let out = StepOutputs {
+            obs: &mut self.obs,
+            rewards: &mut self.rewards,
+            terminated: &mut self.terminated,
+            truncated: &mut self.truncated,
+        };
+        b.step(actions, out).unwrap();
+    }
+}
+
 /// Everything the batch produced over a run, as bit patterns, env-major per step.
 #[derive(Debug, PartialEq)]
 struct Trace {
@@ -177,8 +207,7 @@ fn trace<G: Spin>(
         }
         let mut rng = ChaCha8Rng::seed_from_u64(run.action_seed);
         let first = run.first_env * f;
-        let (mut obs, mut rewards) = (vec![0.0f64; n * d], vec![0.0; n]);
-        let (mut terminated, mut truncated) = (vec![false; n], vec![false; n]);
+        let mut o = Outputs::<f64>::new(n, d);
         let mut t = Trace {
             per_step: vec![],
             events: vec![],
@@ -187,22 +216,14 @@ fn trace<G: Spin>(
             let all: Vec<f64> = (0..total * f)
                 .map(|_| rng.random_range(-1.5..1.5))
                 .collect();
-            let out = StepOutputs {
-                obs: &mut obs,
-                rewards: &mut rewards,
-                terminated: &mut terminated,
-                truncated: &mut truncated,
-            };
-            b.step(&all[first..first + n * f], out).unwrap();
+            o.step(&mut b, &all[first..first + n * f]);
             let mut row = vec![];
             for k in 0..n {
-                let env_rows: [&[f64]; 6] = [
-                    &obs[k * d..(k + 1) * d],
-                    &[
-                        rewards[k],
-                        terminated[k] as u8 as f64,
-                        truncated[k] as u8 as f64,
-                    ],
+                let flags = [o.terminated[k], o.truncated[k]].map(|x| x as u8 as f64);
+                let env_rows: [&[f64]; 7] = [
+                    &o.obs[k * d..(k + 1) * d],
+                    &[o.rewards[k]],
+                    &flags,
                     &b.errors()[2 * k..2 * k + 2],
                     &b.final_states()[k * d..(k + 1) * d],
                     &b.diagnostics()[5 * k..5 * k + 5],
@@ -521,19 +542,12 @@ fn f32_against_f64<G: Geometry>(
         b
     });
     let (d, f) = (chain.state_dim(), chain.force_dim());
-    let (mut obs, mut rewards) = (vec![0.0f32; num_envs * d], vec![0.0; num_envs]);
-    let (mut terminated, mut truncated) = (vec![false; num_envs], vec![false; num_envs]);
+    let mut o = Outputs::<f32>::new(num_envs, d);
     let (mut error, mut failures) = (0.0f64, [0, 0]);
     for step in 0..steps {
         let actions: Vec<f64> = (0..num_envs * f).map(|j| action(step, j)).collect();
         for (b, fails) in batches.iter_mut().zip(&mut failures) {
-            let out = StepOutputs {
-                obs: &mut obs,
-                rewards: &mut rewards,
-                terminated: &mut terminated,
-                truncated: &mut truncated,
-            };
-            b.step(&actions, out).unwrap();
+            o.step(b, &actions);
             *fails += b
                 .events()
                 .iter()

@@ -228,9 +228,13 @@ REALITY_VARIANTS: dict[str, dict[str, Any]] = {
 }
 
 
-def _reality_rates(ctx: BenchContext, config: ChainCartConfig, num_envs: int, rng: np.random.Generator) -> tuple[float, float]:
-    """Env-steps/s of the raw batch and the vector env for one config (interleaved)."""
+def _reality_rates(
+    ctx: BenchContext, config: ChainCartConfig, num_envs: int, rng: np.random.Generator, precision: str = "f64"
+) -> tuple[float, float]:
+    """Env-steps/s of the raw batch and the vector env for one config (interleaved),
+    physics in ``precision``."""
     vec = ChainCartVectorEnv(num_envs, config)
+    vec._batch.set_precision(precision)
     vec.reset(seed=0)
     actions = rng.uniform(-1, 1, (num_envs, config.force_dim)).astype(np.float32)
     native = vec._batch  # the Rust call the vector env wraps
@@ -266,23 +270,6 @@ def _reality_table(ctx: BenchContext, rng: np.random.Generator) -> None:
     ctx.report.table(["links", "N", *REALITY_VARIANTS], rows, 0)
 
 
-def _planar_link_rates(ctx: BenchContext, num_envs: int, precision: str, rng: np.random.Generator) -> tuple[float, float]:
-    """Env-steps/s of the raw batch and of ChainCartVectorEnv, one planar link (the
-    default scene's system with one link, CartPole-sized), physics in ``precision``."""
-    config = ChainCartConfig(n_links=1)
-    vec = ChainCartVectorEnv(num_envs, config)
-    native = vec._batch  # the Rust call the vector env wraps
-    native.set_precision(precision)
-    vec.reset(seed=0)
-    actions = rng.uniform(-1, 1, (num_envs, config.force_dim)).astype(np.float32)
-    r_vec, r_native = 0.0, 0.0
-    for _ in range(max(2, ctx.settings.repeats)):
-        r_vec = max(r_vec, rate(lambda: vec.step(actions), ctx.settings.min_time, 1))
-        r_native = max(r_native, rate(lambda: native.step(actions), ctx.settings.min_time, 1))
-    vec.close()
-    return num_envs * r_native, num_envs * r_vec
-
-
 def _planar_link_table(ctx: BenchContext, rng: np.random.Generator) -> None:
     """One planar link against CartPoleVectorEnv at the largest N, side by side in one run."""
     num_envs = max(ctx.settings.sizes)
@@ -290,7 +277,7 @@ def _planar_link_table(ctx: BenchContext, rng: np.random.Generator) -> None:
     rows = [["CartPoleVectorEnv (NumPy)", "", fmt_rate(cartpole), ""]]
     results: dict[str, Any] = {"cartpole": cartpole}
     for precision in ("f64", "f32"):
-        raw, vec = _planar_link_rates(ctx, num_envs, precision, rng)
+        raw, vec = _reality_rates(ctx, ChainCartConfig(n_links=1), num_envs, rng, precision)
         results[precision] = {"raw": raw, "vector": vec}
         rows.append([f"ChainCartVectorEnv, 1 planar link, {precision}", fmt_rate(raw), fmt_rate(vec), fmt_ratio(vec, cartpole)])
     ctx.results["planar_link"] = {"num_envs": num_envs, **results}
