@@ -43,7 +43,7 @@ impl Form {
                 InputError::UnknownName {
                     kind: "form",
                     name: name.to_string(),
-                    expected: "\"fast\", \"dense\", \"fast_rk4_step\"",
+                    expected: &["fast", "dense", "fast_rk4_step"],
                 }
                 .into()
             })

@@ -6,7 +6,9 @@ use crate::any::AnyChain;
 use crate::env::PaperFigure;
 use crate::error::InputError;
 use crate::integrate::{Method, StepOptions};
-use crate::params::ChainParams;
+use crate::params::{
+    ChainParams, PAPER_CART_MASS, PAPER_LINK_LENGTH, PAPER_LINK_MASS, STANDARD_GRAVITY,
+};
 use nalgebra::DMatrix;
 use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -75,7 +77,11 @@ impl ChainCart {
 #[pymethods]
 impl ChainCart {
     #[new]
-    #[pyo3(signature = (n_links, cart_mass=0.5, link_masses=None, link_lengths=None, gravity=9.81, planar=false))]
+    // The defaults are the paper's example system (as its figures' scenes).
+    #[pyo3(signature = (
+        n_links, cart_mass=PAPER_CART_MASS, link_masses=None, link_lengths=None,
+        gravity=STANDARD_GRAVITY, planar=false
+    ))]
     fn new(
         py: Python<'_>,
         n_links: i64,
@@ -85,12 +91,13 @@ impl ChainCart {
         gravity: f64,
         planar: bool,
     ) -> PyResult<Self> {
-        let default = 0.1f64.into_pyobject(py)?.into_any();
+        let mass = PAPER_LINK_MASS.into_pyobject(py)?.into_any();
+        let length = PAPER_LINK_LENGTH.into_pyobject(py)?.into_any();
         Self::from_params(
             n_links,
             cart_mass,
-            link_masses.unwrap_or(&default),
-            link_lengths.unwrap_or(&default),
+            link_masses.unwrap_or(&mass),
+            link_lengths.unwrap_or(&length),
             gravity,
             planar,
         )
@@ -412,7 +419,7 @@ pub fn paper_initial_condition<'py>(
     let fig = PaperFigure::from_name(figure).ok_or_else(|| InputError::UnknownName {
         kind: "paper figure",
         name: figure.to_string(),
-        expected: "\"paper-fig1\", \"paper-fig2\", \"paper-fig3\"",
+        expected: &PaperFigure::NAMES,
     })?;
     Ok(array(py, crate::env::paper_initial_condition(fig)))
 }
