@@ -27,6 +27,8 @@ __all__ = [
     "time_scaling",
     "MAX_LINKS",
     "MAX_STATE_VALUES",
+    "MIN_FRAME_SIZE",
+    "MAX_FRAME_SIZE",
     "render_frame",
     "target_signs",
     "paper_initial_condition",
@@ -41,6 +43,7 @@ __all__ = [
     "REALITY_KEYS",
     "CONFIG_KEYS",
     "SCENES",
+    "SCENE_SUMMARIES",
     "DEFAULT_SCENE",
     "TARGET_NAMES",
     "START_NAMES",
@@ -73,6 +76,8 @@ CONFIG_KEYS: tuple[tuple[str, Any, str, str], ...]
 REALITY_KEYS: tuple[tuple[str, Any, str], ...]
 #: Every scene's value of every key: scene name -> dict.
 SCENES: dict[str, dict[str, Any]]
+#: Every scene's one-line summary: scene name -> text.
+SCENE_SUMMARIES: dict[str, str]
 #: The scene whose values fill the keys not given.
 DEFAULT_SCENE: str
 #: Names accepted for ``target`` (besides a sign tuple).
@@ -90,6 +95,10 @@ def resolve_config(config: Mapping[str, Any]) -> dict[str, Any]:
 MAX_LINKS: int
 #: Most float64 numbers in one batch state array or one simulated trajectory.
 MAX_STATE_VALUES: int
+#: Smallest frame side the renderer draws, pixels.
+MIN_FRAME_SIZE: int
+#: Largest frame side the renderer draws, pixels.
+MAX_FRAME_SIZE: int
 
 _Signs = Union[str, Sequence[float]]
 
@@ -105,9 +114,10 @@ from chaincart_env.errors import (
 class ChainCart:
     """The chain pendulum on a cart: ``n_links`` point masses ``link_masses`` on massless
     rods of ``link_lengths`` (scalars or one per link) on a cart of ``cart_mass``;
-    gravity ``gravity`` along e3. ``planar=True`` is the planar special case. Defaults
-    are the paper's example system (0.5 kg cart, 0.1 kg and 0.1 m links, as the
-    paper's scenes); the env's default scene is another system (see ``SCENES``).
+    gravity ``gravity`` along e3. ``planar=True`` is the planar special case.
+    Parameters left unset (``None``) are the paper's example system (0.5 kg cart,
+    0.1 kg and 0.1 m links, standard gravity), as in the paper's scenes; the env's
+    default scene is another system (see ``SCENES``).
 
     State layout (docs/physics.md): ``[x(2), xdot(2), q_1..q_n (3 each), w_1..w_n (3 each)]``
     (length ``4 + 6n``); planar ``[x, xdot, (q_i . e1, q_i . e3)_i, (w_i . e2)_i]``
@@ -117,10 +127,10 @@ class ChainCart:
     def __new__(
         cls,
         n_links: int,
-        cart_mass: float = 0.5,
+        cart_mass: Optional[float] = None,
         link_masses: Optional[Union[float, Sequence[float]]] = None,
         link_lengths: Optional[Union[float, Sequence[float]]] = None,
-        gravity: float = 9.81,
+        gravity: Optional[float] = None,
         planar: bool = False,
     ) -> Self: ...
     @property
@@ -135,6 +145,9 @@ class ChainCart:
     @property
     def force_dim(self) -> int:
         """Length of a force: 2 (spatial) or 1 (planar)."""
+    @property
+    def state_layout(self) -> dict[str, tuple[int, int]]:
+        """``(start, stop)`` of each block of a state: ``x``, ``xdot``, ``q``, ``w``."""
     @property
     def cart_mass(self) -> float:
         """Cart mass (kg)."""

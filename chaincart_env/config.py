@@ -172,6 +172,12 @@ class ChainCartConfig:
         return self._model.state_dim
 
     @property
+    def state_layout(self) -> dict[str, tuple[int, int]]:
+        """``(start, stop)`` of each block of the observed state (``x``, ``xdot``, ``q``,
+        ``w``), as the core lays it out."""
+        return self._model.state_layout
+
+    @property
     def force_dim(self) -> int:
         """Length of an action: 1 planar, 2 spatial."""
         return self._model.force_dim

@@ -11,6 +11,8 @@ use std::sync::LazyLock;
 pub struct Scene {
     /// Its name.
     pub name: &'static str,
+    /// What it is, in one line (for the documentation's scene table).
+    pub summary: &'static str,
     /// Groups of `(key, value)` on top of the defaults; a later value wins.
     pub values: &'static [&'static [(&'static str, KeyValue)]],
 }
@@ -64,6 +66,7 @@ pub const SCENES: &[Scene] = &[
     // A CartPole-sized planar inverted pendulum. PPO solves it in seconds.
     Scene {
         name: "inverted-1",
+        summary: "planar, 1 link (CartPole-sized, unstable at about 4.6/s): keep it upright from +-0.05 noise",
         values: &[SINGLE],
     },
     // The default: the planar double inverted pendulum, two such links. LQR holds it
@@ -72,11 +75,13 @@ pub const SCENES: &[Scene] = &[
     // curve that fits in five minutes. Its values are the key defaults.
     Scene {
         name: "inverted-2",
+        summary: "planar double inverted pendulum (1 kg cart, 0.1 kg at the end of each 0.5 m link): keep both links upright from +-0.05 noise",
         values: &[],
     },
     // Swing-up of the planar single pendulum from hanging.
     Scene {
         name: "swingup-1",
+        summary: "as inverted-1: swing it up from hanging",
         values: &[
             SINGLE,
             &[
@@ -92,6 +97,7 @@ pub const SCENES: &[Scene] = &[
     // speed vs accuracy).
     Scene {
         name: "paper-fig1",
+        summary: "the paper's system (spatial, 5 links, 0.5 kg cart, 0.1 kg and 0.1 m links): uncontrolled from IC1 near the folded equilibrium (-1,1,-1,1,-1), scored against it",
         values: &[
             PAPER,
             &[
@@ -110,6 +116,7 @@ pub const SCENES: &[Scene] = &[
     // e_q and e_w stay below 1e-3 from 9.2 s.
     Scene {
         name: "paper-fig2",
+        summary: "the paper's system: stabilise hanging from IC1 (the LQR catches the falling chain only with a force hold of 0.3 ms or less)",
         values: &[
             PAPER,
             &[
@@ -126,6 +133,7 @@ pub const SCENES: &[Scene] = &[
     // fall below 1e-3 at 11.3 s, so the episode lasts 12 s.
     Scene {
         name: "paper-fig3",
+        summary: "the paper's system: stabilise (-1,-1,-1,1,1) from the Fig. 3 initial condition (it settles at 11.3 s)",
         values: &[
             PAPER,
             &[
@@ -142,19 +150,23 @@ pub const SCENES: &[Scene] = &[
     // "-noisy": a noisy, late sensor.
     Scene {
         name: "inverted-2-randomized",
+        summary: "as inverted-2: cart mass, link masses and lengths redrawn within +-25% at every reset",
         values: &[RANDOMIZED],
     },
     Scene {
         name: "inverted-2-noisy",
+        summary: "as inverted-2: observation noise 0.01 and a one-step control delay",
         values: &[NOISY],
     },
     // The same two on the spatial double pendulum.
     Scene {
         name: "spatial-inverted-2-randomized",
+        summary: "as inverted-2-randomized, with spherical joints",
         values: &[SPATIAL, RANDOMIZED],
     },
     Scene {
         name: "spatial-inverted-2-noisy",
+        summary: "as inverted-2-noisy, with spherical joints",
         values: &[SPATIAL, NOISY],
     },
 ];

@@ -98,6 +98,15 @@ pub fn scenes_table(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
+/// Every scene's one-line summary, for `_core.SCENE_SUMMARIES`.
+pub fn scene_summaries(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    for scene in SCENES {
+        d.set_item(scene.name, scene.summary)?;
+    }
+    Ok(d)
+}
+
 /// The names of a named-numbers key mapped to its defaults (`_core.REWARD_WEIGHTS`).
 pub fn named_defaults<'py>(py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);

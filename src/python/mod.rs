@@ -54,6 +54,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(time_scaling, m)?)?;
     m.add("MAX_LINKS", crate::limits::MAX_LINKS)?;
     m.add("MAX_STATE_VALUES", crate::limits::MAX_STATE_VALUES)?;
+    m.add("MIN_FRAME_SIZE", crate::render::MIN_FRAME_SIZE)?;
+    m.add("MAX_FRAME_SIZE", crate::render::MAX_FRAME_SIZE)?;
     m.add_function(wrap_pyfunction!(render::render_frame, m)?)?;
     m.add_function(wrap_pyfunction!(model::target_signs, m)?)?;
     m.add_function(wrap_pyfunction!(model::paper_initial_condition, m)?)?;
@@ -74,6 +76,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("CONFIG_KEYS", config::keys_table(py)?)?;
     m.add("REALITY_KEYS", config::reality_keys_table(py)?)?;
     m.add("SCENES", config::scenes_table(py)?)?;
+    m.add("SCENE_SUMMARIES", config::scene_summaries(py)?)?;
     m.add("DEFAULT_SCENE", crate::env::DEFAULT_SCENE)?;
     m.add(
         "TARGET_NAMES",

@@ -77,28 +77,27 @@ impl ChainCart {
 #[pymethods]
 impl ChainCart {
     #[new]
-    // The defaults are the paper's example system (as its figures' scenes).
+    // Unset parameters are the paper's example system (as its figures' scenes).
     #[pyo3(signature = (
-        n_links, cart_mass=PAPER_CART_MASS, link_masses=None, link_lengths=None,
-        gravity=STANDARD_GRAVITY, planar=false
+        n_links, cart_mass=None, link_masses=None, link_lengths=None, gravity=None, planar=false
     ))]
     fn new(
         py: Python<'_>,
         n_links: i64,
-        cart_mass: f64,
+        cart_mass: Option<f64>,
         link_masses: Option<&Bound<'_, PyAny>>,
         link_lengths: Option<&Bound<'_, PyAny>>,
-        gravity: f64,
+        gravity: Option<f64>,
         planar: bool,
     ) -> PyResult<Self> {
         let mass = PAPER_LINK_MASS.into_pyobject(py)?.into_any();
         let length = PAPER_LINK_LENGTH.into_pyobject(py)?.into_any();
         Self::from_params(
             n_links,
-            cart_mass,
+            cart_mass.unwrap_or(PAPER_CART_MASS),
             link_masses.unwrap_or(&mass),
             link_lengths.unwrap_or(&length),
-            gravity,
+            gravity.unwrap_or(STANDARD_GRAVITY),
             planar,
         )
     }
@@ -134,6 +133,15 @@ impl ChainCart {
     #[getter]
     fn gravity(&self) -> f64 {
         self.chain.params().gravity()
+    }
+    /// `name -> (start, stop)` of each block of a state (`x`, `xdot`, `q`, `w`).
+    #[getter]
+    fn state_layout<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, start, stop) in self.chain.state_blocks() {
+            d.set_item(name, (start, stop))?;
+        }
+        Ok(d)
     }
     /// The constructor's arguments as a dict.
     #[getter]
