@@ -33,14 +33,16 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|")
 
 
-def keys_table() -> str:
-    """The configuration keys as a Markdown table: keyword, meaning, accepted values,
-    default (the default scene's value)."""
+def keys_table(only: tuple[str, ...] = ()) -> str:
+    """The configuration keys (``only`` these, if given) as a Markdown table: keyword,
+    meaning, accepted values, default (the default scene's value)."""
     rows = [
         "| keyword | meaning | accepts | default |",
         "|---|---|---|---|",
     ]
     for name, default, help_text, expected in _core.CONFIG_KEYS:
+        if only and name not in only:
+            continue
         rows.append(f"| `{name}` | {_cell(help_text)} | {_cell(expected)} | `{_value_text(default)}` |")
     return "\n".join(rows)
 
@@ -83,6 +85,7 @@ def option_help(name: str) -> str:
 _SECTIONS: dict[tuple[str, str], Callable[[], str]] = {
     ("configuration.md", "config-keys"): keys_table,
     ("configuration.md", "scenes"): scenes_table,
+    ("sim-to-real.md", "reality-keys"): lambda: keys_table(tuple(name for name, _, _ in _core.REALITY_KEYS)),
 }
 
 

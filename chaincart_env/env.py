@@ -132,7 +132,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
 
     where ``a`` is the clipped normalised action and ``|q_i - s_i e3|^2 = 2(1 - cos
     tilt_i)``. It is 1 exactly at the target with the cart at rest at the origin and
-    no force. Defaults (``reward_weights``): ``q=1, w=0.1, x=0.1, v=0.1, u=0.01``. The
+    no force. The weights are ``reward_weights`` (defaults under Arguments). The
     step on which the integration fails is rewarded 0.
 
     ## Starting State
@@ -156,11 +156,11 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
       more than 0.5 rad in one integrator step, where the result would be finite but wrong;
       ``info["numerical_failure"]``): the observation is then the last good state,
       never NaN.
-    * Truncation: ``max_episode_steps`` steps (500 = 10 s in the default scene).
+    * Truncation: ``max_episode_steps`` steps.
 
     On the last step ``info`` holds ``is_success`` (truncated, not terminated, and the
     paper's ``e_q = sum |q_i - s_i e3|`` and ``e_w = sum |w_i|`` at most
-    ``success_tolerances``, default ``(0.1, 0.5)``), ``numerical_failure``,
+    ``success_tolerances``), ``numerical_failure``,
     ``out_of_track``, ``e_q`` and ``e_w``; other steps' info is empty unless
     ``diagnostics=True``, which adds ``energy``, ``kinetic_energy``,
     ``potential_energy``, ``residual_unit_length``, ``residual_tangency``, ``e_q``,

@@ -87,17 +87,17 @@ pub const TARGET_NAMES: [&str; 7] = [
     "paper-fig3",
 ];
 
-/// Names accepted for a start (besides a sign tuple or a full state).
-pub const START_NAMES: [&str; 8] = [
-    "target",
-    "hanging",
-    "inverted",
-    "folded",
-    "folded_up",
-    "paper-fig1",
-    "paper-fig2",
-    "paper-fig3",
-];
+/// Names accepted for a start (besides a sign tuple or a full state): `"target"`
+/// and the target names.
+pub const START_NAMES: [&str; 8] = {
+    let mut names = ["target"; 8];
+    let mut i = 0;
+    while i < TARGET_NAMES.len() {
+        names[i + 1] = TARGET_NAMES[i];
+        i += 1;
+    }
+    names
+};
 
 /// Names of the observation dtypes.
 pub const OBS_DTYPE_NAMES: [&str; 2] = ["float32", "float64"];
@@ -378,6 +378,8 @@ mod expected_text {
         config_key(name).unwrap().expected
     }
 
+    type Spoiler = Box<dyn Fn(&mut TaskConfig)>;
+
     fn task_error(spoil: impl Fn(&mut TaskConfig)) -> String {
         let mut task = TaskConfig::new(vec![-1.0; 2], 0.02, StepOptions::default());
         spoil(&mut task);
@@ -386,7 +388,7 @@ mod expected_text {
 
     #[test]
     fn task_checks_say_what_the_table_says() {
-        let cases: [(&str, Box<dyn Fn(&mut TaskConfig)>); 6] = [
+        let cases: [(&str, Spoiler); 6] = [
             ("start_noise", Box::new(|t| t.start_noise = -1.0)),
             ("dt", Box::new(|t| t.dt = 0.0)),
             ("max_force", Box::new(|t| t.max_force = -1.0)),
