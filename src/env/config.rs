@@ -1,7 +1,9 @@
 //! The task: which equilibrium to reach, where episodes start, how they are scored
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
-use super::keys::{START_NAMES, TARGET_NAMES};
+use super::keys::{
+    DEFAULT_MAX_EPISODE_STEPS, DEFAULT_START_NOISE, DEFAULT_TRACK_LIMIT, START_NAMES, TARGET_NAMES,
+};
 use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
 use crate::batch::Guard;
@@ -287,17 +289,20 @@ pub struct TaskConfig {
 }
 
 impl TaskConfig {
-    /// A task with the default reward and tolerances, starting near the target.
+    /// A task with the configuration's default start noise, track, episode length,
+    /// reward and tolerances ([`super::keys::CONFIG_KEYS`]), starting at the target,
+    /// pushing with 10 N (the single-link scenes' force; the default scene pushes with
+    /// 20 N, and Rust callers set their own).
     pub fn new(target: Vec<f64>, dt: f64, step_options: StepOptions) -> Self {
         Self {
             target,
             start: Start::Target,
-            start_noise: 0.05,
+            start_noise: DEFAULT_START_NOISE,
             dt,
             step_options,
             max_force: 10.0,
-            track_limit: 2.4,
-            max_episode_steps: 500,
+            track_limit: DEFAULT_TRACK_LIMIT,
+            max_episode_steps: DEFAULT_MAX_EPISODE_STEPS as u64,
             reward: RewardWeights::default(),
             guard: Guard::default(),
             success: SuccessTolerances::default(),

@@ -57,6 +57,8 @@ pub enum KeyKind {
     /// Named numbers: a mapping with some of these names (the others keep their
     /// defaults) or a sequence of exactly as many numbers.
     NamedNumbers(&'static [&'static str]),
+    /// A sequence of exactly as many numbers as these names.
+    Numbers(&'static [&'static str]),
     /// A reality-gap keyword, read by the reality-gap conversion.
     RealityGap,
 }
@@ -107,6 +109,13 @@ pub const REWARD_WEIGHT_NAMES: [&str; 5] = ["q", "w", "x", "v", "u"];
 
 /// Names of the success tolerances.
 pub const SUCCESS_TOLERANCE_NAMES: [&str; 2] = ["e_q", "e_w"];
+
+/// Default half-width of the start noise (also [`super::TaskConfig::new`]'s).
+pub const DEFAULT_START_NOISE: f64 = 0.05;
+/// Default track limit, m (also [`super::TaskConfig::new`]'s).
+pub const DEFAULT_TRACK_LIMIT: f64 = 2.4;
+/// Default episode length, steps (also [`super::TaskConfig::new`]'s).
+pub const DEFAULT_MAX_EPISODE_STEPS: i64 = 500;
 
 const DEFAULT_REWARD_WEIGHTS: [f64; 5] = RewardWeights::DEFAULT.as_array();
 const DEFAULT_SUCCESS_TOLERANCES: [f64; 2] = SuccessTolerances::DEFAULT.as_array();
@@ -177,7 +186,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
     ConfigKey {
         name: "start_noise",
         kind: KeyKind::Number,
-        default: KeyValue::Float(0.05),
+        default: KeyValue::Float(DEFAULT_START_NOISE),
         expected: "a finite number >= 0",
         help: "half-width of the uniform start noise in every local coordinate",
     },
@@ -214,14 +223,14 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
     ConfigKey {
         name: "track_limit",
         kind: KeyKind::Number,
-        default: KeyValue::Float(2.4),
+        default: KeyValue::Float(DEFAULT_TRACK_LIMIT),
         expected: "a finite number > 0",
         help: "m; the episode terminates when the cart goes beyond it",
     },
     ConfigKey {
         name: "max_episode_steps",
         kind: KeyKind::Integer,
-        default: KeyValue::Int(500),
+        default: KeyValue::Int(DEFAULT_MAX_EPISODE_STEPS),
         expected: "an integer >= 1",
         help: "episode length in steps (truncation)",
     },
@@ -249,7 +258,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
     },
     ConfigKey {
         name: "success_tolerances",
-        kind: KeyKind::NamedNumbers(&SUCCESS_TOLERANCE_NAMES),
+        kind: KeyKind::Numbers(&SUCCESS_TOLERANCE_NAMES),
         default: KeyValue::Floats(&DEFAULT_SUCCESS_TOLERANCES),
         expected: "two numbers (e_q, e_w), each a finite number > 0",
         help: "e_q, e_w bounds of a success at the time limit (is_success)",
@@ -347,8 +356,10 @@ mod tests {
             if let (KeyKind::Choice(names), KeyValue::Name(default)) = (key.kind, key.default) {
                 assert!(names.contains(&default), "{}", key.name);
             }
-            if let (KeyKind::NamedNumbers(names), KeyValue::Floats(values)) =
-                (key.kind, key.default)
+            if let (
+                KeyKind::NamedNumbers(names) | KeyKind::Numbers(names),
+                KeyValue::Floats(values),
+            ) = (key.kind, key.default)
             {
                 assert_eq!(names.len(), values.len(), "{}", key.name);
             }

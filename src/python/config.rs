@@ -123,13 +123,23 @@ pub fn named_defaults<'py>(py: Python<'py>, key: &str) -> PyResult<Bound<'py, Py
     Ok(d)
 }
 
-/// `"{name} = {repr}: expected {what}"`: the error of a value of the wrong type.
-fn wrong_type(name: &str, value: &Bound<'_, PyAny>, what: &str) -> PyErr {
+/// `"{name} = {repr}: expected {what}"`.
+fn not_expected(name: &str, value: &Bound<'_, PyAny>, what: &str) -> String {
     let shown = value
         .repr()
         .map(|r| r.to_string())
         .unwrap_or_else(|_| "?".into());
-    type_error(format!("{name} = {shown}: expected {what}"))
+    format!("{name} = {shown}: expected {what}")
+}
+
+/// The error of a value of the wrong type (an `InvalidTypeError`).
+fn wrong_type(name: &str, value: &Bound<'_, PyAny>, what: &str) -> PyErr {
+    type_error(not_expected(name, value, what))
+}
+
+/// The error of a value of the wrong form (an `InvalidInputError`).
+fn wrong_value(name: &str, value: &Bound<'_, PyAny>, what: &str) -> PyErr {
+    error(not_expected(name, value, what))
 }
 
 fn is_bool(value: &Bound<'_, PyAny>) -> bool {
@@ -224,7 +234,7 @@ fn choice<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let name: String = value
         .extract()
-        .map_err(|_| wrong_type(key.name, value, key.expected))?;
+        .map_err(|_| wrong_value(key.name, value, key.expected))?;
     if names.contains(&name.as_str()) {
         return Ok(value.clone());
     }
@@ -267,16 +277,24 @@ fn named_numbers<'py>(
     } else {
         let given = sequence(key.name, value, key.expected)?;
         if given.len() != names.len() {
-            return Err(error(format!(
-                "{} has {} numbers: expected {}",
-                key.name,
-                given.len(),
-                key.expected
-            )));
+            return Err(wrong_type(key.name, value, key.expected));
         }
         numbers = given;
     }
     float_tuple(value.py(), numbers)
+}
+
+/// Exactly as many numbers as `names`, in a sequence; a tuple of floats.
+fn numbers<'py>(
+    key: &ConfigKey,
+    names: &'static [&'static str],
+    value: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let sized = value.len().is_ok_and(|len| len == names.len());
+    if !sized || value.is_instance_of::<PyString>() || value.cast::<PyMapping>().is_ok() {
+        return Err(wrong_value(key.name, value, key.expected));
+    }
+    float_tuple(value.py(), sequence(key.name, value, key.expected)?)
 }
 
 /// One key's value in canonical form: plain Python types, checked for type and form.
@@ -293,6 +311,7 @@ fn canonical<'py>(key: &ConfigKey, value: &Bound<'py, PyAny>) -> PyResult<Bound<
         KeyKind::Choice(names) => choice(key, names, value)?,
         KeyKind::Equilibrium | KeyKind::Start => name_or_numbers(key.name, value)?,
         KeyKind::NamedNumbers(names) => named_numbers(key, names, value)?,
+        KeyKind::Numbers(names) => numbers(key, names, value)?,
         KeyKind::RealityGap if key.name == "action_delay" => {
             integer(key.name, value)?.into_pyobject(py)?.into_any()
         }
@@ -319,7 +338,7 @@ fn merged<'py>(config: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
         Some(s) => {
             let name: String = s
                 .extract()
-                .map_err(|_| wrong_type("scene", &s, "a scene name"))?;
+                .map_err(|_| wrong_value("scene", &s, "a scene name"))?;
             Scene::named(&name)?
         }
         None => Scene::named(crate::env::DEFAULT_SCENE)?,

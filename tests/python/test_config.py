@@ -13,7 +13,7 @@ import pytest
 from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartError, RewardWeights
 from chaincart_env import _core
 from chaincart_env.config import CONFIG_KEYS, REALITY_KEYS
-from chaincart_env.errors import InvalidInputError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.spec import plain_value
 
 REALITY_NAMES = [k[0] for k in REALITY_KEYS]
@@ -175,3 +175,29 @@ def test_unknown_keys_and_scenes_name_the_value_and_the_choices() -> None:
         _core.resolve_config({"n_link": 2})
     with pytest.raises(InvalidInputError, match=r'unknown scene "cartpole": expected one of "inverted-1", '):
         _core.resolve_config({"scene": "cartpole"})
+
+
+@pytest.mark.parametrize(
+    "kwargs, error",
+    [
+        (dict(reward_weights=(1, 2)), InvalidTypeError),
+        (dict(reward_weights="heavy"), InvalidTypeError),
+        (dict(success_tolerances=[1, 2, 3]), InvalidInputError),
+        (dict(success_tolerances=5), InvalidInputError),
+        (dict(success_tolerances=(0.1, "a")), InvalidTypeError),
+        (dict(integrator=3), InvalidInputError),
+        (dict(obs_dtype=3), InvalidInputError),
+        (dict(scene=3), InvalidInputError),
+        (dict(link_lengths="long"), InvalidTypeError),
+        (dict(target=5), InvalidTypeError),
+        (dict(diagnostics=1), InvalidTypeError),
+        (dict(substeps=1.5), InvalidTypeError),
+        (dict(max_episode_steps=-3), InvalidInputError),
+        (dict(force_rate_limit="x"), InvalidTypeError),
+    ],
+)
+def test_each_bad_value_raises_the_exception_class_it_always_did(kwargs: dict, error: type) -> None:
+    with pytest.raises(error) as caught:
+        ChainCartConfig(**kwargs)
+    assert type(caught.value) is error, caught.value
+    assert f"{next(iter(kwargs))}" in str(caught.value)
