@@ -1,12 +1,13 @@
 """One validated configuration object for every chaincart env, and the named scenes.
 
-A :class:`ChainCartConfig` is built from a scene (``scene=``, default
-:data:`DEFAULT_SCENE`) whose values fill every keyword not given explicitly, then
-normalised (scalars stay scalars, sequences become tuples, names stay names) and
-validated once by the Rust core: a bad value raises :class:`ChainCartError` (a
+The keys, their defaults, the scenes and every check are defined once, in the Rust
+core; this module reads them from ``_core``. A :class:`ChainCartConfig` is resolved by
+one call into the core (``_core.resolve_config``): the scene (``scene=``, default
+:data:`DEFAULT_SCENE`) fills every keyword not given, each value is brought into
+canonical form (scalars stay scalars, sequences become tuples, names stay names) and
+checked; a bad value raises :class:`~chaincart_env.errors.ChainCartError` (a
 ``ValueError``) naming the value and what was expected.
 """
-
 from __future__ import annotations
 
 import dataclasses
@@ -109,8 +110,11 @@ def _plain(name: str, value: Any) -> Any:
 
 @dataclass(frozen=True)
 class ChainCartConfig:
-    """Everything that defines a chaincart env (see :class:`chaincart_env.ChainCartEnv`
-    for the meaning of each keyword). Keywords left out take the scene's value."""
+    """Everything that defines a chaincart env. The fields are the core's configuration
+    keys (:data:`CONFIG_KEYS`: meaning, accepted values and default of each, also in
+    the :class:`chaincart_env.ChainCartEnv` docstring). Keywords left out take the
+    scene's value; reality-gap values are stored in the canonical form the core
+    returns."""
 
     n_links: int = _UNSET
     cart_mass: float = _UNSET
@@ -130,13 +134,8 @@ class ChainCartConfig:
     reward_weights: RewardWeights = _UNSET
     scene: str = _UNSET
     obs_dtype: str = _UNSET
-    #: Success at the time limit: ``e_q <= success_tolerances[0]`` and ``e_w <= [1]``.
     success_tolerances: tuple[float, float] = _UNSET
-    #: Put energies and constraint residuals in every step's info (costs time).
     diagnostics: bool = _UNSET
-    #: Reality gap (see :data:`REALITY_KEYS` for forms and defaults): stored in the
-    #: canonical form the core returns. ``{}`` / ``0`` / ``inf`` switch a scene's
-    #: setting off.
     randomize: Optional[dict[str, Any]] = _UNSET
     params: Optional[dict[str, Any]] = _UNSET
     mismatch: Optional[dict[str, Any]] = _UNSET
