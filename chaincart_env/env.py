@@ -180,16 +180,16 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     gap, ``reset`` returns ``info["params"]``, the episode's true parameters (also
     :attr:`true_params`).
 
-    Episode length with ``gymnasium.make``: ``ChainCart-v0`` is registered with
-    ``max_episode_steps=500`` (the default scene's), so ``gymnasium.make`` adds a
-    ``TimeLimit`` of 500 steps unless given its own ``max_episode_steps`` (``-1``: none).
-    That keyword is Gymnasium's and does not reach the env; the env's own length (whose
-    last step carries ``is_success``) is the config's. For another length or a scene
-    with its own (the paper's scenes), pass both, e.g.
-    ``gymnasium.make("ChainCart-v0", scene="paper-fig3", max_episode_steps=12000)`` or
-    ``gymnasium.make("ChainCart-v0", config={"max_episode_steps": 100},
-    max_episode_steps=100)``; ``gymnasium.make_vec`` passes ``max_episode_steps`` on
-    to the vector env itself.
+    Episode length with ``gymnasium.make``: every scene has its own id,
+    ``ChainCart-<scene>-v0`` (:func:`chaincart_env.scene_env_id`), registered with the
+    scene's length (``gymnasium.make("ChainCart-paper-fig3-v0")``: 12 000 steps);
+    ``ChainCart-v0`` is the default scene's, 500. ``gymnasium.make`` adds a
+    ``TimeLimit`` of the id's length unless given its own ``max_episode_steps``
+    (``-1``: none), a keyword that is Gymnasium's and does not reach the env; the env's
+    own length (whose last step carries ``is_success``) is the config's. For another
+    length pass both, e.g. ``gymnasium.make("ChainCart-v0", config={"max_episode_steps":
+    100}, max_episode_steps=100)``; ``gymnasium.make_vec`` passes ``max_episode_steps``
+    on to the vector env itself.
 
     ``render_mode``: ``None``, ``"rgb_array"`` (``render()`` returns a uint8 frame of
     ``render_height x render_width x 3`` pixels) or ``"human"`` (a live window in real
