@@ -87,7 +87,7 @@ START_NAMES: tuple[str, ...]
 #: Default reward weights by name (q, w, x, v, u).
 REWARD_WEIGHTS: dict[str, float]
 
-def resolve_config(config: Mapping[str, Any]) -> dict[str, Any]:
+def resolve_config(config: dict[str, Any]) -> dict[str, Any]:
     """Every key's value in canonical form for ``config`` (a dict of keys, any subset;
     ``scene`` names the scene whose values fill the rest; ``None`` values are unset),
     after checking them all; raises :class:`InvalidInputError` naming a bad value."""
@@ -233,7 +233,7 @@ class EnvBatch:
 
     def __new__(
         cls,
-        config: Mapping[str, Any],
+        config: dict[str, Any],
         num_envs: int = 1,
         *,
         autoreset_mode: str = "next_step",
