@@ -5,8 +5,9 @@ core; this module reads them from ``_core``. A :class:`ChainCartConfig` is resol
 one call into the core (``_core.resolve_config``): the scene (``scene=``, default
 :data:`DEFAULT_SCENE`) fills every keyword not given, each value is brought into
 canonical form (scalars stay scalars, sequences become tuples, names stay names) and
-checked; a bad value raises :class:`~chaincart_env.errors.ChainCartError` (a
-``ValueError``) naming the value and what was expected.
+checked; a bad value raises :class:`~chaincart_env.errors.InvalidInputError` (a
+``ValueError``) or :class:`~chaincart_env.errors.InvalidTypeError` (a ``TypeError``)
+naming the value and what was expected.
 """
 from __future__ import annotations
 

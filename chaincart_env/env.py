@@ -182,8 +182,8 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
 
     Episode length with ``gymnasium.make``: every scene has its own id,
     ``ChainCart-<scene>-v0`` (:func:`chaincart_env.scene_env_id`), registered with the
-    scene's length (``gymnasium.make("ChainCart-paper-fig3-v0")``: 12 000 steps);
-    ``ChainCart-v0`` is the default scene's, 500. ``gymnasium.make`` adds a
+    scene's length (so ``gymnasium.make("ChainCart-paper-fig3-v0")`` runs the paper's
+    Fig. 3 to its end); ``ChainCart-v0`` is the default scene's. ``gymnasium.make`` adds a
     ``TimeLimit`` of the id's length unless given its own ``max_episode_steps``
     (``-1``: none), a keyword that is Gymnasium's and does not reach the env; the env's
     own length (whose last step carries ``is_success``) is the config's. For another
