@@ -3,7 +3,8 @@ environments, its physics and RL task in Rust (``chaincart_env._core``).
 
 * :class:`ChainCart`: the physics model (derivative, step, simulate, energy, ...).
 * :class:`ChainCartConfig`, :data:`SCENES`: the validated env configuration.
-* :class:`ChainCartEnv` (``gymnasium.make("ChainCart-v0", ...)``) and
+* :class:`ChainCartEnv` (``gymnasium.make("ChainCart-v0", ...)``, or a scene's own id
+  ``gymnasium.make("ChainCart-<scene>-v0")``: :func:`scene_env_id`) and
   :class:`ChainCartVectorEnv` (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``).
 * :class:`ChainCartVecEnv`: a stable-baselines3 VecEnv on the same Rust batch
   (imported on first use; needs the ``sb3`` extra).
@@ -28,9 +29,10 @@ from chaincart_env.errors import (  # noqa: E402
     InvalidTypeError,
     MissingExtraError,
 )
-from chaincart_env.config import DEFAULT_SCENE, REGISTERED_EPISODE_STEPS, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
+from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
 from chaincart_env.env import ChainCartEnv  # noqa: E402
 from chaincart_env.model import ChainCart  # noqa: E402
+from chaincart_env.registration import ENV_ID, register_envs, scene_env_id  # noqa: E402
 from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
@@ -57,6 +59,7 @@ __all__ = [
     "SCENES",
     "__version__",
     "region_of_attraction",
+    "scene_env_id",
 ]
 
 try:
@@ -64,18 +67,7 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
-#: The Gymnasium id.
-ENV_ID = "ChainCart-v0"
-
-if ENV_ID not in gymnasium.registry:
-    gymnasium.register(
-        id=ENV_ID,
-        entry_point="chaincart_env.env:ChainCartEnv",
-        vector_entry_point="chaincart_env.vector:ChainCartVectorEnv",
-        # The default scene's episode length, so that gymnasium.make's TimeLimit and
-        # spec-reading wrappers (TimeAwareObservation, ...) agree with the env.
-        max_episode_steps=REGISTERED_EPISODE_STEPS,
-    )
+register_envs()
 
 
 def __getattr__(name: str) -> Any:

@@ -42,6 +42,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
     add_animate_command(commands)  # animate: sets args.handler
 
+    from chaincart_env.config_docs import add_docs_command
+
+    add_docs_command(commands)  # docs: sets args.handler
+
     args = parser.parse_args(argv)
     from chaincart_env.errors import InvalidInputError, MissingExtraError
     from chaincart_env.extras import command_needs, require

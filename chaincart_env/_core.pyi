@@ -27,6 +27,8 @@ __all__ = [
     "time_scaling",
     "MAX_LINKS",
     "MAX_STATE_VALUES",
+    "MIN_FRAME_SIZE",
+    "MAX_FRAME_SIZE",
     "render_frame",
     "target_signs",
     "paper_initial_condition",
@@ -39,6 +41,14 @@ __all__ = [
     "EVENT_RESET",
     "RNG_BYTES",
     "REALITY_KEYS",
+    "CONFIG_KEYS",
+    "SCENES",
+    "SCENE_SUMMARIES",
+    "DEFAULT_SCENE",
+    "TARGET_NAMES",
+    "START_NAMES",
+    "REWARD_WEIGHTS",
+    "resolve_config",
 ]
 
 #: Integrator names: "rk4", "rkmk4", "variational", "lie_euler", "adaptive".
@@ -58,12 +68,37 @@ EVENT_NUMERICAL_FAILURE: int
 EVENT_RESET: int
 #: Bytes of one env's RNG state in a snapshot.
 RNG_BYTES: int
-#: ``(name, default, help)`` of each reality-gap keyword of ``EnvBatch``.
+#: ``(name, default, help, expected)`` of every configuration key, in the order of
+#: ``ChainCartConfig``'s fields; the default is the default scene's value and
+#: ``expected`` the accepted values in the words errors use.
+CONFIG_KEYS: tuple[tuple[str, Any, str, str], ...]
+#: ``(name, default, help)`` of each reality-gap key (a part of :data:`CONFIG_KEYS`).
 REALITY_KEYS: tuple[tuple[str, Any, str], ...]
+#: Every scene's value of every key: scene name -> dict.
+SCENES: dict[str, dict[str, Any]]
+#: Every scene's one-line summary: scene name -> text.
+SCENE_SUMMARIES: dict[str, str]
+#: The scene whose values fill the keys not given.
+DEFAULT_SCENE: str
+#: Names accepted for ``target`` (besides a sign tuple).
+TARGET_NAMES: tuple[str, ...]
+#: Names accepted for ``start`` (besides a sign tuple or a full state).
+START_NAMES: tuple[str, ...]
+#: Default reward weights by name (q, w, x, v, u).
+REWARD_WEIGHTS: dict[str, float]
+
+def resolve_config(config: dict[str, Any]) -> dict[str, Any]:
+    """Every key's value in canonical form for ``config`` (a dict of keys, any subset;
+    ``scene`` names the scene whose values fill the rest; ``None`` values are unset),
+    after checking them all; raises :class:`InvalidInputError` naming a bad value."""
 #: Most links a chain may have.
 MAX_LINKS: int
 #: Most float64 numbers in one batch state array or one simulated trajectory.
 MAX_STATE_VALUES: int
+#: Smallest frame side the renderer draws, pixels.
+MIN_FRAME_SIZE: int
+#: Largest frame side the renderer draws, pixels.
+MAX_FRAME_SIZE: int
 
 _Signs = Union[str, Sequence[float]]
 
@@ -79,8 +114,10 @@ from chaincart_env.errors import (
 class ChainCart:
     """The chain pendulum on a cart: ``n_links`` point masses ``link_masses`` on massless
     rods of ``link_lengths`` (scalars or one per link) on a cart of ``cart_mass``;
-    gravity ``gravity`` along e3. ``planar=True`` is the planar special case. Defaults
-    are the paper's system (0.5 kg cart, 0.1 kg and 0.1 m links).
+    gravity ``gravity`` along e3. ``planar=True`` is the planar special case.
+    Parameters left unset (``None``) are the paper's example system (0.5 kg cart,
+    0.1 kg and 0.1 m links, standard gravity), as in the paper's scenes; the env's
+    default scene is another system (see ``SCENES``).
 
     State layout (docs/physics.md): ``[x(2), xdot(2), q_1..q_n (3 each), w_1..w_n (3 each)]``
     (length ``4 + 6n``); planar ``[x, xdot, (q_i . e1, q_i . e3)_i, (w_i . e2)_i]``
@@ -90,10 +127,10 @@ class ChainCart:
     def __new__(
         cls,
         n_links: int,
-        cart_mass: float = 0.5,
+        cart_mass: Optional[float] = None,
         link_masses: Optional[Union[float, Sequence[float]]] = None,
         link_lengths: Optional[Union[float, Sequence[float]]] = None,
-        gravity: float = 9.81,
+        gravity: Optional[float] = None,
         planar: bool = False,
     ) -> Self: ...
     @property
@@ -108,6 +145,9 @@ class ChainCart:
     @property
     def force_dim(self) -> int:
         """Length of a force: 2 (spatial) or 1 (planar)."""
+    @property
+    def state_layout(self) -> dict[str, tuple[int, int]]:
+        """``(start, stop)`` of each block of a state: ``x``, ``xdot``, ``q``, ``w``."""
     @property
     def cart_mass(self) -> float:
         """Cart mass (kg)."""
@@ -184,39 +224,20 @@ class ChainCart:
 
 @final
 class EnvBatch:
-    """``num_envs`` envs of one RL task on ``model``, stepped in Rust (see
-    ``chaincart_env.ChainCartEnv`` for the task). Env i's RNG is seeded ``seed + i``.
-    Keyword defaults: target all upright, start at the target, noise 0.05, dt 0.02,
-    max_force 10, track_limit 2.4, 500 steps, reward weights (1, 0.1, 0.1, 0.1, 0.01),
-    success tolerances (0.1, 0.5).
+    """``num_envs`` envs of one RL task, stepped in Rust (see
+    ``chaincart_env.ChainCartEnv`` for the task). ``config`` is a dict of configuration
+    keys (any subset of :data:`CONFIG_KEYS`; ``scene`` names the scene whose values fill
+    the rest, ``None`` values are unset), resolved as :func:`resolve_config` does. Env
+    i's RNG is seeded ``seed + i``.
     """
 
     def __new__(
         cls,
-        model: ChainCart,
+        config: dict[str, Any],
         num_envs: int = 1,
         *,
-        target: Optional[_Signs] = None,
-        start: Optional[Union[str, Sequence[float]]] = None,
-        start_noise: Optional[float] = None,
-        dt: Optional[float] = None,
-        integrator: str = "rk4",
-        substeps: int = 1,
-        max_force: Optional[float] = None,
-        track_limit: Optional[float] = None,
-        max_episode_steps: Optional[int] = None,
-        reward_weights: Optional[Sequence[float]] = None,
-        success_tolerances: Optional[Sequence[float]] = None,
-        obs_dtype: str = "float32",
         autoreset_mode: str = "next_step",
-        diagnostics: bool = False,
         seed: int = 0,
-        randomize: Optional[Mapping[str, Any]] = None,
-        params: Optional[Union[Mapping[str, Any], ChainCart]] = None,
-        mismatch: Optional[Mapping[str, Any]] = None,
-        obs_noise: Optional[Union[float, Sequence[float]]] = None,
-        action_delay: int = 0,
-        force_rate_limit: Optional[float] = None,
     ) -> Self: ...
     @property
     def num_envs(self) -> int:
@@ -240,8 +261,8 @@ class EnvBatch:
     def diagnostics_enabled(self) -> bool:
         """Whether steps compute energies and residuals."""
     @property
-    def task(self) -> dict[str, Any]:
-        """The resolved task as plain values."""
+    def config(self) -> dict[str, Any]:
+        """Every configuration key's value in canonical form (a new dict)."""
     @property
     def base_state(self) -> npt.NDArray[np.float64]:
         """The state episodes start from before noise."""

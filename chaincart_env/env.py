@@ -13,6 +13,7 @@ from gymnasium.error import ResetNeeded
 from chaincart_env import _core
 from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.config_docs import env_arguments
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering
@@ -30,13 +31,11 @@ def observation_space(config: ChainCartConfig) -> spaces.Box:
     """Box of one observation: link direction components in [-1, 1] (unbounded too
     with ``obs_noise``), the rest unbounded (``-inf``/``inf``, Gymnasium's convention;
     observations themselves are always finite)."""
-    n, d = config.n_links, config.state_dim
-    cart = 1 if config.planar else 2
-    link = 2 if config.planar else 3
     dtype = np.dtype(config.obs_dtype)
-    high = np.full(d, np.inf, dtype=dtype)
+    high = np.full(config.state_dim, np.inf, dtype=dtype)
     if not np.any(np.asarray(config.obs_noise if config.obs_noise is not None else 0.0)):
-        high[2 * cart : 2 * cart + link * n] = 1.0
+        start, stop = config.state_layout["q"]
+        high[start:stop] = 1.0
     return spaces.Box(-high, high, dtype=dtype)
 
 
@@ -133,7 +132,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
 
     where ``a`` is the clipped normalised action and ``|q_i - s_i e3|^2 = 2(1 - cos
     tilt_i)``. It is 1 exactly at the target with the cart at rest at the origin and
-    no force. Defaults (``reward_weights``): ``q=1, w=0.1, x=0.1, v=0.1, u=0.01``. The
+    no force. The weights are ``reward_weights`` (defaults under Arguments). The
     step on which the integration fails is rewarded 0.
 
     ## Starting State
@@ -157,11 +156,11 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
       more than 0.5 rad in one integrator step, where the result would be finite but wrong;
       ``info["numerical_failure"]``): the observation is then the last good state,
       never NaN.
-    * Truncation: ``max_episode_steps`` steps (500 = 10 s in the default scene).
+    * Truncation: ``max_episode_steps`` steps.
 
     On the last step ``info`` holds ``is_success`` (truncated, not terminated, and the
     paper's ``e_q = sum |q_i - s_i e3|`` and ``e_w = sum |w_i|`` at most
-    ``success_tolerances``, default ``(0.1, 0.5)``), ``numerical_failure``,
+    ``success_tolerances``), ``numerical_failure``,
     ``out_of_track``, ``e_q`` and ``e_w``; other steps' info is empty unless
     ``diagnostics=True``, which adds ``energy``, ``kinetic_energy``,
     ``potential_energy``, ``residual_unit_length``, ``residual_tangency``, ``e_q``,
@@ -172,40 +171,25 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     ``ChainCartEnv(config=None, *, render_mode=None, render_width=480, render_height=240,
     **keywords)`` or
     ``gymnasium.make("ChainCart-v0", **keywords)``, keywords of
-    :class:`ChainCartConfig` (explicit keywords override the scene's values):
+    :class:`ChainCartConfig` (explicit keywords override the scene's values; the list
+    is generated from the core's definition of the keys):
 
-    * ``scene``: ``"inverted-2"`` (default: planar double inverted pendulum),
-      ``"inverted-1"``, ``"swingup-1"``, ``"paper-fig1"``, ``"paper-fig2"``,
-      ``"paper-fig3"``.
-    * ``n_links``, ``cart_mass``, ``link_masses``, ``link_lengths`` (scalar or per
-      link), ``gravity``, ``planar``: the physical system.
-    * ``target``: a sign tuple or ``"hanging"``, ``"inverted"``, ``"folded"``,
-      ``"folded_up"``, ``"paper-fig1"`` .. ``"paper-fig3"``.
-    * ``start``: ``"target"``, an equilibrium name or sign tuple (e.g. ``"hanging"``
-      for swing-up), ``"paper-fig1"`` .. ``"paper-fig3"``, or a full state; and
-      ``start_noise``.
-    * ``dt`` (control period), ``integrator`` (``rk4``, ``rkmk4``, ``variational``,
-      ``lie_euler``, ``adaptive``), ``substeps`` (integrator steps per period).
-    * ``max_force`` (N), ``track_limit`` (m), ``max_episode_steps``,
-      ``reward_weights``, ``success_tolerances``, ``obs_dtype``, ``diagnostics``.
+    <configuration keys>
 
-    * Sim-to-real (all off by default; forms in :data:`chaincart_env.config.REALITY_KEYS`
-      and the robustness docs): ``randomize`` (parameters redrawn at every reset),
-      ``params`` / ``mismatch`` (a fixed true system differing from ``model``),
-      ``obs_noise`` (Gaussian, per component), ``action_delay`` (control periods),
-      ``force_rate_limit`` (N/s). With a parameter gap, ``reset`` returns
-      ``info["params"]``, the episode's true parameters (also :attr:`true_params`).
+    Sim-to-real keys (all off by default; see the robustness docs): with a parameter
+    gap, ``reset`` returns ``info["params"]``, the episode's true parameters (also
+    :attr:`true_params`).
 
-    Episode length with ``gymnasium.make``: ``ChainCart-v0`` is registered with
-    ``max_episode_steps=500`` (the default scene's), so ``gymnasium.make`` adds a
-    ``TimeLimit`` of 500 steps unless given its own ``max_episode_steps`` (``-1``: none).
-    That keyword is Gymnasium's and does not reach the env; the env's own length (whose
-    last step carries ``is_success``) is the config's. For another length or a scene
-    with its own (the paper's scenes), pass both, e.g.
-    ``gymnasium.make("ChainCart-v0", scene="paper-fig3", max_episode_steps=12000)`` or
-    ``gymnasium.make("ChainCart-v0", config={"max_episode_steps": 100},
-    max_episode_steps=100)``; ``gymnasium.make_vec`` passes ``max_episode_steps`` on
-    to the vector env itself.
+    Episode length with ``gymnasium.make``: every scene has its own id,
+    ``ChainCart-<scene>-v0`` (:func:`chaincart_env.scene_env_id`), registered with the
+    scene's length (so ``gymnasium.make("ChainCart-paper-fig3-v0")`` runs the paper's
+    Fig. 3 to its end); ``ChainCart-v0`` is the default scene's. ``gymnasium.make`` adds a
+    ``TimeLimit`` of the id's length unless given its own ``max_episode_steps``
+    (``-1``: none), a keyword that is Gymnasium's and does not reach the env; the env's
+    own length (whose last step carries ``is_success``) is the config's. For another
+    length pass both, e.g. ``gymnasium.make("ChainCart-v0", config={"max_episode_steps":
+    100}, max_episode_steps=100)``; ``gymnasium.make_vec`` passes ``max_episode_steps``
+    on to the vector env itself.
 
     ``render_mode``: ``None``, ``"rgb_array"`` (``render()`` returns a uint8 frame of
     ``render_height x render_width x 3`` pixels) or ``"human"`` (a live window in real
@@ -339,3 +323,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
 
     def _rebuild_batch(self) -> Any:
         return self.config.make_batch(1, "disabled")
+
+
+# The argument list comes from the core's one definition of the configuration keys.
+ChainCartEnv.__doc__ = (ChainCartEnv.__doc__ or "").replace("    <configuration keys>", env_arguments())

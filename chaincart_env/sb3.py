@@ -97,7 +97,8 @@ class _EnvView:
 
 
 class ChainCartVecEnv(NativeBatchCopies, VecEnv):
-    """``num_envs`` chaincart envs as one stable-baselines3 ``VecEnv``.
+    """``num_envs`` chaincart envs as one stable-baselines3 ``VecEnv`` (for SB3's
+    algorithms; :class:`chaincart_env.ChainCartVectorEnv` is the Gymnasium one).
 
     Arguments as for :class:`chaincart_env.ChainCartEnv` (a config and/or its keywords)
     plus ``num_envs`` and an optional ``seed`` (env i gets ``seed + i`` at the first

@@ -79,7 +79,8 @@ def _scene_length_kept(config: Any, kwargs: dict[str, Any]) -> dict[str, Any]:
 
 class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     """``num_envs`` copies of :class:`chaincart_env.ChainCartEnv` stepped together in
-    Rust. Arguments as for the single env (a config and/or its keywords) plus
+    Rust, as one Gymnasium ``VectorEnv`` (:class:`chaincart_env.ChainCartVecEnv` is the
+    stable-baselines3 one, on the same native batch). Arguments as for the single env (a config and/or its keywords) plus
     ``num_envs`` and ``autoreset_mode`` (an ``AutoresetMode`` or ``"next_step"``,
     ``"same_step"``, ``"disabled"``).
 

@@ -46,6 +46,19 @@ impl AnyChain {
     pub fn state_dim(&self) -> usize {
         dispatch!(AnyChain, self, c => c.state_dim())
     }
+    /// The blocks of a state, each `(name, start, end)`: cart position `x`, cart
+    /// velocity `xdot`, link directions `q`, angular velocities `w`.
+    pub fn state_blocks(&self) -> [(&'static str, usize, usize); 4] {
+        dispatch!(AnyChain, self, c => {
+            let layout = c.layout();
+            [
+                ("x", layout.x(), layout.xdot()),
+                ("xdot", layout.xdot(), layout.q(0)),
+                ("q", layout.q(0), layout.w(0)),
+                ("w", layout.w(0), layout.dim()),
+            ]
+        })
+    }
     /// Length of a force: 2 spatial, 1 planar.
     pub fn force_dim(&self) -> usize {
         dispatch!(AnyChain, self, c => c.force_dim())

@@ -71,8 +71,8 @@ pub enum InputError {
         kind: &'static str,
         /// Name of the argument or quantity.
         name: String,
-        /// What was expected.
-        expected: &'static str,
+        /// The names accepted.
+        expected: &'static [&'static str],
     },
     /// An input vector contains NaN or infinity.
     NonFinite {
@@ -206,7 +206,11 @@ impl fmt::Display for InputError {
                 name,
                 expected,
             } => {
-                write!(f, "unknown {kind} {name:?}: expected one of {expected}")
+                write!(
+                    f,
+                    "unknown {kind} {name:?}: expected one of {}",
+                    quoted(expected)
+                )
             }
             NonFinite { name, index, value } => {
                 write!(f, "{name}[{index}] = {value}: expected a finite number")
@@ -307,6 +311,15 @@ pub fn check_size(name: &'static str, value: usize, limit: usize) -> Result<()> 
     } else {
         Err(InputError::TooLarge { name, value, limit }.into())
     }
+}
+
+/// `"a", "b", "c"`: names as error messages list them.
+pub fn quoted(names: &[&str]) -> String {
+    names
+        .iter()
+        .map(|n| format!("{n:?}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 #[cfg(test)]

@@ -6,6 +6,20 @@
 
 use crate::error::{check_positive, InputError, Result};
 
+/// Standard gravity, m/s^2: the default of every model and scene.
+pub const STANDARD_GRAVITY: f64 = 9.81;
+
+// The paper's example system (Lee, Leok & McClamroch, Sec. V): its three figures'
+// scenes and the Python model's defaults are this system.
+/// Number of links of the paper's example system.
+pub const PAPER_LINKS: usize = 5;
+/// Cart mass of the paper's example system, kg.
+pub const PAPER_CART_MASS: f64 = 0.5;
+/// Mass at the end of each link of the paper's example system, kg.
+pub const PAPER_LINK_MASS: f64 = 0.1;
+/// Length of each link of the paper's example system, m.
+pub const PAPER_LINK_LENGTH: f64 = 0.1;
+
 /// Validated parameters: cart mass `m`, link masses `m_i`, lengths `l_i`, gravity `g`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChainParams {
@@ -102,7 +116,14 @@ impl ChainParams {
 
     /// The paper's example system: n = 5, m = 0.5 kg, m_i = 0.1 kg, l_i = 0.1 m, g = 9.81.
     pub fn paper() -> Self {
-        Self::uniform(5, 0.5, 0.1, 0.1, 9.81).expect("paper parameters are valid")
+        Self::uniform(
+            PAPER_LINKS,
+            PAPER_CART_MASS,
+            PAPER_LINK_MASS,
+            PAPER_LINK_LENGTH,
+            STANDARD_GRAVITY,
+        )
+        .expect("paper parameters are valid")
     }
 
     /// Number of links.

@@ -43,7 +43,7 @@ impl Form {
                 InputError::UnknownName {
                     kind: "form",
                     name: name.to_string(),
-                    expected: "\"fast\", \"dense\", \"fast_rk4_step\"",
+                    expected: &["fast", "dense", "fast_rk4_step"],
                 }
                 .into()
             })
@@ -89,11 +89,17 @@ pub fn seconds_per_call(min_time: f64, mut f: impl FnMut()) -> f64 {
     best
 }
 
-/// Seconds per call of `form` for a uniform chain of `n_links` (0.5 kg cart, 0.1 kg
-/// and 0.1 m links) on one core.
+/// Seconds per call of `form` for a uniform chain of `n_links` with the paper's cart
+/// and links (0.5 kg cart, 0.1 kg and 0.1 m links) on one core.
 pub fn time_form(form: Form, n_links: usize, min_time: f64) -> Result<f64> {
     crate::error::check_positive("min_time", min_time)?;
-    let chain = SpatialChain::new(ChainParams::uniform(n_links, 0.5, 0.1, 0.1, 9.81)?);
+    let chain = SpatialChain::new(ChainParams::uniform(
+        n_links,
+        crate::params::PAPER_CART_MASS,
+        crate::params::PAPER_LINK_MASS,
+        crate::params::PAPER_LINK_LENGTH,
+        crate::params::STANDARD_GRAVITY,
+    )?);
     let y = moving_state(&chain);
     let u = Vector2::new(0.3, -0.2);
     let mut dy = vec![0.0; chain.state_dim()];

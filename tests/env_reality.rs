@@ -493,7 +493,7 @@ fn bad_reality_settings_are_errors_naming_them() {
         ChainError::Input(InputError::UnknownName {
             kind: "randomize",
             name: "pole_mass".into(),
-            expected: Param::NAMES,
+            expected: &Param::NAMES,
         })
     );
 }

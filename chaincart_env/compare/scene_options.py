@@ -12,38 +12,17 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import fields
 from typing import Any, Optional, Sequence
 
-from chaincart_env.errors import ChainCartError, InvalidInputError
-from chaincart_env.config import REALITY_KEYS, ChainCartConfig
+from chaincart_env import _core
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.config_docs import option_help
+from chaincart_env.errors import InvalidInputError
 
 __all__ = ["CONFIG_KEYS", "add_scene_options", "config_from_options", "parse_value", "parse_assignment"]
 
-#: Every keyword of ChainCartConfig, in declaration order.
-CONFIG_KEYS: tuple[str, ...] = tuple(f.name for f in fields(ChainCartConfig) if f.init)
-
-_HELP = {
-    "scene": "named scene (default: inverted-2, the planar double inverted pendulum)",
-    "n_links": "number of links",
-    "link_masses": "kg, one number or one per link (0.1,0.2)",
-    "link_lengths": "m, one number or one per link",
-    "planar": "true: planar model; false: spatial",
-    "target": "equilibrium: hanging, inverted, folded, folded_up, or signs (--target=-1,1)",
-    "start": "target, an equilibrium name or signs, paper-fig1..3, or a full state",
-    "start_noise": "half-width of the uniform start noise",
-    "dt": "control period, s",
-    "integrator": "rk4, rkmk4, variational, lie_euler or adaptive",
-    "substeps": "integrator steps per control period",
-    "max_force": "N per unit action",
-    "track_limit": "m",
-    "max_episode_steps": "episode length in steps",
-    "reward_weights": 'JSON object with some of q, w, x, v, u, e.g. \'{"q": 2}\'',
-    "success_tolerances": "e_q,e_w bounds for is_success",
-    # The sim-to-real keywords' help comes from their one definition in the core
-    # (values as JSON, e.g. --randomize '{"link_masses": 0.3}').
-    **{name: help_text for name, _, help_text in REALITY_KEYS},
-}
+#: Every keyword of ChainCartConfig, in the order the core defines them.
+CONFIG_KEYS: tuple[str, ...] = tuple(name for name, *_ in _core.CONFIG_KEYS)
 
 
 def parse_value(text: str) -> Any:
@@ -76,7 +55,7 @@ def add_scene_options(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("scene (any ChainCartConfig keyword; unset ones take the scene's value)")
     for key in CONFIG_KEYS:
         group.add_argument(
-            "--" + key.replace("_", "-"), dest=f"config_{key}", default=None, metavar="VALUE", help=_HELP.get(key)
+            "--" + key.replace("_", "-"), dest=f"config_{key}", default=None, metavar="VALUE", help=option_help(key)
         )
     group.add_argument(
         "--set",

@@ -39,8 +39,8 @@ RENDER_MODES = ("rgb_array", "human")
 VECTOR_RENDER_MODES = ("rgb_array", "rgb_array_list", "human")
 #: ``(width, height)`` of one env's frame unless configured.
 DEFAULT_FRAME_SIZE = (480, 240)
-#: Bounds on either side of a frame, as the Rust renderer enforces them.
-MIN_FRAME_SIZE, MAX_FRAME_SIZE = 16, 8192
+#: Bounds on either side of a frame, as the Rust renderer defines and enforces them.
+MIN_FRAME_SIZE, MAX_FRAME_SIZE = _core.MIN_FRAME_SIZE, _core.MAX_FRAME_SIZE
 #: Grey level of the lines between tiles (the frames' background is 250).
 TILE_GAP_GREY = 120
 #: Highest ``render_fps``: scenes whose control period is shorter (the paper's

@@ -18,7 +18,7 @@ use crate::model::Chain;
 pub const MAX_ENUMERATED_LINKS: usize = 20;
 
 /// Names accepted by [`named_signs`].
-pub const NAMES: &str = "\"hanging\", \"inverted\", \"folded\", \"folded_up\"";
+pub const NAMES: [&str; 4] = ["hanging", "inverted", "folded", "folded_up"];
 
 /// Checks a sign tuple: length `n`, every entry exactly `+1.0` or `-1.0`.
 pub fn check_signs(s: &[f64], n: usize) -> Result<()> {
@@ -96,7 +96,7 @@ pub fn named_signs(name: &str, n: usize) -> Result<Vec<f64>> {
         _ => Err(InputError::UnknownName {
             kind: "equilibrium",
             name: name.to_string(),
-            expected: NAMES,
+            expected: &NAMES,
         }
         .into()),
     }

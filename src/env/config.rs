@@ -1,18 +1,14 @@
 //! The task: which equilibrium to reach, where episodes start, how they are scored
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
+use super::keys::{
+    DEFAULT_MAX_EPISODE_STEPS, DEFAULT_START_NOISE, DEFAULT_TRACK_LIMIT, START_NAMES, TARGET_NAMES,
+};
 use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
 use crate::batch::Guard;
 use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
 use crate::integrate::StepOptions;
-
-/// Names accepted for a target equilibrium (besides a sign tuple).
-pub const TARGET_NAMES: &str =
-    "\"hanging\", \"inverted\", \"folded\", \"folded_up\", \"paper-fig1\", \"paper-fig2\", \"paper-fig3\"";
-
-/// Names accepted for a start (besides a sign tuple or a full state).
-pub const START_NAMES: &str = "\"target\", \"hanging\", \"inverted\", \"folded\", \"folded_up\", \"paper-fig1\", \"paper-fig2\", \"paper-fig3\"";
 
 /// The paper's numerical examples (Sec. V). Figs. 1 and 2 share the initial
 /// condition IC1; Fig. 3 has its own. All three are defined for n = 5 links.
@@ -27,6 +23,8 @@ pub enum PaperFigure {
 }
 
 impl PaperFigure {
+    /// The figures' names, as the configuration writes them.
+    pub const NAMES: [&'static str; 3] = ["paper-fig1", "paper-fig2", "paper-fig3"];
     /// The figure with this scene name (`"paper-fig1"`, ...).
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
@@ -65,7 +63,7 @@ pub fn target_signs(name: &str, n: usize) -> Result<Vec<f64>> {
         ChainError::Input(InputError::UnknownName { kind, name, .. }) => InputError::UnknownName {
             kind,
             name,
-            expected: TARGET_NAMES,
+            expected: &TARGET_NAMES,
         }
         .into(),
         other => other,
@@ -73,7 +71,7 @@ pub fn target_signs(name: &str, n: usize) -> Result<Vec<f64>> {
 }
 
 pub(crate) fn check_paper_links(fig: PaperFigure, n: usize) -> Result<()> {
-    if n == 5 {
+    if n == crate::params::PAPER_LINKS {
         return Ok(());
     }
     Err(InputError::InvalidParameter {
@@ -118,7 +116,7 @@ impl Start {
                     InputError::UnknownName {
                         kind: "start",
                         name,
-                        expected: START_NAMES,
+                        expected: &START_NAMES,
                     }
                     .into()
                 }
@@ -149,19 +147,21 @@ impl Default for RewardWeights {
     /// reward, a hanging link (|q - s e3|^2 = 4) leaves 2%, and the cart, the rates and
     /// the force only shape the reward near the target.
     fn default() -> Self {
-        Self {
-            q: 1.0,
-            w: 0.1,
-            x: 0.1,
-            v: 0.1,
-            u: 0.01,
-        }
+        Self::DEFAULT
     }
 }
 
 impl RewardWeights {
+    /// The default weights (see [`Default`]).
+    pub const DEFAULT: Self = Self {
+        q: 1.0,
+        w: 0.1,
+        x: 0.1,
+        v: 0.1,
+        u: 0.01,
+    };
     /// `[q, w, x, v, u]`.
-    pub fn as_array(&self) -> [f64; 5] {
+    pub const fn as_array(&self) -> [f64; 5] {
         [self.q, self.w, self.x, self.v, self.u]
     }
     /// From `[q, w, x, v, u]`.
@@ -202,7 +202,16 @@ pub struct SuccessTolerances {
 impl Default for SuccessTolerances {
     /// `e_q <= 0.1` (about 6 degrees of tilt in total) and `e_w <= 0.5` rad/s in total.
     fn default() -> Self {
-        Self { e_q: 0.1, e_w: 0.5 }
+        Self::DEFAULT
+    }
+}
+
+impl SuccessTolerances {
+    /// The default tolerances (see [`Default`]).
+    pub const DEFAULT: Self = Self { e_q: 0.1, e_w: 0.5 };
+    /// `[e_q, e_w]`.
+    pub const fn as_array(&self) -> [f64; 2] {
+        [self.e_q, self.e_w]
     }
 }
 
@@ -222,7 +231,7 @@ pub enum AutoresetMode {
 
 impl AutoresetMode {
     /// The accepted names, for error messages.
-    pub const NAMES: &'static str = "\"next_step\", \"same_step\", \"disabled\"";
+    pub const NAMES: [&'static str; 3] = ["next_step", "same_step", "disabled"];
     /// The mode with this name, or an error listing the names.
     pub fn from_name(name: &str) -> Result<Self> {
         match name {
@@ -232,7 +241,7 @@ impl AutoresetMode {
             _ => Err(InputError::UnknownName {
                 kind: "autoreset_mode",
                 name: name.to_string(),
-                expected: Self::NAMES,
+                expected: &Self::NAMES,
             }
             .into()),
         }
@@ -280,17 +289,20 @@ pub struct TaskConfig {
 }
 
 impl TaskConfig {
-    /// A task with the default reward and tolerances, starting near the target.
+    /// A task with the configuration's default start noise, track, episode length,
+    /// reward and tolerances ([`super::keys::CONFIG_KEYS`]), starting at the target,
+    /// pushing with 10 N (the single-link scenes' force; the default scene pushes with
+    /// 20 N, and Rust callers set their own).
     pub fn new(target: Vec<f64>, dt: f64, step_options: StepOptions) -> Self {
         Self {
             target,
             start: Start::Target,
-            start_noise: 0.05,
+            start_noise: DEFAULT_START_NOISE,
             dt,
             step_options,
             max_force: 10.0,
-            track_limit: 2.4,
-            max_episode_steps: 500,
+            track_limit: DEFAULT_TRACK_LIMIT,
+            max_episode_steps: DEFAULT_MAX_EPISODE_STEPS as u64,
             reward: RewardWeights::default(),
             guard: Guard::default(),
             success: SuccessTolerances::default(),

@@ -31,7 +31,9 @@
 
 pub mod batch;
 pub mod config;
+pub mod keys;
 pub mod reality;
+pub mod scenes;
 pub mod start;
 mod step;
 
@@ -42,9 +44,11 @@ pub use batch::{
 pub use config::{
     target_signs, AutoresetMode, PaperFigure, RewardWeights, Start, SuccessTolerances, TaskConfig,
 };
+pub use keys::{config_key, ConfigKey, KeyKind, KeyValue, CONFIG_KEYS};
 pub use reality::{
     Distribution, EnvParams, Param, ParamRandomization, ParamValues, Randomization, RealityGap,
 };
+pub use scenes::{Scene, DEFAULT_SCENE, SCENES};
 pub use start::{base_state, paper_initial_condition, perturb};
 
 #[cfg(test)]

@@ -52,7 +52,7 @@ impl Param {
         Param::Gravity,
     ];
     /// The accepted names, for error messages.
-    pub const NAMES: &'static str = "\"cart_mass\", \"link_masses\", \"link_lengths\", \"gravity\"";
+    pub const NAMES: [&'static str; 4] = ["cart_mass", "link_masses", "link_lengths", "gravity"];
 
     /// The parameter's keyword name.
     pub fn name(self) -> &'static str {
@@ -73,7 +73,7 @@ impl Param {
                 InputError::UnknownName {
                     kind,
                     name: name.to_string(),
-                    expected: Self::NAMES,
+                    expected: &Self::NAMES,
                 }
                 .into()
             })
@@ -562,73 +562,6 @@ impl EnvParams {
         )
     }
 }
-
-/// The default value of a configuration keyword.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum KeyDefault {
-    /// Absent (the feature is off).
-    None,
-    /// An integer.
-    Int(i64),
-}
-
-/// One configuration keyword of the reality gap: the single definition of its name,
-/// default and help that the Python configuration and its documentation read.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct KeySpec {
-    /// The keyword.
-    pub name: &'static str,
-    /// Its default.
-    pub default: KeyDefault,
-    /// What it does and the forms it takes.
-    pub help: &'static str,
-}
-
-/// The keywords of [`RealityGap`], in documentation order.
-pub const KEYS: [KeySpec; 6] = [
-    KeySpec {
-        name: "randomize",
-        default: KeyDefault::None,
-        help: "Domain randomisation at every reset: a dict mapping cart_mass, link_masses, \
-               link_lengths, gravity to a relative half-width h (value times U[1-h, 1+h], \
-               0 <= h < 1) or to a dict with one of \"scale\": h or [low, high], \
-               \"log_scale\": [low, high], \"range\": [low, high] (absolute), \
-               \"log_range\": [low, high] (absolute, log-uniform), and optionally \
-               \"per_link\": false to draw one number shared by all links.",
-    },
-    KeySpec {
-        name: "params",
-        default: KeyDefault::None,
-        help: "The true physical parameters when they differ from the model's: a dict \
-               with some of cart_mass, link_masses, link_lengths, gravity (a number, or \
-               one number per link), or a ChainCart. The env's model stays nominal.",
-    },
-    KeySpec {
-        name: "mismatch",
-        default: KeyDefault::None,
-        help: "Scale factors from the nominal (or params) values to the true ones: a \
-               dict with some of cart_mass, link_masses, link_lengths, gravity (a factor, \
-               or one factor per link).",
-    },
-    KeySpec {
-        name: "obs_noise",
-        default: KeyDefault::None,
-        help: "Standard deviation of Gaussian noise added to every observation: one \
-               number for all components or one per component (state units).",
-    },
-    KeySpec {
-        name: "action_delay",
-        default: KeyDefault::Int(0),
-        help: "Control delay in control periods: the force of step t comes from the \
-               action of step t - action_delay (zero force before that).",
-    },
-    KeySpec {
-        name: "force_rate_limit",
-        default: KeyDefault::None,
-        help: "Largest change of the applied force per second, per cart axis (N/s); \
-               None for no limit.",
-    },
-];
 
 #[cfg(test)]
 mod tests {

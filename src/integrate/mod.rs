@@ -45,8 +45,7 @@ impl Method {
         Method::Adaptive,
     ];
     /// The accepted names, for error messages.
-    pub const NAMES: &'static str =
-        "\"rk4\", \"rkmk4\", \"variational\", \"lie_euler\", \"adaptive\"";
+    pub const NAMES: [&'static str; 5] = ["rk4", "rkmk4", "variational", "lie_euler", "adaptive"];
 
     /// The method's name (`"rk4"`, ...).
     pub fn name(self) -> &'static str {
@@ -68,7 +67,7 @@ impl Method {
                 InputError::UnknownName {
                     kind: "integrator",
                     name: name.to_string(),
-                    expected: Method::NAMES,
+                    expected: &Method::NAMES,
                 }
                 .into()
             })

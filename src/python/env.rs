@@ -4,51 +4,27 @@
 //! a microsecond) keeps it, since releasing and re-taking it would cost a sizeable
 //! part of the step.
 
-use super::convert::{check_shape, error, signs, type_error, ActionSlice, Actions, Floats};
-use super::model::ChainCart;
-use super::reality::{param_arrays, params_dict, reality_gap, write_task_keys, RealityArgs};
+use super::config::resolve;
+use super::convert::{check_shape, error, ActionSlice, Actions, Floats};
+use super::reality::{param_arrays, params_dict};
 use crate::batch::Precision;
 use crate::env::batch::RNG_BYTES;
 use crate::env::EnvParams;
-use crate::env::{
-    AnyEnvBatch, AutoresetMode, Real, RewardWeights, Snapshot, Start, StepOutputs,
-    SuccessTolerances, TaskConfig, DIAGNOSTICS,
-};
-use crate::error::InputError;
-use crate::integrate::{Method, StepOptions};
+use crate::env::{AnyEnvBatch, AutoresetMode, Real, Snapshot, StepOutputs, DIAGNOSTICS};
+use crate::integrate::Method;
 use numpy::{
     Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyString, PyTuple};
+use pyo3::types::{PyDict, PyTuple};
 
 #[pyclass(module = "chaincart_env._core", name = "EnvBatch")]
 pub struct EnvBatch {
     batch: AnyEnvBatch,
     obs_f64: bool,
-}
-
-fn start_arg(obj: &Bound<'_, PyAny>, n: usize, state_dim: usize) -> PyResult<Start> {
-    if let Ok(name) = obj.cast::<PyString>() {
-        return Ok(Start::from_name(name.to_str()?, n)?);
-    }
-    let v: Vec<f64> = obj.extract().map_err(|_| {
-        type_error(format!(
-            "start = {obj}: expected a name ({}), a sequence of {n} signs +1/-1, or a state of length {state_dim}",
-            crate::env::config::START_NAMES
-        ))
-    })?;
-    if v.len() == n {
-        Ok(Start::Equilibrium(v))
-    } else if v.len() == state_dim {
-        Ok(Start::State(v))
-    } else {
-        Err(error(format!(
-            "start has length {}, expected {n} (a sign tuple) or {state_dim} (a full state)",
-            v.len()
-        )))
-    }
+    /// The resolved configuration it was built from.
+    config: Py<PyDict>,
 }
 
 fn new_array<'py, T: Element>(py: Python<'py>, shape: &[usize]) -> Bound<'py, PyArrayDyn<T>> {
@@ -169,96 +145,31 @@ impl EnvBatch {
 
 #[pymethods]
 impl EnvBatch {
+    /// A batch of `num_envs` envs of `config`, a dict of configuration keys (any
+    /// subset; `scene` names the scene whose values fill the rest).
     #[new]
-    #[pyo3(signature = (
-        model, num_envs=1, *, target=None,
-        start=None, start_noise=None, dt=None, integrator="rk4", substeps=1,
-        max_force=None, track_limit=None, max_episode_steps=None, reward_weights=None,
-        success_tolerances=None, obs_dtype="float32", autoreset_mode="next_step",
-        diagnostics=false, seed=0, randomize=None, params=None, mismatch=None,
-        obs_noise=None, action_delay=0, force_rate_limit=None
-    ))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (config, num_envs=1, *, autoreset_mode="next_step", seed=0))]
     fn new(
-        model: &Bound<'_, ChainCart>,
+        config: &Bound<'_, PyDict>,
         num_envs: usize,
-        target: Option<&Bound<'_, PyAny>>,
-        start: Option<&Bound<'_, PyAny>>,
-        start_noise: Option<f64>,
-        dt: Option<f64>,
-        integrator: &str,
-        substeps: usize,
-        max_force: Option<f64>,
-        track_limit: Option<f64>,
-        max_episode_steps: Option<u64>,
-        reward_weights: Option<[f64; 5]>,
-        success_tolerances: Option<[f64; 2]>,
-        obs_dtype: &str,
         autoreset_mode: &str,
-        diagnostics: bool,
         seed: u64,
-        randomize: Option<&Bound<'_, PyAny>>,
-        params: Option<&Bound<'_, PyAny>>,
-        mismatch: Option<&Bound<'_, PyAny>>,
-        obs_noise: Option<&Bound<'_, PyAny>>,
-        action_delay: i64,
-        force_rate_limit: Option<f64>,
     ) -> PyResult<Self> {
-        let chain = model.get().chain.clone();
-        let n = chain.n_links();
-        let opts = StepOptions::new(Method::from_name(integrator)?, substeps)?;
-        let target = match target {
-            Some(t) => signs(t, n)?,
-            None => vec![-1.0; n],
-        };
-        let mut task = TaskConfig::new(target, 0.02, opts);
-        if let Some(s) = start {
-            task.start = start_arg(s, n, chain.state_dim())?;
-        }
-        if let Some(v) = start_noise {
-            task.start_noise = v;
-        }
-        if let Some(v) = dt {
-            task.dt = v;
-        }
-        if let Some(v) = max_force {
-            task.max_force = v;
-        }
-        if let Some(v) = track_limit {
-            task.track_limit = v;
-        }
-        if let Some(v) = max_episode_steps {
-            task.max_episode_steps = v;
-        }
-        if let Some(w) = reward_weights {
-            task.reward = RewardWeights::from_array(w);
-        }
-        if let Some([e_q, e_w]) = success_tolerances {
-            task.success = SuccessTolerances { e_q, e_w };
-        }
-        task.reality = reality_gap(RealityArgs {
-            randomize,
-            params,
-            mismatch,
-            obs_noise,
-            action_delay,
-            force_rate_limit,
-        })?;
-        let obs_f64 = match obs_dtype {
-            "float32" => false,
-            "float64" => true,
-            other => {
-                return Err(InputError::UnknownName {
-                    kind: "obs_dtype",
-                    name: other.to_string(),
-                    expected: "\"float32\", \"float64\"",
-                }
-                .into())
-            }
-        };
+        let resolved = resolve(config)?;
         let mode = AutoresetMode::from_name(autoreset_mode)?;
-        let batch = AnyEnvBatch::new(chain, task, num_envs, seed, mode, diagnostics)?;
-        Ok(Self { batch, obs_f64 })
+        let batch = AnyEnvBatch::new(
+            resolved.chain,
+            resolved.task,
+            num_envs,
+            seed,
+            mode,
+            resolved.diagnostics,
+        )?;
+        Ok(Self {
+            batch,
+            obs_f64: resolved.obs_f64,
+            config: resolved.canonical,
+        })
     }
 
     #[getter]
@@ -293,26 +204,10 @@ impl EnvBatch {
     fn diagnostics_enabled(&self) -> bool {
         self.batch.diagnostics_enabled()
     }
-    /// The resolved task as a dict of plain Python values.
+    /// Every configuration key's value, in canonical form, as a new dict.
     #[getter]
-    fn task<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let t = self.batch.task();
-        let d = PyDict::new(py);
-        d.set_item(
-            "target",
-            t.target.iter().map(|&s| s as i64).collect::<Vec<_>>(),
-        )?;
-        d.set_item("start_noise", t.start_noise)?;
-        d.set_item("dt", t.dt)?;
-        d.set_item("integrator", t.step_options.method.name())?;
-        d.set_item("substeps", t.step_options.substeps)?;
-        d.set_item("max_force", t.max_force)?;
-        d.set_item("track_limit", t.track_limit)?;
-        d.set_item("max_episode_steps", t.max_episode_steps)?;
-        d.set_item("reward_weights", t.reward.as_array())?;
-        d.set_item("success_tolerances", [t.success.e_q, t.success.e_w])?;
-        write_task_keys(py, &t.reality, &d)?;
-        Ok(d)
+    fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.config.bind(py).copy()
     }
 
     /// The true parameters the envs share before randomisation (the model's, with

@@ -5,6 +5,7 @@
 //! `RuntimeError`; failed analysis: `AnalysisError`) with the core's message, and
 //! nothing here panics on user input.
 
+mod config;
 mod convert;
 mod env;
 mod model;
@@ -53,12 +54,14 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(time_scaling, m)?)?;
     m.add("MAX_LINKS", crate::limits::MAX_LINKS)?;
     m.add("MAX_STATE_VALUES", crate::limits::MAX_STATE_VALUES)?;
+    m.add("MIN_FRAME_SIZE", crate::render::MIN_FRAME_SIZE)?;
+    m.add("MAX_FRAME_SIZE", crate::render::MAX_FRAME_SIZE)?;
     m.add_function(wrap_pyfunction!(render::render_frame, m)?)?;
     m.add_function(wrap_pyfunction!(model::target_signs, m)?)?;
     m.add_function(wrap_pyfunction!(model::paper_initial_condition, m)?)?;
     m.add(
         "INTEGRATORS",
-        PyTuple::new(py, crate::integrate::Method::ALL.map(|m| m.name()))?,
+        PyTuple::new(py, crate::integrate::Method::NAMES)?,
     )?;
     m.add("DIAGNOSTICS", PyTuple::new(py, crate::env::DIAGNOSTICS)?)?;
     m.add("EVENT_ENDED", crate::env::event::ENDED)?;
@@ -70,6 +73,23 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("EVENT_RESET", crate::env::event::RESET)?;
     m.add("RNG_BYTES", crate::env::batch::RNG_BYTES)?;
-    m.add("REALITY_KEYS", reality::keys_table(py)?)?;
+    m.add("CONFIG_KEYS", config::keys_table(py)?)?;
+    m.add("REALITY_KEYS", config::reality_keys_table(py)?)?;
+    m.add("SCENES", config::scenes_table(py)?)?;
+    m.add("SCENE_SUMMARIES", config::scene_summaries(py)?)?;
+    m.add("DEFAULT_SCENE", crate::env::DEFAULT_SCENE)?;
+    m.add(
+        "TARGET_NAMES",
+        PyTuple::new(py, crate::env::keys::TARGET_NAMES)?,
+    )?;
+    m.add(
+        "START_NAMES",
+        PyTuple::new(py, crate::env::keys::START_NAMES)?,
+    )?;
+    m.add(
+        "REWARD_WEIGHTS",
+        config::named_defaults(py, "reward_weights")?,
+    )?;
+    m.add_function(wrap_pyfunction!(config::resolve_config, m)?)?;
     Ok(())
 }

@@ -6,7 +6,9 @@ use crate::any::AnyChain;
 use crate::env::PaperFigure;
 use crate::error::InputError;
 use crate::integrate::{Method, StepOptions};
-use crate::params::ChainParams;
+use crate::params::{
+    ChainParams, PAPER_CART_MASS, PAPER_LINK_LENGTH, PAPER_LINK_MASS, STANDARD_GRAVITY,
+};
 use nalgebra::DMatrix;
 use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -75,23 +77,27 @@ impl ChainCart {
 #[pymethods]
 impl ChainCart {
     #[new]
-    #[pyo3(signature = (n_links, cart_mass=0.5, link_masses=None, link_lengths=None, gravity=9.81, planar=false))]
+    // Unset parameters are the paper's example system (as its figures' scenes).
+    #[pyo3(signature = (
+        n_links, cart_mass=None, link_masses=None, link_lengths=None, gravity=None, planar=false
+    ))]
     fn new(
         py: Python<'_>,
         n_links: i64,
-        cart_mass: f64,
+        cart_mass: Option<f64>,
         link_masses: Option<&Bound<'_, PyAny>>,
         link_lengths: Option<&Bound<'_, PyAny>>,
-        gravity: f64,
+        gravity: Option<f64>,
         planar: bool,
     ) -> PyResult<Self> {
-        let default = 0.1f64.into_pyobject(py)?.into_any();
+        let mass = PAPER_LINK_MASS.into_pyobject(py)?.into_any();
+        let length = PAPER_LINK_LENGTH.into_pyobject(py)?.into_any();
         Self::from_params(
             n_links,
-            cart_mass,
-            link_masses.unwrap_or(&default),
-            link_lengths.unwrap_or(&default),
-            gravity,
+            cart_mass.unwrap_or(PAPER_CART_MASS),
+            link_masses.unwrap_or(&mass),
+            link_lengths.unwrap_or(&length),
+            gravity.unwrap_or(STANDARD_GRAVITY),
             planar,
         )
     }
@@ -127,6 +133,15 @@ impl ChainCart {
     #[getter]
     fn gravity(&self) -> f64 {
         self.chain.params().gravity()
+    }
+    /// `name -> (start, stop)` of each block of a state (`x`, `xdot`, `q`, `w`).
+    #[getter]
+    fn state_layout<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, start, stop) in self.chain.state_blocks() {
+            d.set_item(name, (start, stop))?;
+        }
+        Ok(d)
     }
     /// The constructor's arguments as a dict.
     #[getter]
@@ -412,7 +427,7 @@ pub fn paper_initial_condition<'py>(
     let fig = PaperFigure::from_name(figure).ok_or_else(|| InputError::UnknownName {
         kind: "paper figure",
         name: figure.to_string(),
-        expected: "\"paper-fig1\", \"paper-fig2\", \"paper-fig3\"",
+        expected: &PaperFigure::NAMES,
     })?;
     Ok(array(py, crate::env::paper_initial_condition(fig)))
 }

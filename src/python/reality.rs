@@ -4,14 +4,13 @@
 
 use super::convert::error;
 use super::model::ChainCart;
-use crate::env::reality::{KeyDefault, KEYS};
 use crate::env::{
     Distribution, EnvParams, Param, ParamRandomization, ParamValues, Randomization, RealityGap,
 };
 use crate::params::ChainParams;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::PyDict;
 
 /// The raw keyword values as given to `EnvBatch`.
 pub struct RealityArgs<'a, 'py> {
@@ -46,7 +45,7 @@ fn entries<'py>(
     let dict = value.cast::<PyDict>().map_err(|_| {
         error(format!(
             "{kind} = {value}: expected a dict whose keys are some of {}",
-            Param::NAMES
+            crate::error::quoted(&Param::NAMES)
         ))
     })?;
     let mut out = Vec::new();
@@ -278,26 +277,4 @@ pub fn param_arrays<'py>(py: Python<'py>, p: &EnvParams) -> PyResult<Bound<'py, 
     )?;
     d.set_item("gravity", PyArray1::from_slice(py, &p.gravity))?;
     Ok(d)
-}
-
-/// `(name, default, help)` of every reality-gap keyword, for `_core.REALITY_KEYS`.
-pub fn keys_table(py: Python<'_>) -> PyResult<Bound<'_, PyTuple>> {
-    let rows = KEYS
-        .iter()
-        .map(|k| {
-            let default = match k.default {
-                KeyDefault::None => py.None(),
-                KeyDefault::Int(v) => v.into_pyobject(py)?.into_any().unbind(),
-            };
-            PyTuple::new(
-                py,
-                [
-                    k.name.into_pyobject(py)?.into_any().unbind(),
-                    default,
-                    k.help.into_pyobject(py)?.into_any().unbind(),
-                ],
-            )
-        })
-        .collect::<PyResult<Vec<_>>>()?;
-    PyTuple::new(py, rows)
 }

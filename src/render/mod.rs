@@ -29,10 +29,16 @@ pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) 
     Ok(())
 }
 
-/// Frame sizes the renderer accepts: 16 to 8192 pixels each way.
+/// Smallest frame side the renderer draws, pixels.
+pub const MIN_FRAME_SIZE: usize = 16;
+/// Largest frame side the renderer draws, pixels.
+pub const MAX_FRAME_SIZE: usize = 8192;
+
+/// Frame sizes the renderer accepts: [`MIN_FRAME_SIZE`] to [`MAX_FRAME_SIZE`] pixels
+/// each way.
 pub fn check_frame_size(width: usize, height: usize) -> Result<()> {
     for (name, value) in [("width", width), ("height", height)] {
-        if !(16..=8192).contains(&value) {
+        if !(MIN_FRAME_SIZE..=MAX_FRAME_SIZE).contains(&value) {
             return Err(InputError::InvalidParameter {
                 name,
                 value: value as f64,
@@ -156,5 +162,21 @@ mod tests {
             ..spec
         };
         assert!(render(32, 32, &bad, &mut vec![0u8; 32 * 32 * 3]).is_err());
+    }
+}
+
+#[cfg(test)]
+mod frame_size_tests {
+    use super::*;
+
+    #[test]
+    fn the_error_states_the_bounds_it_checks() {
+        assert!(check_frame_size(MIN_FRAME_SIZE, MAX_FRAME_SIZE).is_ok());
+        let e = check_frame_size(MIN_FRAME_SIZE - 1, 100)
+            .unwrap_err()
+            .to_string();
+        let bounds = format!("between {MIN_FRAME_SIZE} and {MAX_FRAME_SIZE} pixels");
+        assert!(e.contains(&bounds), "{e}");
+        assert!(check_frame_size(100, MAX_FRAME_SIZE + 1).is_err());
     }
 }

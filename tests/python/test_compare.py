@@ -232,7 +232,7 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--num-envs", "0"], "num-envs = 0: expected an integer >= 1"),
         (["--set", "bogus=1"], "unknown scene key 'bogus'"),
         (["--set", "n_links"], "expected key=value"),
-        (["--scene", "nope"], "unknown scene 'nope'"),
+        (["--scene", "nope"], 'unknown scene "nope"'),
         (["--n-links", "two"], "n_links = 'two': expected an integer"),
         (["--start-noise=-1"], "start_noise"),
         (["--algo-kwarg", "n_stepz=64"], "n_stepz"),

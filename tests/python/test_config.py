@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartError, RewardWeights
 from chaincart_env import _core
-from chaincart_env.config import REALITY_KEYS
+from chaincart_env.config import CONFIG_KEYS, REALITY_KEYS
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
+from chaincart_env.spec import plain_value
 
 REALITY_NAMES = [k[0] for k in REALITY_KEYS]
 
@@ -48,7 +52,7 @@ def test_every_scene_resolves_and_validates(scene: str) -> None:
         got = getattr(c, key)
         if key in REALITY_NAMES:
             # Reality-gap values are kept in the core's canonical form.
-            value = _core.EnvBatch(c.make_model(), 1, **{key: value}).task[key]
+            value = _core.resolve_config({key: value})[key]
         assert got == value or (isinstance(value, str) and np.dtype(value).name == got)
 
 
@@ -79,7 +83,7 @@ def test_explicit_keywords_override_the_scene() -> None:
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        (dict(scene="cartpole"), "unknown scene 'cartpole'"),
+        (dict(scene="cartpole"), 'unknown scene "cartpole"'),
         (dict(target="upright"), 'unknown equilibrium "upright"'),
         (dict(start="sideways"), 'unknown start "sideways"'),
         (dict(n_links=0), "n_links = 0: expected at least one link"),
@@ -99,8 +103,8 @@ def test_explicit_keywords_override_the_scene() -> None:
         (dict(track_limit=float("inf")), "track_limit = inf"),
         (dict(max_episode_steps=0), "max_episode_steps = 0"),
         (dict(start_noise=-0.1), "start_noise = -0.1"),
-        (dict(obs_dtype="int8"), "obs_dtype = 'int8'"),
-        (dict(reward_weights={"tilt": 1.0}), "reward_weights has unknown keys ['tilt']"),
+        (dict(obs_dtype="int8"), 'unknown obs_dtype "int8"'),
+        (dict(reward_weights={"tilt": 1.0}), "reward_weights has unknown key 'tilt'"),
         (dict(reward_weights={"q": -1.0}), "reward_weights.q = -1"),
         (dict(success_tolerances=(0.1,)), "success_tolerances"),
         (dict(planar="yes"), "planar = 'yes'"),
@@ -127,3 +131,73 @@ def test_start_accepts_signs_and_full_states() -> None:
     assert ChainCartConfig(n_links=2, start=y).start == tuple(y)
     with pytest.raises(ChainCartError, match=r"\|q_i\|"):
         ChainCartConfig(n_links=2, start=[0.1, 0.0, 0.0, -2.0, 0.0, -1.0, 0.0, 0.0])
+
+
+BEFORE = json.loads((Path(__file__).parent / "data" / "config_before.json").read_text())
+
+
+def _saved_entry(c: ChainCartConfig) -> dict:
+    return {
+        "config": plain_value(c.to_dict()),
+        "repr": repr(c),
+        "state_dim": c.state_dim,
+        "force_dim": c.force_dim,
+        "target_signs": list(c.target_signs),
+    }
+
+
+@pytest.mark.parametrize("scene", sorted(BEFORE["scenes"]))
+def test_each_scene_resolves_to_the_values_it_had_when_scenes_were_defined_in_python(scene: str) -> None:
+    saved = {k: v for k, v in BEFORE["scenes"][scene].items() if k != "task_kwargs"}
+    assert _saved_entry(ChainCartConfig(scene=scene)) == saved
+
+
+@pytest.mark.parametrize("case", BEFORE["overrides"], ids=lambda case: ",".join(case["kwargs"]))
+def test_overridden_configs_resolve_as_before(case: dict) -> None:
+    saved = {k: v for k, v in case.items() if k not in ("kwargs", "task_kwargs")}
+    assert _saved_entry(ChainCartConfig(**case["kwargs"])) == saved
+
+
+def test_the_scenes_are_the_cores() -> None:
+    assert sorted(SCENES) == sorted(BEFORE["scenes"]) == sorted(_core.SCENES)
+    assert DEFAULT_SCENE == _core.DEFAULT_SCENE
+
+
+@pytest.mark.parametrize("key", [k[0] for k in CONFIG_KEYS])
+def test_every_key_default_is_accepted_by_the_core(key: str) -> None:
+    default = dict((k[0], k[1]) for k in CONFIG_KEYS)[key]
+    resolved = _core.resolve_config({key: default})
+    assert resolved[key] == _core.resolve_config({})[key]
+
+
+def test_unknown_keys_and_scenes_name_the_value_and_the_choices() -> None:
+    with pytest.raises(InvalidInputError, match=r'unknown config key "n_link": expected one of "n_links", '):
+        _core.resolve_config({"n_link": 2})
+    with pytest.raises(InvalidInputError, match=r'unknown scene "cartpole": expected one of "inverted-1", '):
+        _core.resolve_config({"scene": "cartpole"})
+
+
+@pytest.mark.parametrize(
+    "kwargs, error",
+    [
+        (dict(reward_weights=(1, 2)), InvalidTypeError),
+        (dict(reward_weights="heavy"), InvalidTypeError),
+        (dict(success_tolerances=[1, 2, 3]), InvalidInputError),
+        (dict(success_tolerances=5), InvalidInputError),
+        (dict(success_tolerances=(0.1, "a")), InvalidTypeError),
+        (dict(integrator=3), InvalidInputError),
+        (dict(obs_dtype=3), InvalidInputError),
+        (dict(scene=3), InvalidInputError),
+        (dict(link_lengths="long"), InvalidTypeError),
+        (dict(target=5), InvalidTypeError),
+        (dict(diagnostics=1), InvalidTypeError),
+        (dict(substeps=1.5), InvalidTypeError),
+        (dict(max_episode_steps=-3), InvalidInputError),
+        (dict(force_rate_limit="x"), InvalidTypeError),
+    ],
+)
+def test_each_bad_value_raises_the_exception_class_it_always_did(kwargs: dict, error: type) -> None:
+    with pytest.raises(error) as caught:
+        ChainCartConfig(**kwargs)
+    assert type(caught.value) is error, caught.value
+    assert f"{next(iter(kwargs))}" in str(caught.value)

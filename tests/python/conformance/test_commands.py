@@ -16,12 +16,12 @@ from chaincart_env.__main__ import main
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["demo", "--scene", "nope"], "unknown scene 'nope'"),
+        (["demo", "--scene", "nope"], 'unknown scene "nope"'),
         (["demo", "--steps", "-3"], "--steps -3: expected an integer >= 0"),
-        (["soak", "--scene", "nope", "--steps", "10"], "unknown scene 'nope'"),
+        (["soak", "--scene", "nope", "--steps", "10"], 'unknown scene "nope"'),
         (["soak", "--num-envs", "-1"], "--num-envs -1: expected an integer >= 1"),
         (["soak", "--steps", "-5"], "--steps -5: expected an integer >= 1"),
-        (["roa", "--scene", "nope", "--starts", "2"], "unknown scene 'nope'"),
+        (["roa", "--scene", "nope", "--starts", "2"], 'unknown scene "nope"'),
         (["roa", "--start", "sideways", "--starts", "2"], "sideways"),
     ],
 )

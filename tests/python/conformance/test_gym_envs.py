@@ -147,6 +147,33 @@ def test_a_scenes_own_length_applies_through_make_with_its_length() -> None:
     assert ChainCartEnv(scene="paper-fig3").config.max_episode_steps == 12_000
 
 
+@pytest.mark.parametrize("scene", sorted(SCENES))
+def test_every_scene_has_an_id_registered_with_its_own_length(scene: str) -> None:
+    env_id = chaincart_env.scene_env_id(scene)
+    length = SCENES[scene]["max_episode_steps"]
+    assert gym.spec(env_id).max_episode_steps == length
+    env = gym.make(env_id)
+    limits = [w for w in _wrappers(env) if isinstance(w, gym.wrappers.TimeLimit)]
+    assert [w._max_episode_steps for w in limits] == [length]
+    assert env.spec.max_episode_steps == env.unwrapped.config.max_episode_steps == length
+    assert env.unwrapped.config == ChainCartConfig(scene=scene)
+    vec = gym.make_vec(env_id, 2, vectorization_mode="vector_entry_point")
+    assert vec.unwrapped.config == ChainCartConfig(scene=scene)
+
+
+def test_a_scene_id_runs_the_scene_past_the_default_length() -> None:
+    # The default scene's 500 steps would cut Fig. 3's 12 000-step episode; its own
+    # id's TimeLimit lets it run on, and keywords still change the rest.
+    env = gym.make("ChainCart-paper-fig3-v0", start_noise=0.01)
+    assert env.unwrapped.config.start_noise == 0.01
+    env.reset(seed=0)
+    zero = np.zeros(2, np.float32)
+    for _ in range(600):
+        _, _, terminated, truncated, _ = env.step(zero)
+        assert not (terminated or truncated)
+    assert gym.spec(chaincart_env.ENV_ID).max_episode_steps == 500
+
+
 DOCUMENTED_WAYS = {
     "nothing": {},
     "scene": dict(scene="paper-fig2"),

@@ -1,0 +1,459 @@
+//! The configuration keys of an env: the one definition of every key's name, the
+//! values it accepts, its default and its help text. The Python configuration
+//! (`ChainCartConfig`), its documentation table, the env docstring and the command
+//! line's option help are all read or generated from [`CONFIG_KEYS`]; the scenes
+//! ([`super::scenes`]) are named sets of values on top of these defaults.
+//!
+//! The defaults are the default scene's values (the planar double inverted pendulum):
+//! a scene that sets nothing is the default scene. Ranges are checked where the core
+//! builds the parameters and the task ([`crate::params::ChainParams::new`],
+//! [`super::TaskConfig::validate`], [`super::RealityGap::validate`]); each key's
+//! [`ConfigKey::expected`] says in words what those checks accept (a test holds the
+//! two together).
+
+use super::config::{RewardWeights, SuccessTolerances};
+use crate::integrate::Method;
+use crate::params::STANDARD_GRAVITY;
+use std::sync::LazyLock;
+
+/// A value as the key table and the scenes write it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum KeyValue {
+    /// Absent: the feature is off.
+    None,
+    /// An integer.
+    Int(i64),
+    /// A number.
+    Float(f64),
+    /// True or false.
+    Bool(bool),
+    /// A name (an equilibrium, an integrator, a dtype, a scene).
+    Name(&'static str),
+    /// A fixed number of numbers (reward weights, success tolerances).
+    Floats(&'static [f64]),
+    /// A relative half-width of domain randomisation per parameter name.
+    Relative(&'static [(&'static str, f64)]),
+}
+
+/// What a key accepts, which decides how a Python value is read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum KeyKind {
+    /// One of the scene names of [`super::scenes::SCENES`].
+    Scene,
+    /// An integer (an integral float such as `2.0` is accepted too).
+    Integer,
+    /// A real number.
+    Number,
+    /// True or false.
+    Flag,
+    /// One number for every link, or one per link.
+    PerLink,
+    /// One of these names.
+    Choice(&'static [&'static str]),
+    /// An equilibrium: one of [`TARGET_NAMES`] or a sign tuple.
+    Equilibrium,
+    /// A start: one of [`START_NAMES`], a sign tuple or a full state.
+    Start,
+    /// Named numbers: a mapping with some of these names (the others keep their
+    /// defaults) or a sequence of exactly as many numbers.
+    NamedNumbers(&'static [&'static str]),
+    /// A sequence of exactly as many numbers as these names.
+    Numbers(&'static [&'static str]),
+    /// A reality-gap keyword, read by the reality-gap conversion.
+    RealityGap,
+}
+
+/// One configuration key.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConfigKey {
+    /// The keyword.
+    pub name: &'static str,
+    /// What values it takes.
+    pub kind: KeyKind,
+    /// Its value in the default scene.
+    pub default: KeyValue,
+    /// The values accepted, in the words errors use.
+    pub expected: &'static str,
+    /// What it means (with its unit).
+    pub help: &'static str,
+}
+
+/// Names accepted for a target equilibrium (besides a sign tuple).
+pub const TARGET_NAMES: [&str; 7] = [
+    "hanging",
+    "inverted",
+    "folded",
+    "folded_up",
+    "paper-fig1",
+    "paper-fig2",
+    "paper-fig3",
+];
+
+/// Names accepted for a start (besides a sign tuple or a full state): `"target"`
+/// and the target names.
+pub const START_NAMES: [&str; 8] = {
+    let mut names = ["target"; 8];
+    let mut i = 0;
+    while i < TARGET_NAMES.len() {
+        names[i + 1] = TARGET_NAMES[i];
+        i += 1;
+    }
+    names
+};
+
+/// Names of the observation dtypes.
+pub const OBS_DTYPE_NAMES: [&str; 2] = ["float32", "float64"];
+
+/// Names of the reward weights, in the order of [`RewardWeights::as_array`].
+pub const REWARD_WEIGHT_NAMES: [&str; 5] = ["q", "w", "x", "v", "u"];
+
+/// Names of the success tolerances.
+pub const SUCCESS_TOLERANCE_NAMES: [&str; 2] = ["e_q", "e_w"];
+
+/// Default half-width of the start noise (also [`super::TaskConfig::new`]'s).
+pub const DEFAULT_START_NOISE: f64 = 0.05;
+/// Default track limit, m (also [`super::TaskConfig::new`]'s).
+pub const DEFAULT_TRACK_LIMIT: f64 = 2.4;
+/// Default episode length, steps (also [`super::TaskConfig::new`]'s).
+pub const DEFAULT_MAX_EPISODE_STEPS: i64 = 500;
+
+const DEFAULT_REWARD_WEIGHTS: [f64; 5] = RewardWeights::DEFAULT.as_array();
+const DEFAULT_SUCCESS_TOLERANCES: [f64; 2] = SuccessTolerances::DEFAULT.as_array();
+
+/// Every configuration key, in the order of `ChainCartConfig`'s fields. Adding a key
+/// is one entry here (plus where its value is used).
+pub const CONFIG_KEYS: &[ConfigKey] = &[
+    ConfigKey {
+        name: "n_links",
+        kind: KeyKind::Integer,
+        default: KeyValue::Int(2),
+        expected: "an integer >= 1",
+        help: "number of links",
+    },
+    ConfigKey {
+        name: "cart_mass",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(1.0),
+        expected: "a finite number > 0",
+        help: "cart mass, kg",
+    },
+    ConfigKey {
+        name: "link_masses",
+        kind: KeyKind::PerLink,
+        default: KeyValue::Float(0.1),
+        expected: "a finite number > 0, or one per link",
+        help: "kg, one number or one per link (a point mass at the link's end)",
+    },
+    ConfigKey {
+        name: "link_lengths",
+        kind: KeyKind::PerLink,
+        default: KeyValue::Float(0.5),
+        expected: "a finite number > 0, or one per link",
+        help: "m, one number or one per link",
+    },
+    ConfigKey {
+        name: "gravity",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(STANDARD_GRAVITY),
+        expected: "a finite number > 0",
+        help: "m/s^2, along e3",
+    },
+    ConfigKey {
+        name: "planar",
+        kind: KeyKind::Flag,
+        default: KeyValue::Bool(true),
+        expected: "True or False",
+        help: "planar model (cart on e1, links in the e1-e3 plane); false: spatial",
+    },
+    ConfigKey {
+        name: "target",
+        kind: KeyKind::Equilibrium,
+        default: KeyValue::Name("inverted"),
+        expected: "a name (hanging, inverted, folded, folded_up, paper-fig1..3) or one sign \
+                   +1/-1 per link",
+        help: "the equilibrium to reach: a name or a sign tuple (+1 hanging, -1 upright \
+               link; on the command line --target=-1,1)",
+    },
+    ConfigKey {
+        name: "start",
+        kind: KeyKind::Start,
+        default: KeyValue::Name("target"),
+        expected: "a name (target, hanging, inverted, folded, folded_up, paper-fig1..3), \
+                   one sign +1/-1 per link, or a full state",
+        help: "where episodes start: target, an equilibrium name or sign tuple, \
+               paper-fig1..3, or a full state",
+    },
+    ConfigKey {
+        name: "start_noise",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(DEFAULT_START_NOISE),
+        expected: "a finite number >= 0",
+        help: "half-width of the uniform start noise in every local coordinate",
+    },
+    ConfigKey {
+        name: "dt",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(0.02),
+        expected: "a finite number > 0",
+        help: "control period, s",
+    },
+    ConfigKey {
+        name: "integrator",
+        kind: KeyKind::Choice(&Method::NAMES),
+        default: KeyValue::Name("rk4"),
+        expected: "one of rk4, rkmk4, variational, lie_euler, adaptive",
+        help: "integrator: rk4, rkmk4, variational, lie_euler or adaptive",
+    },
+    ConfigKey {
+        name: "substeps",
+        kind: KeyKind::Integer,
+        default: KeyValue::Int(2),
+        expected: "an integer >= 1",
+        help: "integrator steps per control period (the default's two 10 ms RK4 steps: with \
+               single 20 ms steps random pushes whip the links past 25 rad/s and about 7% of \
+               random-action episodes end flagged as under-resolved; with two, none)",
+    },
+    ConfigKey {
+        name: "max_force",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(20.0),
+        expected: "a finite number >= 0",
+        help: "N per unit action (0: uncontrolled)",
+    },
+    ConfigKey {
+        name: "track_limit",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(DEFAULT_TRACK_LIMIT),
+        expected: "a finite number > 0",
+        help: "m; the episode terminates when the cart goes beyond it",
+    },
+    ConfigKey {
+        name: "max_episode_steps",
+        kind: KeyKind::Integer,
+        default: KeyValue::Int(DEFAULT_MAX_EPISODE_STEPS),
+        expected: "an integer >= 1",
+        help: "episode length in steps (truncation)",
+    },
+    ConfigKey {
+        name: "reward_weights",
+        kind: KeyKind::NamedNumbers(&REWARD_WEIGHT_NAMES),
+        default: KeyValue::Floats(&DEFAULT_REWARD_WEIGHTS),
+        expected: "a RewardWeights, a mapping with some of q, w, x, v, u, or five numbers, \
+                   each a finite number >= 0",
+        help: "reward weights q, w, x, v, u (a mapping such as {\"q\": 2}, or five numbers)",
+    },
+    ConfigKey {
+        name: "scene",
+        kind: KeyKind::Scene,
+        default: KeyValue::Name(super::scenes::DEFAULT_SCENE),
+        expected: "a scene name",
+        help: "named scene whose values fill every keyword not given",
+    },
+    ConfigKey {
+        name: "obs_dtype",
+        kind: KeyKind::Choice(&OBS_DTYPE_NAMES),
+        default: KeyValue::Name("float32"),
+        expected: "'float32' or 'float64'",
+        help: "dtype of the observations",
+    },
+    ConfigKey {
+        name: "success_tolerances",
+        kind: KeyKind::Numbers(&SUCCESS_TOLERANCE_NAMES),
+        default: KeyValue::Floats(&DEFAULT_SUCCESS_TOLERANCES),
+        expected: "two numbers (e_q, e_w), each a finite number > 0",
+        help: "e_q, e_w bounds of a success at the time limit (is_success)",
+    },
+    ConfigKey {
+        name: "diagnostics",
+        kind: KeyKind::Flag,
+        default: KeyValue::Bool(false),
+        expected: "True or False",
+        help: "energies and constraint residuals in every step's info (costs time)",
+    },
+    ConfigKey {
+        name: "randomize",
+        kind: KeyKind::RealityGap,
+        default: KeyValue::None,
+        expected: "a dict mapping some of cart_mass, link_masses, link_lengths, gravity to \
+                   a relative half-width or a distribution",
+        help: "Domain randomisation at every reset: a dict mapping cart_mass, link_masses, \
+               link_lengths, gravity to a relative half-width h (value times U[1-h, 1+h], \
+               0 <= h < 1) or to a dict with one of \"scale\": h or [low, high], \
+               \"log_scale\": [low, high], \"range\": [low, high] (absolute), \
+               \"log_range\": [low, high] (absolute, log-uniform), and optionally \
+               \"per_link\": false to draw one number shared by all links.",
+    },
+    ConfigKey {
+        name: "params",
+        kind: KeyKind::RealityGap,
+        default: KeyValue::None,
+        expected: "a dict with some of cart_mass, link_masses, link_lengths, gravity, or a \
+                   ChainCart",
+        help: "The true physical parameters when they differ from the model's: a dict \
+               with some of cart_mass, link_masses, link_lengths, gravity (a number, or \
+               one number per link), or a ChainCart. The env's model stays nominal.",
+    },
+    ConfigKey {
+        name: "mismatch",
+        kind: KeyKind::RealityGap,
+        default: KeyValue::None,
+        expected: "a dict with some of cart_mass, link_masses, link_lengths, gravity",
+        help: "Scale factors from the nominal (or params) values to the true ones: a \
+               dict with some of cart_mass, link_masses, link_lengths, gravity (a factor, \
+               or one factor per link).",
+    },
+    ConfigKey {
+        name: "obs_noise",
+        kind: KeyKind::RealityGap,
+        default: KeyValue::None,
+        expected: "a finite standard deviation >= 0: one number, or one per state component",
+        help: "Standard deviation of Gaussian noise added to every observation: one \
+               number for all components or one per component (state units).",
+    },
+    ConfigKey {
+        name: "action_delay",
+        kind: KeyKind::RealityGap,
+        default: KeyValue::Int(0),
+        expected: "an integer >= 0 (control periods)",
+        help: "Control delay in control periods: the force of step t comes from the \
+               action of step t - action_delay (zero force before that).",
+    },
+    ConfigKey {
+        name: "force_rate_limit",
+        kind: KeyKind::RealityGap,
+        default: KeyValue::None,
+        expected: "a number > 0 (N/s), or none for no limit",
+        help: "Largest change of the applied force per second, per cart axis (N/s); \
+               None for no limit.",
+    },
+];
+
+/// The key with this name.
+pub fn config_key(name: &str) -> Option<&'static ConfigKey> {
+    CONFIG_KEYS.iter().find(|k| k.name == name)
+}
+
+/// The names of all keys, in table order, for error messages.
+pub static KEY_NAMES: LazyLock<Vec<&'static str>> =
+    LazyLock::new(|| CONFIG_KEYS.iter().map(|k| k.name).collect());
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_key_is_defined_once() {
+        let mut names = KEY_NAMES.clone();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), CONFIG_KEYS.len());
+        assert!(config_key("substeps").is_some() && config_key("substep").is_none());
+    }
+
+    #[test]
+    fn choice_defaults_are_among_their_choices() {
+        for key in CONFIG_KEYS {
+            if let (KeyKind::Choice(names), KeyValue::Name(default)) = (key.kind, key.default) {
+                assert!(names.contains(&default), "{}", key.name);
+            }
+            if let (
+                KeyKind::NamedNumbers(names) | KeyKind::Numbers(names),
+                KeyValue::Floats(values),
+            ) = (key.kind, key.default)
+            {
+                assert_eq!(names.len(), values.len(), "{}", key.name);
+            }
+        }
+    }
+
+    #[test]
+    fn the_name_lists_agree_with_the_parsers() {
+        for name in TARGET_NAMES {
+            assert!(super::super::target_signs(name, 5).is_ok(), "{name}");
+        }
+        for name in START_NAMES {
+            assert!(super::super::Start::from_name(name, 5).is_ok(), "{name}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod expected_text {
+    //! Each key's [`ConfigKey::expected`] is what the core's check of that key says.
+    use super::*;
+    use crate::env::TaskConfig;
+    use crate::integrate::StepOptions;
+    use crate::params::ChainParams;
+
+    fn expected(name: &str) -> &'static str {
+        config_key(name).unwrap().expected
+    }
+
+    type Spoiler = Box<dyn Fn(&mut TaskConfig)>;
+
+    fn task_error(spoil: impl Fn(&mut TaskConfig)) -> String {
+        let mut task = TaskConfig::new(vec![-1.0; 2], 0.02, StepOptions::default());
+        spoil(&mut task);
+        task.validate(2).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn task_checks_say_what_the_table_says() {
+        let cases: [(&str, Spoiler); 6] = [
+            ("start_noise", Box::new(|t| t.start_noise = -1.0)),
+            ("dt", Box::new(|t| t.dt = 0.0)),
+            ("max_force", Box::new(|t| t.max_force = -1.0)),
+            ("track_limit", Box::new(|t| t.track_limit = 0.0)),
+            ("max_episode_steps", Box::new(|t| t.max_episode_steps = 0)),
+            ("substeps", Box::new(|t| t.step_options.substeps = 0)),
+        ];
+        for (name, spoil) in cases {
+            let e = task_error(spoil);
+            assert!(
+                e.contains(name) && e.contains(expected(name)),
+                "{name}: {e}"
+            );
+        }
+        let e = task_error(|t| t.reward.q = -1.0);
+        assert!(e.contains("a finite number >= 0"), "{e}");
+        assert!(expected("reward_weights").ends_with("each a finite number >= 0"));
+        let e = task_error(|t| t.success.e_q = 0.0);
+        assert!(e.contains("a finite number > 0"), "{e}");
+        assert!(expected("success_tolerances").ends_with("each a finite number > 0"));
+    }
+
+    #[test]
+    fn parameter_checks_say_what_the_table_says() {
+        let cases = [
+            ("cart_mass", ChainParams::new(-1.0, &[0.1], &[0.5], 9.81)),
+            ("link_masses", ChainParams::new(1.0, &[-0.1], &[0.5], 9.81)),
+            ("link_lengths", ChainParams::new(1.0, &[0.1], &[0.0], 9.81)),
+            ("gravity", ChainParams::new(1.0, &[0.1], &[0.5], -1.0)),
+        ];
+        for (name, result) in cases {
+            let e = result.unwrap_err().to_string();
+            let what = expected(name).trim_end_matches(", or one per link");
+            assert!(e.contains(name) && e.contains(what), "{name}: {e}");
+        }
+    }
+
+    #[test]
+    fn reality_gap_checks_say_what_the_table_says() {
+        use crate::env::RealityGap;
+        let e = RealityGap::delay_from(-1).unwrap_err().to_string();
+        assert!(e.contains(expected("action_delay")), "{e}");
+        let rate = RealityGap {
+            force_rate_limit: 0.0,
+            ..RealityGap::default()
+        };
+        let e = rate.validate(2, 8).unwrap_err().to_string();
+        assert!(e.contains(expected("force_rate_limit")), "{e}");
+        let noise = RealityGap {
+            obs_noise: vec![-1.0],
+            ..RealityGap::default()
+        };
+        let e = noise.validate(2, 8).unwrap_err().to_string();
+        let what = expected("obs_noise").split(':').next().unwrap();
+        assert!(e.contains(what), "{e}");
+    }
+}

@@ -1,0 +1,477 @@
+//! The configuration from Python: the core's key table and scenes as Python values
+//! (`_core.CONFIG_KEYS`, `_core.SCENES`, ...) and the one conversion of a dict of
+//! keys into the core's chain and task. Every check is the core's (or reads its
+//! accepted form from the key table); Python only brings values into plain types.
+
+use super::convert::{error, signs, type_error};
+use super::model::ChainCart;
+use super::reality::{reality_gap, write_task_keys, RealityArgs};
+use crate::any::AnyChain;
+use crate::env::keys::{config_key, KEY_NAMES};
+use crate::env::{
+    AnyEnvBatch, AutoresetMode, ConfigKey, KeyKind, KeyValue, RewardWeights, Scene, Start,
+    SuccessTolerances, TaskConfig, CONFIG_KEYS, SCENES,
+};
+use crate::error::{quoted, InputError};
+use crate::integrate::{Method, StepOptions};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyMapping, PyString, PyTuple};
+
+/// A config resolved and converted: what an `EnvBatch` is built from.
+pub struct Resolved {
+    /// The model.
+    pub chain: AnyChain,
+    /// The task on it.
+    pub task: TaskConfig,
+    /// Observations as float64 (else float32).
+    pub obs_f64: bool,
+    /// Energies and residuals recorded every step.
+    pub diagnostics: bool,
+    /// Every key's value in canonical form (building from it gives the same batch).
+    pub canonical: Py<PyDict>,
+}
+
+/// A table value as a Python value.
+fn key_value<'py>(py: Python<'py>, value: KeyValue) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match value {
+        KeyValue::None => py.None().into_bound(py),
+        KeyValue::Int(v) => v.into_pyobject(py)?.into_any(),
+        KeyValue::Float(v) => v.into_pyobject(py)?.into_any(),
+        KeyValue::Bool(v) => PyBool::new(py, v).to_owned().into_any(),
+        KeyValue::Name(v) => PyString::new(py, v).into_any(),
+        KeyValue::Floats(v) => PyTuple::new(py, v)?.into_any(),
+        KeyValue::Relative(entries) => {
+            let d = PyDict::new(py);
+            for &(name, h) in entries {
+                d.set_item(name, h)?;
+            }
+            d.into_any()
+        }
+    })
+}
+
+/// Every key's value in `scene`, as a dict in key order.
+pub fn scene_values<'py>(py: Python<'py>, scene: &Scene) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for key in CONFIG_KEYS {
+        let value = scene.value(key.name).unwrap_or(key.default);
+        d.set_item(key.name, key_value(py, value)?)?;
+    }
+    Ok(d)
+}
+
+/// `(name, default, help, expected)` of every key, for `_core.CONFIG_KEYS`.
+pub fn keys_table(py: Python<'_>) -> PyResult<Bound<'_, PyTuple>> {
+    let rows = CONFIG_KEYS
+        .iter()
+        .map(|k| {
+            PyTuple::new(
+                py,
+                [
+                    PyString::new(py, k.name).into_any(),
+                    key_value(py, k.default)?,
+                    PyString::new(py, k.help).into_any(),
+                    PyString::new(py, k.expected).into_any(),
+                ],
+            )
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    PyTuple::new(py, rows)
+}
+
+/// `(name, default, help)` of the reality-gap keys, for `_core.REALITY_KEYS`.
+pub fn reality_keys_table(py: Python<'_>) -> PyResult<Bound<'_, PyTuple>> {
+    let rows = CONFIG_KEYS
+        .iter()
+        .filter(|k| k.kind == KeyKind::RealityGap)
+        .map(|k| (k.name, key_value(py, k.default)?, k.help).into_pyobject(py))
+        .collect::<PyResult<Vec<_>>>()?;
+    PyTuple::new(py, rows)
+}
+
+/// Every scene's values, for `_core.SCENES` (scene name -> dict of every key).
+pub fn scenes_table(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    for scene in SCENES {
+        d.set_item(scene.name, scene_values(py, scene)?)?;
+    }
+    Ok(d)
+}
+
+/// Every scene's one-line summary, for `_core.SCENE_SUMMARIES`.
+pub fn scene_summaries(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    for scene in SCENES {
+        d.set_item(scene.name, scene.summary)?;
+    }
+    Ok(d)
+}
+
+/// The names of a named-numbers key mapped to its defaults (`_core.REWARD_WEIGHTS`).
+pub fn named_defaults<'py>(py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    if let Some(ConfigKey {
+        kind: KeyKind::NamedNumbers(names),
+        default: KeyValue::Floats(values),
+        ..
+    }) = config_key(key)
+    {
+        for (name, value) in names.iter().zip(values.iter()) {
+            d.set_item(name, value)?;
+        }
+    }
+    Ok(d)
+}
+
+/// `"{name} = {repr}: expected {what}"`.
+fn not_expected(name: &str, value: &Bound<'_, PyAny>, what: &str) -> String {
+    let shown = value
+        .repr()
+        .map(|r| r.to_string())
+        .unwrap_or_else(|_| "?".into());
+    format!("{name} = {shown}: expected {what}")
+}
+
+/// The error of a value of the wrong type (an `InvalidTypeError`).
+fn wrong_type(name: &str, value: &Bound<'_, PyAny>, what: &str) -> PyErr {
+    type_error(not_expected(name, value, what))
+}
+
+/// The error of a value of the wrong form (an `InvalidInputError`).
+fn wrong_value(name: &str, value: &Bound<'_, PyAny>, what: &str) -> PyErr {
+    error(not_expected(name, value, what))
+}
+
+fn is_bool(value: &Bound<'_, PyAny>) -> bool {
+    value.is_instance_of::<PyBool>()
+}
+
+/// A real number (not a bool).
+fn number(name: &str, value: &Bound<'_, PyAny>) -> PyResult<f64> {
+    match value.extract::<f64>() {
+        Ok(x) if !is_bool(value) && !value.is_instance_of::<PyString>() => Ok(x),
+        _ => Err(wrong_type(name, value, "a number")),
+    }
+}
+
+/// An integer (not a bool); an integral float such as `2.0` counts.
+fn integer(name: &str, value: &Bound<'_, PyAny>) -> PyResult<i64> {
+    if !is_bool(value) {
+        if let Ok(i) = value.extract::<i64>() {
+            return Ok(i);
+        }
+        if let Ok(x) = number(name, value) {
+            if x.fract() == 0.0 && x.abs() < 9.0e15 {
+                return Ok(x as i64);
+            }
+        }
+    }
+    Err(wrong_type(name, value, "an integer"))
+}
+
+/// A count of at least one, the bound taken from the key table.
+fn count(key: &ConfigKey, value: &Bound<'_, PyAny>) -> PyResult<u64> {
+    let v = integer(key.name, value)?;
+    u64::try_from(v).map_err(|_| {
+        InputError::InvalidParameter {
+            name: key.name,
+            value: v as f64,
+            expected: key.expected,
+        }
+        .into()
+    })
+}
+
+fn flag(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
+    value
+        .extract::<bool>()
+        .map_err(|_| wrong_type(name, value, "True or False"))
+}
+
+/// The numbers of a sequence (not a string), each checked to be a number.
+fn sequence(name: &str, value: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
+    if value.is_instance_of::<PyString>() {
+        return Err(wrong_type(name, value, what));
+    }
+    let items = value
+        .try_iter()
+        .map_err(|_| wrong_type(name, value, what))?;
+    items
+        .enumerate()
+        .map(|(i, item)| number(&format!("{name}[{i}]"), &item?))
+        .collect()
+}
+
+fn float_tuple(py: Python<'_>, numbers: Vec<f64>) -> PyResult<Bound<'_, PyAny>> {
+    Ok(PyTuple::new(py, numbers)?.into_any())
+}
+
+/// `link_masses`/`link_lengths`: a float, or a tuple of floats.
+fn per_link<'py>(name: &str, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    if !is_bool(value) {
+        if let Ok(x) = value.extract::<f64>() {
+            return Ok(x.into_pyobject(value.py())?.into_any());
+        }
+    }
+    let numbers = sequence(name, value, "a number or one number per link")?;
+    float_tuple(value.py(), numbers)
+}
+
+/// `target`/`start`: a name, or a tuple of floats.
+fn name_or_numbers<'py>(name: &str, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    if value.is_instance_of::<PyString>() {
+        return Ok(value.clone());
+    }
+    let numbers = sequence(name, value, "a name or a sequence of numbers")?;
+    float_tuple(value.py(), numbers)
+}
+
+/// A name among `names` (the error lists them).
+fn choice<'py>(
+    key: &ConfigKey,
+    names: &'static [&'static str],
+    value: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let name: String = value
+        .extract()
+        .map_err(|_| wrong_value(key.name, value, key.expected))?;
+    if names.contains(&name.as_str()) {
+        return Ok(value.clone());
+    }
+    Err(InputError::UnknownName {
+        kind: key.name,
+        name,
+        expected: names,
+    }
+    .into())
+}
+
+/// Named numbers: a mapping with some of `names` (the rest keep the key's defaults)
+/// or a sequence of exactly as many numbers; a tuple of floats.
+fn named_numbers<'py>(
+    key: &ConfigKey,
+    names: &'static [&'static str],
+    value: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut numbers = match key.default {
+        KeyValue::Floats(defaults) => defaults.to_vec(),
+        _ => vec![0.0; names.len()],
+    };
+    if let Ok(mapping) = value.cast::<PyMapping>() {
+        for item in mapping.items()?.iter() {
+            let (k, v): (Bound<'_, PyAny>, Bound<'_, PyAny>) = item.extract()?;
+            let index = k
+                .extract::<String>()
+                .ok()
+                .and_then(|k| names.iter().position(|n| *n == k))
+                .ok_or_else(|| {
+                    error(format!(
+                        "{} has unknown key {}: expected some of {}",
+                        key.name,
+                        k.repr().map(|r| r.to_string()).unwrap_or_default(),
+                        quoted(names)
+                    ))
+                })?;
+            numbers[index] = number(&format!("{}.{}", key.name, names[index]), &v)?;
+        }
+    } else {
+        let given = sequence(key.name, value, key.expected)?;
+        if given.len() != names.len() {
+            return Err(wrong_type(key.name, value, key.expected));
+        }
+        numbers = given;
+    }
+    float_tuple(value.py(), numbers)
+}
+
+/// Exactly as many numbers as `names`, in a sequence; a tuple of floats.
+fn numbers<'py>(
+    key: &ConfigKey,
+    names: &'static [&'static str],
+    value: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let sized = value.len().is_ok_and(|len| len == names.len());
+    if !sized || value.is_instance_of::<PyString>() || value.cast::<PyMapping>().is_ok() {
+        return Err(wrong_value(key.name, value, key.expected));
+    }
+    float_tuple(value.py(), sequence(key.name, value, key.expected)?)
+}
+
+/// One key's value in canonical form: plain Python types, checked for type and form.
+fn canonical<'py>(key: &ConfigKey, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    let py = value.py();
+    Ok(match key.kind {
+        KeyKind::Scene => value.clone(),
+        KeyKind::Integer => integer(key.name, value)?.into_pyobject(py)?.into_any(),
+        KeyKind::Number => number(key.name, value)?.into_pyobject(py)?.into_any(),
+        KeyKind::Flag => PyBool::new(py, flag(key.name, value)?)
+            .to_owned()
+            .into_any(),
+        KeyKind::PerLink => per_link(key.name, value)?,
+        KeyKind::Choice(names) => choice(key, names, value)?,
+        KeyKind::Equilibrium | KeyKind::Start => name_or_numbers(key.name, value)?,
+        KeyKind::NamedNumbers(names) => named_numbers(key, names, value)?,
+        KeyKind::Numbers(names) => numbers(key, names, value)?,
+        KeyKind::RealityGap if key.name == "action_delay" => {
+            integer(key.name, value)?.into_pyobject(py)?.into_any()
+        }
+        KeyKind::RealityGap => value.clone(),
+    })
+}
+
+/// The scene named in `config` (default: the default scene) with `config`'s values on
+/// top (`None` values are unset), every value in canonical form, in key order.
+fn merged<'py>(config: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
+    let py = config.py();
+    for k in config.keys() {
+        let name: String = k.extract()?;
+        if config_key(&name).is_none() {
+            return Err(InputError::UnknownName {
+                kind: "config key",
+                name,
+                expected: KEY_NAMES.as_slice(),
+            }
+            .into());
+        }
+    }
+    let scene = match config.get_item("scene")?.filter(|s| !s.is_none()) {
+        Some(s) => {
+            let name: String = s
+                .extract()
+                .map_err(|_| wrong_value("scene", &s, "a scene name"))?;
+            Scene::named(&name)?
+        }
+        None => Scene::named(crate::env::DEFAULT_SCENE)?,
+    };
+    let values = scene_values(py, scene)?;
+    for (k, v) in config.iter() {
+        if !v.is_none() {
+            values.set_item(k, v)?;
+        }
+    }
+    let out = PyDict::new(py);
+    for key in CONFIG_KEYS {
+        let value = values.get_item(key.name)?.expect("every key has a value");
+        let value = if value.is_none() {
+            value
+        } else {
+            canonical(key, &value)?
+        };
+        out.set_item(key.name, value)?;
+    }
+    Ok(out)
+}
+
+fn get<'py>(values: &Bound<'py, PyDict>, name: &str) -> Bound<'py, PyAny> {
+    values
+        .get_item(name)
+        .ok()
+        .flatten()
+        .expect("merged values hold every key")
+}
+
+/// The model of canonical values.
+fn model(values: &Bound<'_, PyDict>) -> PyResult<AnyChain> {
+    let extract_f64 = |name: &str| get(values, name).extract::<f64>();
+    let model = ChainCart::from_params(
+        get(values, "n_links").extract()?,
+        extract_f64("cart_mass")?,
+        &get(values, "link_masses"),
+        &get(values, "link_lengths"),
+        extract_f64("gravity")?,
+        get(values, "planar").extract()?,
+    )?;
+    Ok(model.chain)
+}
+
+/// Where episodes start: a name, a sign tuple (length `n`) or a full state.
+fn start(value: &Bound<'_, PyAny>, n: usize, state_dim: usize) -> PyResult<Start> {
+    if let Ok(name) = value.cast::<PyString>() {
+        return Ok(Start::from_name(name.to_str()?, n)?);
+    }
+    let v: Vec<f64> = value.extract()?;
+    if v.len() == n {
+        Ok(Start::Equilibrium(v))
+    } else if v.len() == state_dim {
+        Ok(Start::State(v))
+    } else {
+        Err(error(format!(
+            "start has length {}, expected {n} (a sign tuple) or {state_dim} (a full state)",
+            v.len()
+        )))
+    }
+}
+
+/// The task of canonical values on `chain`.
+fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
+    let f = |name: &str| get(values, name).extract::<f64>();
+    let n = chain.n_links();
+    let method = Method::from_name(&get(values, "integrator").extract::<String>()?)?;
+    let substeps = count(key("substeps"), &get(values, "substeps"))?;
+    let mut task = TaskConfig::new(
+        signs(&get(values, "target"), n)?,
+        f("dt")?,
+        StepOptions::new(method, substeps as usize)?,
+    );
+    task.start = start(&get(values, "start"), n, chain.state_dim())?;
+    task.start_noise = f("start_noise")?;
+    task.max_force = f("max_force")?;
+    task.track_limit = f("track_limit")?;
+    task.max_episode_steps = count(key("max_episode_steps"), &get(values, "max_episode_steps"))?;
+    task.reward = RewardWeights::from_array(get(values, "reward_weights").extract()?);
+    let [e_q, e_w]: [f64; 2] = get(values, "success_tolerances").extract()?;
+    task.success = SuccessTolerances { e_q, e_w };
+    let optional = |name: &str| Some(get(values, name)).filter(|v| !v.is_none());
+    task.reality = reality_gap(RealityArgs {
+        randomize: optional("randomize").as_ref(),
+        params: optional("params").as_ref(),
+        mismatch: optional("mismatch").as_ref(),
+        obs_noise: optional("obs_noise").as_ref(),
+        action_delay: get(values, "action_delay").extract()?,
+        force_rate_limit: optional("force_rate_limit")
+            .map(|v| number("force_rate_limit", &v))
+            .transpose()?,
+    })?;
+    Ok(task)
+}
+
+fn key(name: &str) -> &'static ConfigKey {
+    config_key(name).expect("a key of the table")
+}
+
+/// Resolves a dict of keys (any subset, `scene` among them) into the model, the task
+/// and the canonical values. The task is not yet checked: building a batch checks it.
+pub fn resolve(config: &Bound<'_, PyDict>) -> PyResult<Resolved> {
+    let values = merged(config)?;
+    let chain = model(&values)?;
+    let task = task(&values, &chain)?;
+    write_task_keys(values.py(), &task.reality, &values)?;
+    Ok(Resolved {
+        obs_f64: get(&values, "obs_dtype").extract::<String>()? == "float64",
+        diagnostics: get(&values, "diagnostics").extract()?,
+        chain,
+        task,
+        canonical: values.unbind(),
+    })
+}
+
+/// Resolves and checks a configuration: `config` is a dict of keys (any subset;
+/// `scene` names the scene whose values fill the rest, `None` values are unset).
+/// Returns every key's value in canonical form, or raises naming the bad value.
+#[pyfunction]
+pub fn resolve_config<'py>(
+    py: Python<'py>,
+    config: &Bound<'py, PyDict>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let resolved = resolve(config)?;
+    // One env is enough: building a batch runs every check of the task on this chain.
+    AnyEnvBatch::new(
+        resolved.chain,
+        resolved.task,
+        1,
+        0,
+        AutoresetMode::default(),
+        false,
+    )?;
+    Ok(resolved.canonical.into_bound(py))
+}
