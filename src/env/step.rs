@@ -474,9 +474,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
             load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
             continue;
         }
-        let (force, a2) = actuate(task, &mut e, o.action);
-        l.forces[k * f..(k + 1) * f].copy_from_slice(&force[..f]);
-        l.a2[k] = a2;
+        l.a2[k] = actuate(task, &mut e, o.action, &mut l.forces[k * f..(k + 1) * f]);
     }
     let plan = StepPlan {
         dt: task.dt,
@@ -592,12 +590,14 @@ pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
     }
 }
 
-/// The force the actuator applies for `action` and the squared norm of the applied
-/// normalised action (for the reward): clip to `[-1, 1]`, delay by `action_delay`
-/// control periods, scale by `max_force`, limit the change per period to
-/// `force_rate_limit * dt` per axis.
+/// Writes the force the actuator applies for `action` into `force` (one number per
+/// axis) and returns the squared norm of the applied normalised action (for the
+/// reward): clip to `[-1, 1]`, delay by `action_delay` control periods, scale by
+/// `max_force`, limit the change per period to `force_rate_limit * dt` per axis.
+/// Written in place rather than returned: copying a returned array that was just
+/// written number by number stalled the lane path's actuation pass (store forwarding).
 #[inline(always)]
-fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A]) -> ([f64; 3], f64) {
+fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: &mut [f64]) -> f64 {
     let f = action.len();
     let mut a = [0.0; 3];
     for (ak, x) in a.iter_mut().zip(action) {
@@ -611,7 +611,6 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A]) -> ([f6
             std::mem::swap(ak, queued);
         }
     }
-    let mut force = [0.0; 3];
     let mut a2 = 0.0;
     for (fk, &ak) in force.iter_mut().zip(&a[..f]) {
         a2 += ak * ak;
@@ -631,7 +630,7 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A]) -> ([f6
             a2 += applied * applied;
         }
     }
-    (force, a2)
+    a2
 }
 
 /// `(sum |q_i - s_i e3|^2, sum |w_i|^2, e_q, e_w)`.
@@ -741,7 +740,8 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         return;
     }
     let task = ctx.task;
-    let (force, a2) = actuate(task, &mut e, o.action);
+    let mut force = [0.0; 3];
+    let a2 = actuate(task, &mut e, o.action, &mut force[..G::Cart::DIM]);
     let chain = env_chain(ctx, scratch, &e.params);
     let status = stepper.step(
         chain,
