@@ -442,16 +442,9 @@ impl<G: Geometry> EnvBatch<G> {
 
     /// [`EnvBatch::use_lanes`], or an error if the scene has no lane kernel.
     fn lanes_or_error(&mut self, kernel: Kernel, precision: Precision) -> Result<()> {
-        if self.use_lanes(Some(kernel), precision) {
-            Ok(())
-        } else {
-            Err(InputError::InvalidParameter {
-                name: "kernel",
-                value: kernel as u8 as f64,
-                expected: "None: this scene has no lane kernel",
-            }
-            .into())
-        }
+        let used = self.use_lanes(Some(kernel), precision);
+        kernel.available_or("None: this scene has no lane kernel", used)?;
+        Ok(())
     }
 
     /// Gives every chunk's worker the lane path of `kernel` in `precision` (`None`:
