@@ -599,20 +599,23 @@ pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
 #[inline(always)]
 fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: &mut [f64]) -> f64 {
     let f = action.len();
-    let mut a = [0.0; 3];
-    for (ak, x) in a.iter_mut().zip(action) {
-        *ak = x.to_f64().clamp(-1.0, 1.0);
-    }
     let delay = task.reality.action_delay;
-    if delay > 0 {
-        // The ring slot of this step holds the action of `delay` steps ago.
-        let j = (e.slot.steps % delay as u64) as usize * f;
-        for (ak, queued) in a.iter_mut().zip(&mut e.queue[j..j + f]) {
-            std::mem::swap(ak, queued);
-        }
-    }
+    // The ring slot of this step holds the action of `delay` steps ago.
+    let j = if delay > 0 {
+        (e.slot.steps % delay as u64) as usize * f
+    } else {
+        0
+    };
+    // One pass per axis, each number used where it is made: reading back an array
+    // just written number by number stalled on store forwarding.
+    let mut a = [0.0; 3];
     let mut a2 = 0.0;
-    for (fk, &ak) in force.iter_mut().zip(&a[..f]) {
+    for (k, (x, fk)) in action.iter().zip(force.iter_mut()).enumerate() {
+        let mut ak = x.to_f64().clamp(-1.0, 1.0);
+        if delay > 0 {
+            std::mem::swap(&mut ak, &mut e.queue[j + k]);
+        }
+        a[k] = ak;
         a2 += ak * ak;
         *fk = ak * task.max_force;
     }
