@@ -13,20 +13,28 @@
 //!   default task, rk4 with 2 substeps, short episodes so resets are included) with the
 //!   reality gap off, with cart mass, link masses and lengths redrawn at every reset
 //!   (`randomized`), and with sensor noise plus a one-step delay (`noise_delay`).
+//! * `env_lanes/<path>/<scene>/4096`: the same task (reality gap off) at N = 4096 on
+//!   the paths side by side: env by env (`per_env`), the lane kernel in f64 and in f32,
+//!   and the lane kernel's physics alone (`physics_f64`, `physics_f32`: a raw batch of
+//!   the same chain, period and substeps), for n = 5 spatial and one planar link. The
+//!   env rows minus the physics rows are the task layer's cost.
 
 use chaincart::batch::Batch;
 use chaincart::batch::{Guard, Precision, StepStatus};
 use chaincart::dense::dense_derivative;
-use chaincart::env::{
-    AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
-};
+use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs};
 use chaincart::geometry::planar_to_spatial;
+use chaincart::geometry::Geometry;
 use chaincart::lanes::{Kernel, LaneParams, LaneStepper, StepPlan};
 use chaincart::{Chain, Planar, Spatial};
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector2;
 use std::hint::black_box;
+
+#[path = "shared/env_task.rs"]
+mod env_task;
+use env_task::{env_task, VARIANTS};
 
 const SIZES: [usize; 6] = [1, 2, 5, 10, 50, 200];
 
@@ -55,6 +63,16 @@ fn moving_state(chain: &SpatialChain) -> Vec<f64> {
     }
     chain.project(&mut y);
     y
+}
+
+/// `state` repeated for `num_envs` envs, env-major.
+fn repeated(state: &[f64], num_envs: usize) -> Vec<f64> {
+    state
+        .iter()
+        .copied()
+        .cycle()
+        .take(num_envs * state.len())
+        .collect()
 }
 
 fn chain(n: usize) -> SpatialChain {
@@ -141,12 +159,7 @@ fn batch(c: &mut Criterion) {
         let chain = chain(5);
         let y0 = moving_state(&chain);
         let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
-        let states: Vec<f64> = y0
-            .iter()
-            .copied()
-            .cycle()
-            .take(num_envs * y0.len())
-            .collect();
+        let states = repeated(&y0, num_envs);
         let forces = vec![0.0; 2 * num_envs];
         group.throughput(Throughput::Elements(num_envs as u64));
         group.bench_with_input(BenchmarkId::from_parameter(num_envs), &num_envs, |b, _| {
@@ -160,73 +173,109 @@ fn batch(c: &mut Criterion) {
     group.finish();
 }
 
-/// The default-scene task on `n` planar links with one of the reality-gap variants.
-fn env_task(n: usize, variant: &str) -> TaskConfig {
-    let mut task = TaskConfig::new(
-        vec![-1.0; n],
-        0.02,
-        StepOptions::new(Method::Rk4, 2).unwrap(),
-    );
-    task.max_episode_steps = 50;
-    let scale = Some(ParamRandomization {
-        distribution: Distribution::relative(0.25),
-        per_link: true,
+/// Benchmarks one `EnvBatch::step` of `b` under fixed actions as `id`.
+fn bench_env_step<G: Geometry>(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    id: BenchmarkId,
+    b: &mut EnvBatch<G>,
+) {
+    let (num_envs, d, f) = (b.num_envs(), b.state_dim(), b.force_dim());
+    let actions: Vec<f32> = (0..num_envs * f)
+        .map(|k| ((k % 7) as f32 - 3.0) * 0.1)
+        .collect();
+    let mut obs = vec![0.0f32; num_envs * d];
+    let mut rewards = vec![0.0; num_envs];
+    let (mut terminated, mut truncated) = (vec![false; num_envs], vec![false; num_envs]);
+    group.throughput(Throughput::Elements(num_envs as u64));
+    group.bench_function(id, |bencher| {
+        bencher.iter(|| {
+            let out = StepOutputs {
+                obs: &mut obs,
+                rewards: &mut rewards,
+                terminated: &mut terminated,
+                truncated: &mut truncated,
+            };
+            b.step(black_box(&actions), out).unwrap();
+        })
     });
-    match variant {
-        "randomized" => {
-            task.reality.randomize.cart_mass = scale;
-            task.reality.randomize.link_masses = scale;
-            task.reality.randomize.link_lengths = scale;
-        }
-        "noise_delay" => {
-            task.reality.obs_noise = vec![0.01];
-            task.reality.action_delay = 1;
-        }
-        _ => {}
-    }
-    task
+}
+
+/// The benchmark chain of `n` links: the default scene's (1 kg cart, 0.1 kg, 0.5 m).
+fn env_chain<G: Geometry>(n: usize) -> Chain<G> {
+    Chain::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap())
 }
 
 fn env_batch(c: &mut Criterion) {
     let mut group = c.benchmark_group("env_batch");
-    for variant in ["off", "randomized", "noise_delay"] {
+    for variant in VARIANTS {
         for n in [2usize, 5] {
             for num_envs in [1usize, 256, 4096] {
-                let chain =
-                    Chain::<Planar>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
-                let mut b = EnvBatch::new(
-                    chain,
-                    env_task(n, variant),
-                    num_envs,
-                    0,
-                    AutoresetMode::NextStep,
-                    false,
-                )
-                .unwrap();
-                let d = b.state_dim();
-                let actions: Vec<f32> = (0..num_envs)
-                    .map(|k| ((k % 7) as f32 - 3.0) * 0.1)
-                    .collect();
-                let mut obs = vec![0.0f32; num_envs * d];
-                let mut rewards = vec![0.0; num_envs];
-                let (mut terminated, mut truncated) =
-                    (vec![false; num_envs], vec![false; num_envs]);
-                group.throughput(Throughput::Elements(num_envs as u64));
+                let chain = env_chain::<Planar>(n);
+                let task = env_task(n, variant);
+                let mut b = EnvBatch::new(chain, task, num_envs, 0, AutoresetMode::NextStep, false)
+                    .unwrap();
                 let id = BenchmarkId::new(format!("{variant}/n{n}"), num_envs);
-                group.bench_with_input(id, &num_envs, |bencher, _| {
-                    bencher.iter(|| {
-                        let out = StepOutputs {
-                            obs: &mut obs,
-                            rewards: &mut rewards,
-                            terminated: &mut terminated,
-                            truncated: &mut truncated,
-                        };
-                        b.step(black_box(&actions), out).unwrap();
-                    })
-                });
+                bench_env_step(&mut group, id, &mut b);
             }
         }
     }
+    group.finish();
+}
+
+/// The `env_lanes` rows of one scene: env by env, lanes f64/f32, physics alone.
+fn env_lanes_scene<G: chaincart::lanes::LaneScene>(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    scene: &str,
+    n: usize,
+) {
+    let num_envs = 4096;
+    let paths = [
+        ("per_env", None),
+        ("lanes_f64", Some(Precision::F64)),
+        ("lanes_f32", Some(Precision::F32)),
+    ];
+    for (name, precision) in paths {
+        let task = env_task(n, "off");
+        let mut b = EnvBatch::new(
+            env_chain::<G>(n),
+            task,
+            num_envs,
+            0,
+            AutoresetMode::NextStep,
+            false,
+        )
+        .unwrap();
+        match precision {
+            None => b.set_kernel(None).unwrap(),
+            Some(p) => b.set_precision(p).unwrap(),
+        }
+        bench_env_step(
+            group,
+            BenchmarkId::new(format!("{name}/{scene}"), num_envs),
+            &mut b,
+        );
+    }
+    for (name, precision) in [
+        ("physics_f64", Precision::F64),
+        ("physics_f32", Precision::F32),
+    ] {
+        let task = env_task(n, "off");
+        let mut batch =
+            Batch::new(env_chain::<G>(n), num_envs, task.dt, task.step_options).unwrap();
+        batch.set_precision(precision).unwrap();
+        let forces = vec![0.1; num_envs * batch.chain().force_dim()];
+        group.throughput(Throughput::Elements(num_envs as u64));
+        let id = BenchmarkId::new(format!("{name}/{scene}"), num_envs);
+        group.bench_function(id, |bencher| {
+            bencher.iter(|| batch.step(black_box(&forces)).unwrap())
+        });
+    }
+}
+
+fn env_lanes(c: &mut Criterion) {
+    let mut group = c.benchmark_group("env_lanes");
+    env_lanes_scene::<Spatial>(&mut group, "spatial_n5", 5);
+    env_lanes_scene::<Planar>(&mut group, "planar_n1", 1);
     group.finish();
 }
 
@@ -253,12 +302,7 @@ fn batch_kernels(c: &mut Criterion) {
             let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
             batch.set_kernel(kernel).unwrap();
             batch.set_precision(precision).unwrap();
-            let states: Vec<f64> = y0
-                .iter()
-                .copied()
-                .cycle()
-                .take(num_envs * y0.len())
-                .collect();
+            let states = repeated(&y0, num_envs);
             let forces = vec![0.0; 2 * num_envs];
             batch.states_mut().copy_from_slice(&states);
             group.throughput(Throughput::Elements(num_envs as u64));
@@ -281,12 +325,7 @@ fn bench_lane_precision<T: chaincart::lanes::simd::LaneReal, const L: usize>(
 {
     let chain = chain(5);
     let y0 = moving_state(&chain);
-    let mut states: Vec<f64> = y0
-        .iter()
-        .copied()
-        .cycle()
-        .take(num_envs * y0.len())
-        .collect();
+    let mut states = repeated(&y0, num_envs);
     let forces = vec![0.0; 2 * num_envs];
     let params = [LaneParams::<L, T>::broadcast(chain.params())];
     let mut stepper = LaneStepper::<Spatial, L, T>::new(5);
@@ -324,6 +363,6 @@ fn lane_precision(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(300)).measurement_time(std::time::Duration::from_millis(800));
-    targets = accelerations, steps, planar_vs_spatial, batch, batch_kernels, lane_precision, env_batch
+    targets = accelerations, steps, planar_vs_spatial, batch, batch_kernels, lane_precision, env_batch, env_lanes
 }
 criterion_main!(benches);

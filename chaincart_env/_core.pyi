@@ -320,6 +320,15 @@ class EnvBatch:
         """Everything that evolves (states, RNG streams, step counts, ended flags)."""
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Continues from a ``snapshot`` of a batch of the same shape."""
+    def set_precision(self, precision: str) -> None:
+        """Steps the physics in ``"f64"`` (default; every env bit-identical to a single env)
+        or ``"f32"`` (the rk4 lane kernel in single precision: faster, within the accuracy
+        published in docs/simd.md). Observations keep their dtype. Raises
+        :class:`InvalidInputError` naming the value for anything else, or for ``"f32"``
+        with an integrator other than rk4."""
+    @property
+    def precision(self) -> str:
+        """``"f64"`` or ``"f32"``: the number type of the physics."""
 
 def render_frame(
     link_lengths: Sequence[float],

@@ -7,34 +7,12 @@
 //! `cargo run --release --example env_throughput` (set `RAYON_NUM_THREADS` to fix the
 //! thread count).
 
-use chaincart::env::{
-    AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
-};
+use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs};
 use chaincart::{Chain, ChainParams, Method, Planar, StepOptions};
 
-/// The default-scene task on `n` planar links with one of the variants.
-fn task(n: usize, variant: &str) -> TaskConfig {
-    let opts = StepOptions::new(Method::Rk4, 2).unwrap();
-    let mut task = TaskConfig::new(vec![-1.0; n], 0.02, opts);
-    task.max_episode_steps = 50;
-    let scale = Some(ParamRandomization {
-        distribution: Distribution::relative(0.25),
-        per_link: true,
-    });
-    match variant {
-        "randomized" => {
-            task.reality.randomize.cart_mass = scale;
-            task.reality.randomize.link_masses = scale;
-            task.reality.randomize.link_lengths = scale;
-        }
-        "noise+delay" => {
-            task.reality.obs_noise = vec![0.01];
-            task.reality.action_delay = 1;
-        }
-        _ => {}
-    }
-    task
-}
+#[path = "../benches/shared/env_task.rs"]
+mod env_task;
+use env_task::{env_task as task, VARIANTS};
 
 /// CPU time of this process so far (user + system, all threads), from /proc.
 fn cpu_seconds() -> f64 {
@@ -123,7 +101,7 @@ fn main() {
     }
     let variants: Vec<String> = std::env::args().skip(1).collect();
     let variants = if variants.is_empty() {
-        vec!["off".into(), "randomized".into(), "noise+delay".into()]
+        VARIANTS.map(String::from).to_vec()
     } else {
         variants
     };

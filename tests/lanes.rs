@@ -6,7 +6,7 @@ mod common;
 
 use chaincart::batch::{Guard, GuardedStepper, Precision, StepStatus};
 use chaincart::geometry::{Geometry, Vector};
-use chaincart::lanes::{Kernel, LaneGeometry, LaneParams, LaneStepper, StepPlan};
+use chaincart::lanes::{Kernel, LaneGeometry, LaneParams, LaneReal, LaneStepper, StepPlan};
 use chaincart::{Chain, ChainParams, Method, Planar, Spatial, StepOptions};
 use common::{random_params, random_planar_state, random_spatial_state, rng};
 use rand::rngs::StdRng;
@@ -182,51 +182,54 @@ fn this_cpu_runs_the_kernels_its_features_allow() {
     );
 }
 
-#[test]
-fn a_blow_up_in_one_lane_leaves_its_neighbours_unchanged() {
+/// Steps `L` paper systems from random states (from `seed`) once under the forces
+/// `calm` and once with force component `wild` set to `push`: the env it belongs to
+/// must be flagged and keep its state, every other env must get its calm result.
+fn blow_up_in_one_lane<T: LaneReal, const L: usize>(seed: u64, calm: &[f64], wild: usize, push: f64)
+where
+    Spatial: LaneGeometry<L, T>,
+{
     let chain = Chain::<Spatial>::new(ChainParams::paper());
-    let params = [LaneParams::<8>::broadcast(chain.params())];
-    let mut rng = rng(9);
-    let states: Vec<f64> = (0..8)
+    let params = [LaneParams::<L, T>::broadcast(chain.params())];
+    let mut rng = rng(seed);
+    let start: Vec<f64> = (0..L)
         .flat_map(|_| random_spatial_state(&mut rng, 5, 2.0))
         .collect();
-    let calm: Vec<f64> = (0..16).map(|j| j as f64 - 8.0).collect();
-    let mut wild = calm.clone();
-    wild[2 * 3] = 1e12;
     let guard = Guard::default();
     let plan = StepPlan {
         dt: 1e-3,
         substeps: 1,
         guard: &guard,
     };
-    let mut stepper = LaneStepper::<Spatial, 8>::new(5);
-    let run = |forces: &[f64], stepper: &mut LaneStepper<Spatial, 8>| {
-        let (mut y, mut status) = (states.clone(), vec![StepStatus::Ok; 8]);
-        stepper.step(
-            Kernel::detect(),
-            &params,
-            &mut y,
-            forces,
-            None,
-            plan,
-            &mut status,
-        );
+    let mut stepper = LaneStepper::<Spatial, L, T>::new(5);
+    let mut run = |forces: &[f64]| {
+        let (mut y, mut status) = (start.clone(), vec![StepStatus::Ok; L]);
+        let kernel = Kernel::detect();
+        stepper.step(kernel, &params, &mut y, forces, None, plan, &mut status);
         (y, status)
     };
-    let (reference, ok) = run(&calm, &mut stepper);
-    let (y, status) = run(&wild, &mut stepper);
+    let mut pushed = calm.to_vec();
+    pushed[wild] = push;
+    let (reference, ok) = run(calm);
+    let (y, status) = run(&pushed);
+    assert!(ok.iter().all(|s| !s.is_failure()), "{ok:?}");
     let d = chain.state_dim();
-    assert!(ok.iter().all(|s| !s.is_failure()));
-    for k in 0..8 {
+    for k in 0..L {
         let row = |v: &[f64]| bits(&v[k * d..(k + 1) * d]);
-        if k == 3 {
+        if k == wild / 2 {
             assert!(status[k].is_failure());
-            assert_eq!(row(&y), row(&states), "the failed env keeps its state");
+            assert_eq!(row(&y), row(&start), "the failed env keeps its state");
         } else {
             assert_eq!(status[k], StepStatus::Ok);
             assert_eq!(row(&y), row(&reference), "env {k}");
         }
     }
+}
+
+#[test]
+fn a_blow_up_in_one_lane_leaves_its_neighbours_unchanged() {
+    let calm: Vec<f64> = (0..16).map(|j| j as f64 - 8.0).collect();
+    blow_up_in_one_lane::<f64, 8>(9, &calm, 2 * 3, 1e12);
 }
 
 #[test]
@@ -466,49 +469,7 @@ fn f32_lanes_follow_the_f64_step_on_the_paper_scene() {
 
 #[test]
 fn an_f32_blow_up_is_flagged_and_leaves_its_neighbours_unchanged() {
-    let chain = Chain::<Spatial>::new(ChainParams::paper());
-    let params = [LaneParams::<16, f32>::broadcast(chain.params())];
-    let mut rng = rng(19);
-    let start: Vec<f64> = (0..16)
-        .flat_map(|_| random_spatial_state(&mut rng, 5, 2.0))
-        .collect();
-    let guard = Guard::default();
-    let plan = StepPlan {
-        dt: 1e-3,
-        substeps: 1,
-        guard: &guard,
-    };
-    let mut stepper = LaneStepper::<Spatial, 16, f32>::new(5);
-    let mut run = |forces: &[f64]| {
-        let (mut y, mut status) = (start.clone(), vec![StepStatus::Ok; 16]);
-        stepper.step(
-            Kernel::detect(),
-            &params,
-            &mut y,
-            forces,
-            None,
-            plan,
-            &mut status,
-        );
-        (y, status)
-    };
-    let calm = vec![1.0; 32];
-    let mut wild = calm.clone();
-    wild[2 * 5 + 1] = 1e30;
-    let (reference, ok) = run(&calm);
-    let (y, status) = run(&wild);
-    assert!(ok.iter().all(|s| !s.is_failure()), "{ok:?}");
-    let d = chain.state_dim();
-    for k in 0..16 {
-        let row = |v: &[f64]| bits(&v[k * d..(k + 1) * d]);
-        if k == 5 {
-            assert!(status[k].is_failure());
-            assert_eq!(row(&y), row(&start));
-        } else {
-            assert_eq!(status[k], StepStatus::Ok);
-            assert_eq!(row(&y), row(&reference), "env {k}");
-        }
-    }
+    blow_up_in_one_lane::<f32, 16>(19, &[1.0; 32], 2 * 5 + 1, 1e30);
 }
 
 #[test]

@@ -34,7 +34,7 @@ __all__ = ["throughput_section", "links_config"]
 
 def links_config(n_links: int) -> ChainCartConfig:
     """The throughput benchmark's task for ``n_links``: the default scene's system and
-    task (rk4, 1 substep, 20 ms), made spatial so that every n costs the full 3-D model."""
+    task (rk4, 2 substeps, 20 ms), made spatial so that every n costs the full 3-D model."""
     return ChainCartConfig(n_links=n_links, planar=False)
 
 
@@ -228,9 +228,13 @@ REALITY_VARIANTS: dict[str, dict[str, Any]] = {
 }
 
 
-def _reality_rates(ctx: BenchContext, config: ChainCartConfig, num_envs: int, rng: np.random.Generator) -> tuple[float, float]:
-    """Env-steps/s of the raw batch and the vector env for one config (interleaved)."""
+def _reality_rates(
+    ctx: BenchContext, config: ChainCartConfig, num_envs: int, rng: np.random.Generator, precision: str = "f64"
+) -> tuple[float, float]:
+    """Env-steps/s of the raw batch and the vector env for one config (interleaved),
+    physics in ``precision``."""
     vec = ChainCartVectorEnv(num_envs, config)
+    vec._batch.set_precision(precision)
     vec.reset(seed=0)
     actions = rng.uniform(-1, 1, (num_envs, config.force_dim)).astype(np.float32)
     native = vec._batch  # the Rust call the vector env wraps
@@ -266,9 +270,31 @@ def _reality_table(ctx: BenchContext, rng: np.random.Generator) -> None:
     ctx.report.table(["links", "N", *REALITY_VARIANTS], rows, 0)
 
 
+def _planar_link_table(ctx: BenchContext, rng: np.random.Generator) -> None:
+    """One planar link against CartPoleVectorEnv at the largest N, side by side in one run."""
+    num_envs = max(ctx.settings.sizes)
+    cartpole = _cartpole_vector_rate(ctx, num_envs, rng)
+    rows = [["CartPoleVectorEnv (NumPy)", "", fmt_rate(cartpole), ""]]
+    results: dict[str, Any] = {"cartpole": cartpole}
+    for precision in ("f64", "f32"):
+        raw, vec = _reality_rates(ctx, ChainCartConfig(n_links=1), num_envs, rng, precision)
+        results[precision] = {"raw": raw, "vector": vec}
+        rows.append([f"ChainCartVectorEnv, 1 planar link, {precision}", fmt_rate(raw), fmt_rate(vec), fmt_ratio(vec, cartpole)])
+    ctx.results["planar_link"] = {"num_envs": num_envs, **results}
+    ctx.report.heading(f"One planar link vs CartPoleVectorEnv, N = {num_envs}: env-steps/s")
+    config = ChainCartConfig(n_links=1)
+    ctx.report.paragraph(
+        f"The default scene's system with one link (planar, {config.integrator} x{config.substeps}, "
+        f"{config.dt * 1e3:g} ms; CartPole's is one Euler step of 20 ms), measured in the same run. "
+        "raw = native `EnvBatch.step`; vector = `ChainCartVectorEnv.step`; f32 = `EnvBatch.set_precision(\"f32\")`."
+    )
+    ctx.report.table(["env", "raw", "vector", "vector vs CartPoleVectorEnv"], rows, 0)
+
+
 def throughput_section(ctx: BenchContext) -> None:
     rng = np.random.default_rng(0)
     _single_env_table(ctx, rng)
     _raw_model_table(ctx)
     _vector_tables(ctx, rng)
+    _planar_link_table(ctx, rng)
     _reality_table(ctx, rng)

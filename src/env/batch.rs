@@ -6,6 +6,11 @@
 //! a batch of one seeded with `seed + i`, and the chunking (fixed, [`CHUNK`] envs)
 //! makes results independent of the thread count. Nothing is allocated in
 //! [`EnvBatch::step`] or [`EnvBatch::reset`].
+//!
+//! With rk4, batches of [`MIN_LANE_ENVS`] or more envs step their physics through the
+//! lane kernel of [`crate::lanes`] (one env per SIMD lane, each env with its own
+//! parameters when they are randomised), which gives every env the same bits as the
+//! env-by-env path; [`EnvBatch::set_precision`] trades that for f32 lanes.
 
 use super::config::{AutoresetMode, TaskConfig};
 use super::reality::{EnvParams, NOISE_STREAM, PARAM_STREAM};
@@ -14,13 +19,20 @@ use super::step::{
     reset_env, run_range, sense, write_obs, Ctx, EnvData, OutRange, Slot, Widths, Worker,
 };
 use crate::any::AnyChain;
-use crate::batch::CHUNK;
+use crate::batch::{Precision, CHUNK, MIN_LANE_ENVS};
 use crate::error::{InputError, Result};
 use crate::geometry::{Geometry, Planar, Spatial};
+use crate::integrate::Method;
+use crate::lanes::{ChunkSpec, Kernel};
 use crate::model::Chain;
 use crate::params::ChainParams;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+
+/// Smallest guard `unit_length_tolerance` an env batch accepts in f32: after the
+/// projection, `| |q_i| - 1 |` computed in f32 is a few f32 rounding errors (a few
+/// 1e-7), so a tighter tolerance would fail good steps.
+pub const F32_MIN_UNIT_LENGTH_TOLERANCE: f64 = 5e-7;
 
 /// Bits of [`EnvBatch::events`], one byte per env, set by the last step or reset.
 pub mod event {
@@ -163,6 +175,8 @@ pub struct EnvBatch<G: Geometry> {
     /// last step.
     finals: Vec<f64>,
     diag: Vec<f64>,
+    /// Per-env parameters changed since the lane paths last loaded them.
+    lane_params_stale: bool,
 }
 
 /// The shared read-only context of a step or reset, from the batch's fields.
@@ -176,6 +190,7 @@ macro_rules! ctx {
             mode: $b.mode,
             diagnostics: $b.diagnostics,
             widths: $b.widths,
+            reload_params: $b.lane_params_stale,
         }
     };
 }
@@ -264,9 +279,15 @@ impl<G: Geometry> EnvBatch<G> {
             diag: vec![0.0; DIAGNOSTICS.len() * num_envs],
             chain,
             true_chain,
+            lane_params_stale: true,
         };
         for env in 0..num_envs {
             batch.reset_one(env);
+        }
+        if batch.task.step_options.method == Method::Rk4 && num_envs >= MIN_LANE_ENVS {
+            // The default where the scene has a lane kernel (a scene without one
+            // keeps stepping env by env).
+            let _ = batch.use_lanes(Some(Kernel::detect()), Precision::F64);
         }
         Ok(batch)
     }
@@ -358,6 +379,102 @@ impl<G: Geometry> EnvBatch<G> {
         &self.diag
     }
 
+    /// The lane kernel stepping the physics, or `None` when envs step one by one.
+    pub fn kernel(&self) -> Option<Kernel> {
+        self.workers[0].lanes().map(|l| l.kernel())
+    }
+
+    /// Number type of the physics (f64 unless [`EnvBatch::set_precision`] chose f32).
+    pub fn precision(&self) -> Precision {
+        self.workers[0]
+            .lanes()
+            .map_or(Precision::F64, |l| l.precision())
+    }
+
+    /// Chooses the lane kernel (`None`: env by env). Both give the same bits in f64;
+    /// this exists to compare them. Errors if the CPU lacks the kernel or the
+    /// integrator is not rk4. Keeps the precision.
+    pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
+        let Some(kernel) = kernel else {
+            self.use_lanes(None, Precision::F64);
+            return Ok(());
+        };
+        kernel.checked()?;
+        self.check_rk4("kernel", kernel as u8 as f64)?;
+        self.lanes_or_error(kernel, self.precision())
+    }
+
+    /// Steps the physics in f64 (the default) or f32. f32 runs on the lane kernel
+    /// (16 envs per group; chosen here if the batch stepped env by env, even below
+    /// [`MIN_LANE_ENVS`] envs) and needs rk4; it gives up bit-identity with the f64
+    /// path for speed, within the accuracy documented in `docs/simd.md`.
+    /// Observations keep their own dtype.
+    pub fn set_precision(&mut self, precision: Precision) -> Result<()> {
+        let kernel = self.kernel();
+        if kernel.is_none() && precision == Precision::F64 {
+            return Ok(());
+        }
+        self.check_rk4("precision", 32.0)?;
+        let tolerance = self.task.guard.unit_length_tolerance;
+        if precision == Precision::F32 && tolerance < F32_MIN_UNIT_LENGTH_TOLERANCE {
+            return Err(InputError::InvalidParameter {
+                name: "guard unit_length_tolerance",
+                value: tolerance,
+                expected: "at least 5e-7 in f32 (its round-off alone reaches a few 1e-7 and would fail good steps), or precision f64",
+            }
+            .into());
+        }
+        self.lanes_or_error(kernel.unwrap_or_else(Kernel::detect), precision)
+    }
+
+    /// An error naming `name = value` unless the integrator is rk4.
+    fn check_rk4(&self, name: &'static str, value: f64) -> Result<()> {
+        if self.task.step_options.method == Method::Rk4 {
+            return Ok(());
+        }
+        Err(InputError::InvalidParameter {
+            name,
+            value,
+            expected: "the f64 env-by-env path unless the integrator is rk4 (the only one with a lane kernel)",
+        }
+        .into())
+    }
+
+    /// [`EnvBatch::use_lanes`], or an error if the scene has no lane kernel.
+    fn lanes_or_error(&mut self, kernel: Kernel, precision: Precision) -> Result<()> {
+        let used = self.use_lanes(Some(kernel), precision);
+        kernel.available_or("None: this scene has no lane kernel", used)?;
+        Ok(())
+    }
+
+    /// Gives every chunk's worker the lane path of `kernel` in `precision` (`None`:
+    /// env by env). Returns false, changing nothing, if the scene has no lane kernel.
+    fn use_lanes(&mut self, kernel: Option<Kernel>, precision: Precision) -> bool {
+        let per_env = self.widths.param_scalars == 1;
+        let num_envs = self.num_envs;
+        for (i, worker) in self.workers.iter_mut().enumerate() {
+            let chunk = CHUNK.min(num_envs - i * CHUNK);
+            let lanes = match kernel {
+                None => None,
+                Some(kernel) => {
+                    let spec = ChunkSpec {
+                        num_envs: chunk,
+                        per_env,
+                        kernel,
+                        precision,
+                    };
+                    match G::chunk_lanes(&self.true_chain, spec) {
+                        Some(lanes) => Some(lanes),
+                        None => return false,
+                    }
+                }
+            };
+            worker.set_lanes(lanes, chunk);
+        }
+        self.lane_params_stale = true;
+        true
+    }
+
     /// Writes every env's current observation (its state cast to `T`, or its last
     /// noisy reading when sensor noise is on) into `obs`.
     pub fn write_obs<T: Real>(&self, obs: &mut [T]) -> Result<()> {
@@ -435,6 +552,7 @@ impl<G: Geometry> EnvBatch<G> {
             self.reset_one(env);
             self.events[env] = 0;
         }
+        self.lane_params_stale = true;
         self.write_obs(obs)
     }
 
@@ -494,6 +612,7 @@ impl<G: Geometry> EnvBatch<G> {
             diag: &mut self.diag,
         };
         run_range(&ctx, self.data.view(), outputs, &mut self.workers);
+        self.lane_params_stale = false;
         Ok(self
             .events
             .iter()
@@ -523,40 +642,24 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
         let d = &mut self.data;
         let n = self.num_envs;
-        check_size("snapshot states", snap.states.len(), d.states.len())?;
-        check_size("snapshot rng", snap.rng.len(), n)?;
-        check_size("snapshot steps", snap.steps.len(), n)?;
-        check_size("snapshot ended", snap.ended.len(), n)?;
-        check_size(
-            "snapshot param_rng",
-            snap.param_rng.len(),
-            d.param_rngs.len(),
-        )?;
-        check_size(
-            "snapshot noise_rng",
-            snap.noise_rng.len(),
-            d.noise_rngs.len(),
-        )?;
-        check_size(
-            "snapshot params",
-            snap.params.num_envs(),
-            d.params.num_envs(),
-        )?;
-        check_size(
-            "snapshot noisy_obs",
-            snap.noisy_obs.len(),
-            d.noisy_obs.len(),
-        )?;
-        check_size(
-            "snapshot action_queue",
-            snap.action_queue.len(),
-            d.queue.len(),
-        )?;
-        check_size(
-            "snapshot last_force",
-            snap.last_force.len(),
-            d.last_force.len(),
-        )?;
+        // Each part of the snapshot against the batch: name, length given, length
+        // expected (one line each, which rustfmt would spread over five).
+        #[rustfmt::skip]
+        let sizes: [(&'static str, usize, usize); 10] = [
+            ("snapshot states", snap.states.len(), d.states.len()),
+            ("snapshot rng", snap.rng.len(), n),
+            ("snapshot steps", snap.steps.len(), n),
+            ("snapshot ended", snap.ended.len(), n),
+            ("snapshot param_rng", snap.param_rng.len(), d.param_rngs.len()),
+            ("snapshot noise_rng", snap.noise_rng.len(), d.noise_rngs.len()),
+            ("snapshot params", snap.params.num_envs(), d.params.num_envs()),
+            ("snapshot noisy_obs", snap.noisy_obs.len(), d.noisy_obs.len()),
+            ("snapshot action_queue", snap.action_queue.len(), d.queue.len()),
+            ("snapshot last_force", snap.last_force.len(), d.last_force.len()),
+        ];
+        for (name, got, expected) in sizes {
+            check_size(name, got, expected)?;
+        }
         crate::error::check_finite("snapshot states", &snap.states)?;
         for k in 0..snap.params.num_envs() {
             snap.params.get(k)?;
@@ -578,6 +681,7 @@ impl<G: Geometry> EnvBatch<G> {
         d.queue.copy_from_slice(&snap.action_queue);
         d.last_force.copy_from_slice(&snap.last_force);
         self.events.fill(0);
+        self.lane_params_stale = true;
         Ok(())
     }
 }
@@ -735,5 +839,21 @@ impl AnyEnvBatch {
     /// Continues from a snapshot of this batch.
     pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
         dispatch!(AnyEnvBatch, self, b => b.restore(snap))
+    }
+    /// The lane kernel stepping the physics, or `None` when envs step one by one.
+    pub fn kernel(&self) -> Option<Kernel> {
+        dispatch!(AnyEnvBatch, self, b => b.kernel())
+    }
+    /// Number type of the physics.
+    pub fn precision(&self) -> Precision {
+        dispatch!(AnyEnvBatch, self, b => b.precision())
+    }
+    /// Chooses the lane kernel (`None`: env by env).
+    pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
+        dispatch!(AnyEnvBatch, self, b => b.set_kernel(kernel))
+    }
+    /// Steps the physics in f64 or f32 (rk4 only for f32).
+    pub fn set_precision(&mut self, precision: Precision) -> Result<()> {
+        dispatch!(AnyEnvBatch, self, b => b.set_precision(precision))
     }
 }

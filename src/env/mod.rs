@@ -37,7 +37,10 @@ pub mod scenes;
 pub mod start;
 mod step;
 
-pub use batch::{event, AnyEnvBatch, EnvBatch, Real, Snapshot, StepOutputs, DIAGNOSTICS};
+pub use batch::{
+    event, AnyEnvBatch, EnvBatch, Real, Snapshot, StepOutputs, DIAGNOSTICS,
+    F32_MIN_UNIT_LENGTH_TOLERANCE,
+};
 pub use config::{
     target_signs, AutoresetMode, PaperFigure, RewardWeights, Start, SuccessTolerances, TaskConfig,
 };

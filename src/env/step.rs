@@ -3,13 +3,19 @@
 //! sensing). The batch splits its envs into fixed chunks of [`CHUNK`] envs, each with
 //! its own [`Worker`]; chunks run in parallel, and no env reads another's data, so the
 //! split never changes a result.
+//!
+//! With a lane kernel (rk4) a chunk runs in three phases instead of env by env:
+//! every env's autoreset or actuation, then one lane step of the envs that step, then
+//! every stepped env's scoring, same-step reset and observation. Envs are independent,
+//! so the phase order gives each env exactly the bits of the env-by-env order.
 
 use super::batch::{event, Real, DIAGNOSTICS};
 use super::config::{AutoresetMode, TaskConfig};
 use super::reality::{EnvParams, ParamRow, RealityGap};
 use super::start::perturb;
-use crate::batch::{GuardedStepper, CHUNK};
+use crate::batch::{GuardedStepper, StepStatus, CHUNK};
 use crate::geometry::{Geometry, Layout, Vector};
+use crate::lanes::{ChunkLanes, StepPlan, LANES_F32};
 use crate::model::Chain;
 use crate::params::ChainParams;
 use rand::Rng;
@@ -313,12 +319,28 @@ pub(super) struct EnvOut<'a, T: Real, A: Real> {
     diag: &'a mut [f64],
 }
 
-/// Scratch of one chunk: the integrator and a chain that per-env parameters are
-/// loaded into.
-#[derive(Debug, Clone)]
+/// Scratch of one chunk: the integrator, a chain that per-env parameters are
+/// loaded into and, when a lane kernel steps the chunk, its lane path and buffers.
 pub(super) struct Worker<G: Geometry> {
     stepper: GuardedStepper<G>,
     chain: Chain<G>,
+    lanes: Option<LaneScratch>,
+}
+
+// A lane path steps whole groups of lanes: chunks must not split one.
+const _: () = assert!(CHUNK.is_multiple_of(LANES_F32));
+
+/// The lane path of one chunk and what its phases hand each other, sized for the
+/// chunk once (nothing is allocated in a step).
+pub(super) struct LaneScratch {
+    lanes: Box<dyn ChunkLanes>,
+    /// Per env, the force `actuate` asked for.
+    forces: Vec<f64>,
+    /// Per env, the squared applied action (for the reward).
+    a2: Vec<f64>,
+    /// Per env, whether it steps (false: it was autoreset instead).
+    stepped: Vec<bool>,
+    status: Vec<StepStatus>,
 }
 
 impl<G: Geometry> Worker<G> {
@@ -326,7 +348,24 @@ impl<G: Geometry> Worker<G> {
         Self {
             stepper: GuardedStepper::new(chain),
             chain: chain.clone(),
+            lanes: None,
         }
+    }
+
+    /// Steps the worker's `num_envs` envs with `lanes` from now on (`None`: env by env).
+    pub fn set_lanes(&mut self, lanes: Option<Box<dyn ChunkLanes>>, num_envs: usize) {
+        self.lanes = lanes.map(|lanes| LaneScratch {
+            lanes,
+            forces: vec![0.0; num_envs * G::Cart::DIM],
+            a2: vec![0.0; num_envs],
+            stepped: vec![false; num_envs],
+            status: vec![StepStatus::Ok; num_envs],
+        });
+    }
+
+    /// The worker's lane path, if a lane kernel steps its chunk.
+    pub fn lanes(&self) -> Option<&dyn ChunkLanes> {
+        self.lanes.as_ref().map(|l| &*l.lanes)
     }
 }
 
@@ -341,6 +380,9 @@ pub(super) struct Ctx<'a, G: Geometry> {
     pub mode: AutoresetMode,
     pub diagnostics: bool,
     pub widths: Widths,
+    /// Per-env parameters changed outside a step (reset, restore, new lane path):
+    /// the lane paths load every env's before stepping.
+    pub reload_params: bool,
 }
 
 /// Steps every env of the range, splitting it at chunk boundaries and running the
@@ -373,13 +415,18 @@ pub(super) fn run_range<G: Geometry, T: Real, A: Real>(
     }
 }
 
-/// Steps the envs of one chunk, in order, on this thread.
+/// Steps the envs of one chunk on this thread: env by env, or in phases around one
+/// lane step when the worker has a lane path.
 fn run_chunk<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
     mut data: DataRange<'_>,
     mut out: OutRange<'_, T, A>,
     worker: &mut Worker<G>,
 ) {
+    if worker.lanes.is_some() {
+        run_chunk_lanes(ctx, data, out, worker);
+        return;
+    }
     for k in 0..data.len() {
         step_env(
             ctx,
@@ -387,6 +434,90 @@ fn run_chunk<G: Geometry, T: Real, A: Real>(
             data.env(k, &ctx.widths),
             out.env(k, &ctx.widths),
         );
+    }
+}
+
+/// [`run_chunk`] through the worker's lane path: (a) per env, autoreset or actuate;
+/// (b) one lane step of the envs that step; (c) per stepped env, score, diagnostics,
+/// same-step reset and observation. A failed env keeps its last good state (the
+/// lane path writes back only successful lanes) and its lane neighbours are untouched.
+/// Kept out of line: one call per chunk, and the env-by-env loop stays as compact as
+/// it was without it.
+#[inline(never)]
+fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
+    ctx: &Ctx<'_, G>,
+    mut data: DataRange<'_>,
+    mut out: OutRange<'_, T, A>,
+    worker: &mut Worker<G>,
+) {
+    let Worker {
+        chain: scratch,
+        lanes: Some(l),
+        ..
+    } = worker
+    else {
+        return;
+    };
+    let (w, task) = (&ctx.widths, ctx.task);
+    let (num_envs, f) = (data.len(), w.force);
+    if ctx.reload_params {
+        for k in 0..num_envs {
+            load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
+        }
+    }
+    for k in 0..num_envs {
+        let mut e = data.env(k, w);
+        let o = out.env(k, w);
+        l.stepped[k] = !e.slot.ended;
+        if e.slot.ended {
+            autoreset_step(ctx, scratch, e, o);
+            load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
+            continue;
+        }
+        l.a2[k] = actuate(task, &mut e, o.action, &mut l.forces[k * f..(k + 1) * f]);
+    }
+    let plan = StepPlan {
+        dt: task.dt,
+        substeps: task.step_options.substeps,
+        guard: &task.guard,
+    };
+    l.lanes.step(
+        &mut data.states[..num_envs * w.state],
+        &l.forces[..num_envs * f],
+        &l.stepped[..num_envs],
+        plan,
+        &mut l.status[..num_envs],
+    );
+    for k in 0..num_envs {
+        if !l.stepped[k] {
+            continue;
+        }
+        let e = data.env(k, w);
+        // The env's own chain is only read by the diagnostics: load it only for them.
+        let chain = if ctx.diagnostics {
+            env_chain(ctx, scratch, &e.params)
+        } else {
+            ctx.chain
+        };
+        if finish_step(ctx, chain, e, out.env(k, w), l.status[k], l.a2[k]) {
+            load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
+        }
+    }
+}
+
+/// Loads env `k`'s own parameters (if it has any) into its lane, computed through the
+/// scratch chain exactly as the per-env path computes them.
+fn load_lane_params<G: Geometry>(
+    scratch: &mut Chain<G>,
+    lanes: &mut dyn ChunkLanes,
+    k: usize,
+    params: &Option<ParamRow<'_>>,
+) {
+    if let Some(p) = params {
+        scratch.set_params_unchecked(*p.cart_mass, p.link_masses, p.link_lengths, *p.gravity);
+        // Same link count by construction: the batch built the lanes from this chain.
+        let loaded = lanes.set_env_params(k, scratch.params());
+        debug_assert!(loaded.is_ok(), "{loaded:?}");
     }
 }
 
@@ -459,28 +590,32 @@ pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
     }
 }
 
-/// The force the actuator applies for `action` and the squared norm of the applied
-/// normalised action (for the reward): clip to `[-1, 1]`, delay by `action_delay`
-/// control periods, scale by `max_force`, limit the change per period to
-/// `force_rate_limit * dt` per axis.
+/// Writes the force the actuator applies for `action` into `force` (one number per
+/// axis) and returns the squared norm of the applied normalised action (for the
+/// reward): clip to `[-1, 1]`, delay by `action_delay` control periods, scale by
+/// `max_force`, limit the change per period to `force_rate_limit * dt` per axis.
+/// Written in place rather than returned: copying a returned array that was just
+/// written number by number stalled the lane path's actuation pass (store forwarding).
 #[inline(always)]
-fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A]) -> ([f64; 3], f64) {
+fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: &mut [f64]) -> f64 {
     let f = action.len();
-    let mut a = [0.0; 3];
-    for (ak, x) in a.iter_mut().zip(action) {
-        *ak = x.to_f64().clamp(-1.0, 1.0);
-    }
     let delay = task.reality.action_delay;
-    if delay > 0 {
-        // The ring slot of this step holds the action of `delay` steps ago.
-        let j = (e.slot.steps % delay as u64) as usize * f;
-        for (ak, queued) in a.iter_mut().zip(&mut e.queue[j..j + f]) {
-            std::mem::swap(ak, queued);
-        }
-    }
-    let mut force = [0.0; 3];
+    // The ring slot of this step holds the action of `delay` steps ago.
+    let j = if delay > 0 {
+        (e.slot.steps % delay as u64) as usize * f
+    } else {
+        0
+    };
+    // One pass per axis, each number used where it is made: reading back an array
+    // just written number by number stalled on store forwarding.
+    let mut a = [0.0; 3];
     let mut a2 = 0.0;
-    for (fk, &ak) in force.iter_mut().zip(&a[..f]) {
+    for (k, (x, fk)) in action.iter().zip(force.iter_mut()).enumerate() {
+        let mut ak = x.to_f64().clamp(-1.0, 1.0);
+        if delay > 0 {
+            std::mem::swap(&mut ak, &mut e.queue[j + k]);
+        }
+        a[k] = ak;
         a2 += ak * ak;
         *fk = ak * task.max_force;
     }
@@ -498,7 +633,7 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A]) -> ([f6
             a2 += applied * applied;
         }
     }
-    (force, a2)
+    a2
 }
 
 /// `(sum |q_i - s_i e3|^2, sum |w_i|^2, e_q, e_w)`.
@@ -594,11 +729,12 @@ fn step_env<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
     worker: &mut Worker<G>,
     mut e: EnvMut<'_>,
-    mut o: EnvOut<'_, T, A>,
+    o: EnvOut<'_, T, A>,
 ) {
     let Worker {
         stepper,
         chain: scratch,
+        ..
     } = worker;
     if e.slot.ended {
         // Next-step autoreset (the other modes never get here: same-step resets at
@@ -607,7 +743,8 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         return;
     }
     let task = ctx.task;
-    let (force, a2) = actuate(task, &mut e, o.action);
+    let mut force = [0.0; 3];
+    let a2 = actuate(task, &mut e, o.action, &mut force[..G::Cart::DIM]);
     let chain = env_chain(ctx, scratch, &e.params);
     let status = stepper.step(
         chain,
@@ -617,12 +754,30 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         &task.step_options,
         &task.guard,
     );
+    finish_step(ctx, chain, e, o, status, a2);
+}
+
+/// After env `e`'s physics (status `status`, squared applied action `a2`): step count,
+/// reward, flags and events, diagnostics (on `chain`, the env's own), the end of the
+/// episode (same-step reset or "ended") and the observation. Returns whether the env
+/// was reset (its parameters may have changed).
+#[inline(always)]
+fn finish_step<G: Geometry, T: Real, A: Real>(
+    ctx: &Ctx<'_, G>,
+    chain: &Chain<G>,
+    mut e: EnvMut<'_>,
+    mut o: EnvOut<'_, T, A>,
+    status: StepStatus,
+    a2: f64,
+) -> bool {
+    let task = ctx.task;
     e.slot.steps += 1;
     let ev = score(ctx, e.y, e.slot.steps, status.is_failure(), a2, &mut o);
     *o.event = ev;
     if ctx.diagnostics {
         write_diagnostics(chain, e.y, o.diag);
     }
+    let mut reset = false;
     if ev & event::ENDED != 0 {
         if ctx.mode == AutoresetMode::SameStep {
             match e.noise_rng.as_deref_mut() {
@@ -630,9 +785,11 @@ fn step_env<G: Geometry, T: Real, A: Real>(
                 Some(rng) => add_noise(&task.reality, e.y, rng, o.finals),
             }
             reset_env(ctx, &mut e);
+            reset = true;
         } else {
             e.slot.ended = true;
         }
     }
     emit_obs(&task.reality, &mut e, o.obs);
+    reset
 }

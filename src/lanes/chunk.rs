@@ -1,15 +1,17 @@
 //! The lane path of one chunk of envs behind a small trait object ([`ChunkLanes`]),
-//! so that code generic over any geometry can step a chunk whose concrete scene is
-//! known only where the chunk is built: [`LaneChunk::shared`] for envs of one chain,
-//! [`LaneChunk::per_env`] for envs with their own parameters.
+//! so that code generic over any geometry (the env batch) can step a chunk whose
+//! concrete scene is known only where the chunk is built ([`chunk_lanes`], reached
+//! through [`crate::geometry::Geometry::chunk_lanes`]): one shared chain broadcast
+//! into every lane, or one chain per env loaded lane by lane.
 
 use super::dispatch::Kernel;
 use super::params::LaneParams;
+use super::simd::LaneReal;
 use super::stepper::{LaneStepper, StepPlan};
 use super::vector::LaneGeometry;
-use super::LANES;
-use crate::batch::StepStatus;
-use crate::error::Result;
+use super::{LaneScene, LANES, LANES_F32};
+use crate::batch::{Precision, StepStatus};
+use crate::error::{InputError, Result};
 use crate::model::Chain;
 use crate::params::ChainParams;
 
@@ -24,50 +26,82 @@ pub trait ChunkLanes: Send + Sync {
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
     );
+
+    /// Gives env `k` of the chunk the chain `params` (same number of links). Only a
+    /// chunk built with one chain per env has lanes of its own; for a shared chain
+    /// this is an error naming `k`.
+    fn set_env_params(&mut self, k: usize, params: &ChainParams) -> Result<()>;
+
+    /// The compiled kernel that steps the chunk.
+    fn kernel(&self) -> Kernel;
+
+    /// The number type of the lanes.
+    fn precision(&self) -> Precision;
+}
+
+/// What a chunk's lane path is built for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ChunkSpec {
+    /// Envs in the chunk.
+    pub num_envs: usize,
+    /// Whether each env gets its own chain ([`ChunkLanes::set_env_params`]); else all
+    /// share the chain the chunk is built from.
+    pub per_env: bool,
+    /// The compiled kernel.
+    pub kernel: Kernel,
+    /// f64 ([`LANES`] per group) or f32 ([`LANES_F32`] per group).
+    pub precision: Precision,
 }
 
 /// The lane kernel with the chunk's parameters (one broadcast entry, or one per
-/// group of [`LANES`] envs).
-pub struct LaneChunk<G: LaneGeometry<LANES>> {
+/// group of `L` envs).
+pub struct LaneChunk<G: LaneGeometry<L, T>, const L: usize = LANES, T: LaneReal = f64> {
     kernel: Kernel,
-    params: Vec<LaneParams<LANES>>,
-    stepper: LaneStepper<G, LANES>,
+    params: Vec<LaneParams<L, T>>,
+    /// Each env has its own lane parameters (else `params` is one broadcast entry).
+    per_env: bool,
+    stepper: LaneStepper<G, L, T>,
+}
+
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneChunk<G, L, T> {
+    /// `chain`'s parameters in every lane: one broadcast entry, or (`per_env`) one
+    /// entry per group of `L` of the `num_envs` envs, to be changed lane by lane.
+    fn filled(chain: &Chain<G>, num_envs: usize, per_env: bool, kernel: Kernel) -> Self {
+        let groups = if per_env { num_envs.div_ceil(L) } else { 1 };
+        Self {
+            kernel,
+            params: vec![LaneParams::broadcast(chain.params()); groups.max(1)],
+            per_env,
+            stepper: LaneStepper::new(chain.n_links()),
+        }
+    }
+
+    /// The lane path for `spec` (its precision must be the one `T` is).
+    pub fn for_spec(chain: &Chain<G>, spec: ChunkSpec) -> Self {
+        debug_assert_eq!(spec.precision, T::PRECISION);
+        Self::filled(chain, spec.num_envs, spec.per_env, spec.kernel)
+    }
 }
 
 impl<G: LaneGeometry<LANES>> LaneChunk<G> {
     /// All envs of the chunk share `chain`'s parameters.
     pub fn shared(chain: &Chain<G>, kernel: Kernel) -> Self {
-        Self {
-            kernel,
-            params: vec![LaneParams::broadcast(chain.params())],
-            stepper: LaneStepper::new(chain.n_links()),
-        }
+        Self::filled(chain, 1, false, kernel)
     }
-}
 
-impl<G: LaneGeometry<LANES>> LaneChunk<G> {
     /// Env k of the chunk has the chain `params[k]` (all with the same number of
-    /// links as `chain`); unused lanes of the last group repeat its first env.
+    /// links as `chain`); unused lanes of the last group carry `chain` (their results
+    /// are discarded).
     pub fn per_env(chain: &Chain<G>, params: &[ChainParams], kernel: Kernel) -> Result<Self> {
-        let groups = params
-            .chunks(LANES)
-            .map(|group| {
-                let mut lanes = LaneParams::broadcast(chain.params());
-                for lane in 0..LANES {
-                    lanes.set_lane(lane, group.get(lane).unwrap_or(&group[0]))?;
-                }
-                Ok(lanes)
-            })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(Self {
-            kernel,
-            params: groups,
-            stepper: LaneStepper::new(chain.n_links()),
-        })
+        let mut chunk = Self::filled(chain, params.len(), true, kernel);
+        for (k, p) in params.iter().enumerate() {
+            chunk.set_env_params(k, p)?;
+        }
+        Ok(chunk)
     }
 }
 
-impl<G: LaneGeometry<LANES>> ChunkLanes for LaneChunk<G> {
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> ChunkLanes for LaneChunk<G, L, T> {
     fn step(
         &mut self,
         states: &mut [f64],
@@ -80,5 +114,34 @@ impl<G: LaneGeometry<LANES>> ChunkLanes for LaneChunk<G> {
         let (kernel, params) = (self.kernel, &self.params[..]);
         self.stepper
             .step(kernel, params, states, forces, stepped, plan, status);
+    }
+
+    fn set_env_params(&mut self, k: usize, params: &ChainParams) -> Result<()> {
+        match self.params.get_mut(k / L) {
+            Some(group) if self.per_env => group.set_lane(k % L, params),
+            _ => Err(InputError::InvalidParameter {
+                name: "env index in the chunk",
+                value: k as f64,
+                expected: "an env of a chunk built with one chain per env",
+            }
+            .into()),
+        }
+    }
+
+    fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    fn precision(&self) -> Precision {
+        T::PRECISION
+    }
+}
+
+/// The lane path of a chunk of envs of `chain` as `spec` says, boxed for
+/// scene-generic code.
+pub fn chunk_lanes<G: LaneScene>(chain: &Chain<G>, spec: ChunkSpec) -> Box<dyn ChunkLanes> {
+    match spec.precision {
+        Precision::F64 => Box::new(LaneChunk::<G, LANES, f64>::for_spec(chain, spec)),
+        Precision::F32 => Box::new(LaneChunk::<G, LANES_F32, f32>::for_spec(chain, spec)),
     }
 }

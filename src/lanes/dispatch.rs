@@ -58,16 +58,23 @@ impl Kernel {
 
     /// `self`, or an error naming it if this CPU cannot run it.
     pub fn checked(self) -> Result<Kernel> {
-        if self.is_available() {
-            Ok(self)
-        } else {
-            Err(InputError::InvalidParameter {
-                name: "kernel",
-                value: self as u8 as f64,
-                expected: "a kernel this CPU supports (see Kernel::is_available)",
-            }
-            .into())
+        self.available_or(
+            "a kernel this CPU supports (see Kernel::is_available)",
+            self.is_available(),
+        )
+    }
+
+    /// `self` if `ok`, else an error naming the kernel and saying what was `expected`.
+    pub(crate) fn available_or(self, expected: &'static str, ok: bool) -> Result<Kernel> {
+        if ok {
+            return Ok(self);
         }
+        Err(InputError::InvalidParameter {
+            name: "kernel",
+            value: self as u8 as f64,
+            expected,
+        }
+        .into())
     }
 }
 

@@ -7,7 +7,7 @@
 //! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
 //! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
 //! * [`stepper`]: env-major batches in and out of lane groups.
-//! * [`chunk`]: a chunk worker for scene-generic batches (the env batch).
+//! * [`chunk`]: the lane path of one chunk of envs for scene-generic code (the env batch).
 //!
 //! Each lane computes exactly what the scalar code computes for its env (no fused
 //! multiply-adds, same operation order), so results do not depend on the lane width,
@@ -21,7 +21,7 @@ pub mod simd;
 pub mod stepper;
 pub mod vector;
 
-pub use chunk::{ChunkLanes, LaneChunk};
+pub use chunk::{chunk_lanes, ChunkLanes, ChunkSpec, LaneChunk};
 pub use dispatch::Kernel;
 pub use params::LaneParams;
 pub use simd::LaneReal;

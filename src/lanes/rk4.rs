@@ -69,6 +69,7 @@ pub struct StepSpec<'a, const L: usize, T: LaneReal = f64> {
     pub guard: &'a Guard,
 }
 
+/// Link `i`'s direction in the lanes of `y`.
 #[inline(always)]
 fn load_q<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     lay: Layout<G>,
@@ -76,15 +77,6 @@ fn load_q<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     i: usize,
 ) -> G::LinkL {
     G::LinkL::load(y, lay.q(i))
-}
-
-#[inline(always)]
-fn load_w<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
-    lay: Layout<G>,
-    y: &[Lanes<L, T>],
-    i: usize,
-) -> G::SpinL {
-    G::SpinL::load(y, lay.w(i))
 }
 
 /// Forward sweep of the tension system (one row built and eliminated per link);
@@ -103,7 +95,7 @@ fn forward_sweep<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     let mut pivot_inv = Lanes::zero();
     for i in 0..lay.n {
         let q = load_q(lay, y, i);
-        let qdot = G::lanes_velocity(load_w(lay, y, i), q);
+        let qdot = G::lanes_velocity(G::SpinL::load(y, lay.w(i)), q);
         q_buf[i] = q;
         qdot.store(dy, lay.q(i));
         let mut rhs = p.lengths[i] * qdot.norm_squared();
@@ -248,7 +240,7 @@ fn project<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
         let q = load_q(lay, y, i);
         let q = q * (one / q.norm_squared().sqrt());
         q.store(y, lay.q(i));
-        G::lanes_tangent(load_w(lay, y, i), q).store(y, lay.w(i));
+        G::lanes_tangent(G::SpinL::load(y, lay.w(i)), q).store(y, lay.w(i));
     }
 }
 
@@ -290,7 +282,7 @@ fn classify<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
         let q = load_q(lay, y, i);
         unit = unit.max((q.norm_squared().sqrt() - one).abs());
         chord2 = chord2.max((q - load_q(lay, start, i)).norm_squared());
-        spin2 = spin2.max(load_w(lay, y, i).norm_squared());
+        spin2 = spin2.max(G::SpinL::load(y, lay.w(i)).norm_squared());
     }
     let violated = unit.greater_mask(Lanes::splat_f64(spec.guard.unit_length_tolerance));
     let substeps = spec.substeps as f64;

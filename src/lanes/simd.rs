@@ -33,6 +33,8 @@ pub trait LaneReal:
     const ZERO: Self;
     /// One.
     const ONE: Self;
+    /// The batch precision this type stands for.
+    const PRECISION: crate::batch::Precision;
     /// Nearest value (the identity for f64).
     fn from_f64(v: f64) -> Self;
     /// Exact.
@@ -48,10 +50,11 @@ pub trait LaneReal:
 }
 
 macro_rules! lane_real {
-    ($t:ty) => {
+    ($t:ty, $precision:ident) => {
         impl LaneReal for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
+            const PRECISION: crate::batch::Precision = crate::batch::Precision::$precision;
             #[inline(always)]
             fn from_f64(v: f64) -> Self {
                 v as $t
@@ -79,8 +82,8 @@ macro_rules! lane_real {
         }
     };
 }
-lane_real!(f64);
-lane_real!(f32);
+lane_real!(f64, F64);
+lane_real!(f32, F32);
 
 /// One number per lane. Aligned to 64 bytes so that eight f64 (or sixteen f32)
 /// lanes fill one cache line and one AVX-512 register.

@@ -1,7 +1,7 @@
 //! The RL task layer's step and reset allocate nothing (its own test binary: the
 //! counting allocator sees every thread, so no other test may run beside it).
 
-use chaincart::batch::CHUNK;
+use chaincart::batch::{Precision, CHUNK};
 use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
 };
@@ -21,10 +21,15 @@ fn env_steps_and_resets_allocate_nothing() {
         AutoresetMode::SameStep,
         AutoresetMode::Disabled,
     ] {
-        for (n, reality) in [1, CHUNK, 8 * CHUNK]
-            .into_iter()
-            .flat_map(|n| [(n, false), (n, true)])
-        {
+        // N = 1 steps env by env, the others through the lane kernel; each also in f32.
+        for (n, reality, precision) in [1, CHUNK, 8 * CHUNK].into_iter().flat_map(|n| {
+            [
+                (false, Precision::F64),
+                (true, Precision::F64),
+                (true, Precision::F32),
+            ]
+            .map(|(reality, precision)| (n, reality, precision))
+        }) {
             let mut task = TaskConfig::new(vec![-1.0; 3], 0.01, StepOptions::default());
             // Short episodes and a narrow track: every kind of episode end happens.
             task.max_episode_steps = 3;
@@ -44,6 +49,11 @@ fn env_steps_and_resets_allocate_nothing() {
             }
             let chain = SpatialChain::new(ChainParams::uniform(3, 1.0, 0.1, 0.3, 9.81).unwrap());
             let mut batch = EnvBatch::new(chain, task, n, 1, mode, true).unwrap();
+            batch.set_precision(precision).unwrap();
+            assert_eq!(
+                batch.kernel().is_some(),
+                n > 1 || precision == Precision::F32
+            );
             let d = batch.state_dim();
             let (mut obs, mut rewards) = (vec![0.0f32; n * d], vec![0.0; n]);
             let (mut terminated, mut truncated) = (vec![false; n], vec![false; n]);
@@ -72,9 +82,10 @@ fn env_steps_and_resets_allocate_nothing() {
             let (after, after_here) = counts();
             let (during, here) = (after - before, after_here - before_here);
             eprintln!(
-                "{mode:?} N = {n} reality {reality}: {during} allocations ({here} on the calling thread)"
+                "{mode:?} N = {n} reality {reality} {precision:?} (kernel {:?}): {during} allocations ({here} on the calling thread)",
+                batch.kernel()
             );
-            assert_eq!(here, 0, "{mode:?} N = {n} reality {reality}");
+            assert_eq!(here, 0, "{mode:?} N = {n} reality {reality} {precision:?}");
             // A stray allocation or two can come from the harness's other threads;
             // anything that scaled with N would show far more.
             assert!(during <= 5, "{mode:?} N = {n}: {during} allocations");
