@@ -137,6 +137,7 @@ class ChainCartConfig:
     obs_dtype: str = _UNSET
     success_tolerances: tuple[float, float] = _UNSET
     diagnostics: bool = _UNSET
+    precision: str = _UNSET
     randomize: Optional[dict[str, Any]] = _UNSET
     params: Optional[dict[str, Any]] = _UNSET
     mismatch: Optional[dict[str, Any]] = _UNSET

@@ -186,6 +186,33 @@ pub enum Precision {
     F32,
 }
 
+impl Precision {
+    /// The names of the precisions, as the configuration writes them.
+    pub const NAMES: [&'static str; 2] = ["f64", "f32"];
+
+    /// The name of this precision (`"f64"` or `"f32"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F64 => "f64",
+            Precision::F32 => "f32",
+        }
+    }
+
+    /// The precision with this name, or an error listing the names.
+    pub fn from_name(name: &str) -> Result<Self> {
+        match name {
+            "f64" => Ok(Precision::F64),
+            "f32" => Ok(Precision::F32),
+            _ => Err(InputError::UnknownName {
+                kind: "precision",
+                name: name.to_string(),
+                expected: &Precision::NAMES,
+            }
+            .into()),
+        }
+    }
+}
+
 /// The lane path of a batch: kernel, broadcast parameters, one stepper per work item.
 struct LanePath<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
     kernel: Kernel,

@@ -83,6 +83,16 @@ pub enum InputError {
         /// The value given.
         value: f64,
     },
+    /// A choice that other settings rule out (e.g. f32 physics with an integrator that
+    /// has no f32 kernel).
+    Incompatible {
+        /// Name of the argument.
+        name: &'static str,
+        /// The value given.
+        value: &'static str,
+        /// What was expected, naming the setting that rules it out.
+        expected: String,
+    },
     /// An equilibrium sign tuple with an entry other than +1 or -1.
     InvalidSign {
         /// Position in the tuple.
@@ -215,6 +225,11 @@ impl fmt::Display for InputError {
             NonFinite { name, index, value } => {
                 write!(f, "{name}[{index}] = {value}: expected a finite number")
             }
+            Incompatible {
+                name,
+                value,
+                expected,
+            } => write!(f, "{name} = {value:?}: expected {expected}"),
             InvalidSign { index, value } => {
                 write!(
                     f,

@@ -455,6 +455,42 @@ fn batches_choose_lanes_for_rk4_from_min_lane_envs_and_f32_needs_rk4() {
 }
 
 #[test]
+fn the_tasks_precision_chooses_f32_lanes_at_construction_and_is_checked() {
+    let make = |num_envs: usize, method: Method| {
+        let mut t = task(2, false);
+        t.step_options = StepOptions::new(method, 1).unwrap();
+        t.precision = Precision::F32;
+        EnvBatch::new(
+            chain::<Planar>(2),
+            t,
+            num_envs,
+            0,
+            AutoresetMode::NextStep,
+            false,
+        )
+    };
+    for num_envs in [1, MIN_LANE_ENVS, 33] {
+        let b = make(num_envs, Method::Rk4).unwrap();
+        assert_eq!(b.precision(), Precision::F32);
+        assert_eq!(b.task().precision, Precision::F32);
+    }
+    let Err(e) = make(8, Method::Rkmk4) else {
+        panic!("f32 with rkmk4 accepted")
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("precision = \"f32\"") && e.contains("rkmk4"),
+        "{e}"
+    );
+    let mut b = make(8, Method::Rk4).unwrap();
+    b.set_kernel(None).unwrap();
+    assert_eq!(
+        (b.precision(), b.task().precision),
+        (Precision::F64, Precision::F64)
+    );
+}
+
+#[test]
 fn f32_env_batches_are_deterministic_across_kernels_threads_and_sizes() {
     let (n, total) = (5, 4097);
     let (chain, task) = (chain::<Spatial>(n), task(n, true));

@@ -12,7 +12,7 @@
 //! parameters when they are randomised), which gives every env the same bits as the
 //! env-by-env path; [`EnvBatch::set_precision`] trades that for f32 lanes.
 
-use super::config::{AutoresetMode, TaskConfig};
+use super::config::{check_precision, AutoresetMode, TaskConfig};
 use super::reality::{EnvParams, NOISE_STREAM, PARAM_STREAM};
 use super::start::base_state;
 use super::step::{
@@ -289,6 +289,10 @@ impl<G: Geometry> EnvBatch<G> {
             // keeps stepping env by env).
             let _ = batch.use_lanes(Some(Kernel::detect()), Precision::F64);
         }
+        if batch.task.precision == Precision::F32 {
+            // Checked with the task; f32 steps on the lanes at any batch size.
+            batch.lanes_or_error(Kernel::detect(), Precision::F32)?;
+        }
         Ok(batch)
     }
 
@@ -397,6 +401,7 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
         let Some(kernel) = kernel else {
             self.use_lanes(None, Precision::F64);
+            self.task.precision = Precision::F64;
             return Ok(());
         };
         kernel.checked()?;
@@ -414,17 +419,10 @@ impl<G: Geometry> EnvBatch<G> {
         if kernel.is_none() && precision == Precision::F64 {
             return Ok(());
         }
-        self.check_rk4("precision", 32.0)?;
-        let tolerance = self.task.guard.unit_length_tolerance;
-        if precision == Precision::F32 && tolerance < F32_MIN_UNIT_LENGTH_TOLERANCE {
-            return Err(InputError::InvalidParameter {
-                name: "guard unit_length_tolerance",
-                value: tolerance,
-                expected: "at least 5e-7 in f32 (its round-off alone reaches a few 1e-7 and would fail good steps), or precision f64",
-            }
-            .into());
-        }
-        self.lanes_or_error(kernel.unwrap_or_else(Kernel::detect), precision)
+        check_precision(precision, self.task.step_options.method, &self.task.guard)?;
+        self.lanes_or_error(kernel.unwrap_or_else(Kernel::detect), precision)?;
+        self.task.precision = precision;
+        Ok(())
     }
 
     /// An error naming `name = value` unless the integrator is rk4.

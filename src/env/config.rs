@@ -1,14 +1,15 @@
 //! The task: which equilibrium to reach, where episodes start, how they are scored
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
+use super::batch::F32_MIN_UNIT_LENGTH_TOLERANCE;
 use super::keys::{
     DEFAULT_MAX_EPISODE_STEPS, DEFAULT_START_NOISE, DEFAULT_TRACK_LIMIT, START_NAMES, TARGET_NAMES,
 };
 use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
-use crate::batch::Guard;
+use crate::batch::{Guard, Precision};
 use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
-use crate::integrate::StepOptions;
+use crate::integrate::{Method, StepOptions};
 
 /// The paper's numerical examples (Sec. V). Figs. 1 and 2 share the initial
 /// condition IC1; Fig. 3 has its own. All three are defined for n = 5 links.
@@ -286,6 +287,8 @@ pub struct TaskConfig {
     /// Parameter mismatch and randomisation, sensor noise, delay and rate limit
     /// (default: none of them).
     pub reality: RealityGap,
+    /// Number type of the physics: f64, or f32 on the rk4 lane kernel.
+    pub precision: Precision,
 }
 
 impl TaskConfig {
@@ -307,6 +310,7 @@ impl TaskConfig {
             guard: Guard::default(),
             success: SuccessTolerances::default(),
             reality: RealityGap::default(),
+            precision: Precision::F64,
         }
     }
 
@@ -358,8 +362,38 @@ impl TaskConfig {
         }
         self.reward.validate()?;
         check_positive("success_tolerances.e_q", self.success.e_q)?;
-        check_positive("success_tolerances.e_w", self.success.e_w)
+        check_positive("success_tolerances.e_w", self.success.e_w)?;
+        check_precision(self.precision, self.step_options.method, &self.guard)
     }
+}
+
+/// Checks that `precision` can step with `method` under `guard`: f32 needs rk4 (the
+/// only integrator with an f32 lane kernel) and a unit-length tolerance of at least
+/// [`F32_MIN_UNIT_LENGTH_TOLERANCE`].
+pub fn check_precision(precision: Precision, method: Method, guard: &Guard) -> Result<()> {
+    if precision == Precision::F64 {
+        return Ok(());
+    }
+    if method != Method::Rk4 {
+        return Err(InputError::Incompatible {
+            name: "precision",
+            value: precision.name(),
+            expected: format!(
+                "\"f64\" with integrator {:?} (only \"rk4\" has an f32 kernel)",
+                method.name()
+            ),
+        }
+        .into());
+    }
+    if guard.unit_length_tolerance < F32_MIN_UNIT_LENGTH_TOLERANCE {
+        return Err(InputError::InvalidParameter {
+            name: "guard unit_length_tolerance",
+            value: guard.unit_length_tolerance,
+            expected: "at least 5e-7 in f32 (its round-off alone reaches a few 1e-7 and would fail good steps), or precision f64",
+        }
+        .into());
+    }
+    Ok(())
 }
 
 fn check_non_negative(name: &'static str, value: f64) -> Result<()> {

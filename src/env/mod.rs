@@ -42,7 +42,8 @@ pub use batch::{
     F32_MIN_UNIT_LENGTH_TOLERANCE,
 };
 pub use config::{
-    target_signs, AutoresetMode, PaperFigure, RewardWeights, Start, SuccessTolerances, TaskConfig,
+    check_precision, target_signs, AutoresetMode, PaperFigure, RewardWeights, Start,
+    SuccessTolerances, TaskConfig,
 };
 pub use keys::{config_key, ConfigKey, KeyKind, KeyValue, CONFIG_KEYS};
 pub use reality::{

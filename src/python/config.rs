@@ -7,6 +7,7 @@ use super::convert::{error, signs, type_error};
 use super::model::ChainCart;
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::any::AnyChain;
+use crate::batch::Precision;
 use crate::env::keys::{config_key, KEY_NAMES};
 use crate::env::{
     AnyEnvBatch, AutoresetMode, ConfigKey, KeyKind, KeyValue, RewardWeights, Scene, Start,
@@ -407,6 +408,7 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
     let f = |name: &str| get(values, name).extract::<f64>();
     let n = chain.n_links();
     let method = Method::from_name(&get(values, "integrator").extract::<String>()?)?;
+    let precision = Precision::from_name(&get(values, "precision").extract::<String>()?)?;
     let substeps = count(key("substeps"), &get(values, "substeps"))?;
     let mut task = TaskConfig::new(
         signs(&get(values, "target"), n)?,
@@ -432,6 +434,7 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
             .map(|v| number("force_rate_limit", &v))
             .transpose()?,
     })?;
+    task.precision = precision;
     Ok(task)
 }
 

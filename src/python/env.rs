@@ -11,7 +11,6 @@ use crate::batch::Precision;
 use crate::env::batch::RNG_BYTES;
 use crate::env::EnvParams;
 use crate::env::{AnyEnvBatch, AutoresetMode, Real, Snapshot, StepOutputs, DIAGNOSTICS};
-use crate::integrate::Method;
 use numpy::{
     Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyUntypedArrayMethods,
@@ -532,31 +531,12 @@ impl EnvBatch {
     /// env) or `"f32"` (the rk4 lane kernel in single precision: faster, within the
     /// accuracy published in docs/simd.md). Observations keep their dtype.
     fn set_precision(&mut self, precision: &str) -> PyResult<()> {
-        let chosen = match precision {
-            "f64" => Precision::F64,
-            "f32" => Precision::F32,
-            other => {
-                return Err(error(format!(
-                    "precision = {other:?}: expected \"f64\" or \"f32\""
-                )))
-            }
-        };
-        let method = self.batch.task().step_options.method;
-        if chosen == Precision::F32 && method != Method::Rk4 {
-            return Err(error(format!(
-                "precision = \"f32\" with integrator = {:?}: expected integrator \"rk4\" (the only one with an f32 lane kernel), or precision \"f64\"",
-                method.name()
-            )));
-        }
-        Ok(self.batch.set_precision(chosen)?)
+        Ok(self.batch.set_precision(Precision::from_name(precision)?)?)
     }
 
     /// `"f64"` or `"f32"`: the number type of the physics (see `set_precision`).
     #[getter]
     fn precision(&self) -> &'static str {
-        match self.batch.precision() {
-            Precision::F64 => "f64",
-            Precision::F32 => "f32",
-        }
+        self.batch.precision().name()
     }
 }

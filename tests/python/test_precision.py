@@ -39,7 +39,7 @@ def test_f32_physics_stays_close_to_f64_and_keeps_the_obs_dtype() -> None:
 
 def test_bad_precisions_and_integrators_are_named() -> None:
     batch = ChainCartConfig().make_batch(4, "next_step")
-    with pytest.raises(ChainCartError, match=r"precision = 'f16'|precision = \"f16\"") as e:
+    with pytest.raises(ChainCartError, match=r'unknown precision "f16"') as e:
         batch.set_precision("f16")
     assert "f32" in str(e.value) and "f64" in str(e.value)
     other = ChainCartConfig(integrator="rkmk4").make_batch(4, "next_step")
@@ -48,3 +48,31 @@ def test_bad_precisions_and_integrators_are_named() -> None:
         other.set_precision("f32")
     assert "rk4" in str(e.value)
     assert other.precision == "f64"
+
+
+def test_the_precision_keyword_reaches_every_env_class() -> None:
+    from chaincart_env import ChainCartEnv, ChainCartVectorEnv
+
+    single = ChainCartEnv(precision="f32", start_noise=0.05)
+    vector = ChainCartVectorEnv(3, precision="f32", start_noise=0.05)
+    assert single.config.precision == vector.config.precision == "f32"
+    assert ChainCartEnv().config.precision == "f64"
+    # Lanes never mix, so env i of an f32 batch is the f32 single env seeded s + i.
+    vector.reset(seed=10)
+    single.reset(seed=11)
+    actions = np.random.default_rng(1).uniform(-1, 1, (20, 3, 1)).astype(np.float32)
+    for a in actions:
+        obs, *_ = vector.step(a)
+        one, *_ = single.step(a[1])
+        assert np.array_equal(obs[1], one)
+    assert np.array_equal(vector.unwrapped.states[1], single.state)
+
+
+def test_the_precision_keyword_is_checked_with_the_integrator() -> None:
+    from chaincart_env import ChainCartConfig, InvalidInputError
+
+    with pytest.raises(InvalidInputError, match=r'precision = "f32": expected "f64" with integrator "rkmk4"'):
+        ChainCartConfig(precision="f32", integrator="rkmk4")
+    with pytest.raises(InvalidInputError, match=r'unknown precision "f16": expected one of "f64", "f32"'):
+        ChainCartConfig(precision="f16")
+    assert ChainCartConfig(precision="f32").replace(precision="f64").precision == "f64"
