@@ -11,7 +11,8 @@ from typing import Sequence
 from chaincart_env.bench import fig1
 from chaincart_env.bench.fig1 import AccuracyPoint
 from chaincart_env.bench.mujoco_chain import MUJOCO_INTEGRATORS
-from chaincart_env.bench.mujoco_compare import CHAINCART_INTEGRATORS, MISSING_NOTE, _reference_note, fig1_point
+from chaincart_env.bench.mujoco_compare import CHAINCART_INTEGRATORS, MISSING_NOTE, _reference_note, fig1_point, fig1_reference
+from chaincart_env.bench.precision import precision_table
 from chaincart_env.bench.report import fmt_sci, fmt_time
 from chaincart_env.bench.suite import BenchContext, mujoco_available
 
@@ -88,3 +89,4 @@ def accuracy_section(ctx: BenchContext) -> None:
         rows, 2,
     )  # fmt: skip
     _plot(ctx, points)
+    precision_table(ctx, fig1_reference(ctx))

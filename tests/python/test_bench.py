@@ -148,6 +148,22 @@ def test_bench_quick_prints_tables_and_writes_plots(tmp_path: Path) -> None:
     section = markdown.read_text()
     assert section.startswith("# Performance\n") and "\n## Speed vs accuracy" in section
     assert "| chaincart | rk4 | 0.001 |" in section
+    assert "| f64 | 0.001 |" in section and "| f32 | 0.001 |" in section
+
+
+def test_the_lane_trajectories_follow_the_model_in_f64_and_stay_within_the_bound_in_f32() -> None:
+    from chaincart_env.bench import fig1
+    from chaincart_env.bench.precision import lane_trajectory
+
+    model = fig1.paper_model()
+    lengths = np.array(model.link_lengths)
+    exact, _ = fig1.run_chaincart(model, "rk4", 1e-3, 0.5)
+    f64, samples = lane_trajectory("f64", 1e-3, 0.5, 100)
+    f32, _ = lane_trajectory("f32", 1e-3, 0.5, 100)
+    assert np.array_equal(f64, exact)  # the lanes compute what the model's rk4 computes
+    assert len(samples) == 6 and np.array_equal(samples[0], fig1.fig1_state())
+    # f32 round-off, far below the published 1e-3 m after 1 s.
+    assert 0 < fig1.position_error(f32, fig1.mass_positions(exact, lengths), lengths) < 1e-4
 
 
 def test_bench_rejects_unknown_sections() -> None:
