@@ -284,14 +284,13 @@ impl<G: Geometry> EnvBatch<G> {
         for env in 0..num_envs {
             batch.reset_one(env);
         }
-        if batch.task.step_options.method == Method::Rk4 && num_envs >= MIN_LANE_ENVS {
-            // The default where the scene has a lane kernel (a scene without one
-            // keeps stepping env by env).
-            let _ = batch.use_lanes(Some(Kernel::detect()), Precision::F64);
-        }
         if batch.task.precision == Precision::F32 {
             // Checked with the task; f32 steps on the lanes at any batch size.
             batch.lanes_or_error(Kernel::detect(), Precision::F32)?;
+        } else if batch.task.step_options.method == Method::Rk4 && num_envs >= MIN_LANE_ENVS {
+            // The default where the scene has a lane kernel (a scene without one
+            // keeps stepping env by env).
+            let _ = batch.use_lanes(Some(Kernel::detect()), Precision::F64);
         }
         Ok(batch)
     }
