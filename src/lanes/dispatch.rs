@@ -7,6 +7,9 @@
 use super::rk4::LaneWorkspace;
 use super::simd::LaneReal;
 use super::stepper::{step_groups, Groups};
+#[cfg(target_arch = "x86_64")]
+use super::transpose::Avx512Rows;
+use super::transpose::ScalarRows;
 use super::vector::LaneGeometry;
 use crate::error::{InputError, Result};
 
@@ -97,7 +100,7 @@ pub fn run_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
         }
     }
     let _ = kernel; // only read on x86-64
-    step_groups(ws, groups)
+    step_groups::<ScalarRows, _, L, T>(ws, groups)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -106,7 +109,7 @@ unsafe fn groups_avx2<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     ws: &mut LaneWorkspace<G, L, T>,
     groups: Groups<'_, L, T>,
 ) {
-    step_groups(ws, groups)
+    step_groups::<ScalarRows, _, L, T>(ws, groups)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -115,5 +118,6 @@ unsafe fn groups_avx512<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     ws: &mut LaneWorkspace<G, L, T>,
     groups: Groups<'_, L, T>,
 ) {
-    step_groups(ws, groups)
+    // Rows move through AVX-512 registers: this function only runs where the CPU has it.
+    step_groups::<Avx512Rows, _, L, T>(ws, groups)
 }

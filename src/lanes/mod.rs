@@ -7,6 +7,7 @@
 //! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
 //! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
 //! * [`stepper`]: env-major batches in and out of lane groups.
+//! * `transpose`: moving env rows into lanes and back (8 x 8 blocks on AVX-512).
 //! * [`chunk`]: the lane path of one chunk of envs for scene-generic code (the env batch).
 //!
 //! Each lane computes exactly what the scalar code computes for its env (no fused
@@ -19,6 +20,7 @@ pub mod params;
 pub mod rk4;
 pub mod simd;
 pub mod stepper;
+mod transpose;
 pub mod vector;
 
 pub use chunk::{chunk_lanes, ChunkLanes, ChunkSpec, LaneChunk};

@@ -11,6 +11,7 @@ use super::dispatch::{run_groups, Kernel};
 use super::params::LaneParams;
 use super::rk4::{guarded_rk4, LaneWorkspace, StepSpec};
 use super::simd::{LaneReal, Lanes};
+use super::transpose::RowMover;
 use super::vector::{LaneGeometry, LaneVector};
 use crate::batch::{Guard, StepStatus};
 
@@ -92,7 +93,7 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
 /// [`LaneStepper::step`]'s work: transpose in, step, transpose out, group by group.
 /// Inlined into each dispatched kernel so that the transposes get its instructions too.
 #[inline(always)]
-pub(crate) fn step_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+pub(crate) fn step_groups<R: RowMover, G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     ws: &mut LaneWorkspace<G, L, T>,
     g: Groups<'_, L, T>,
 ) {
@@ -105,7 +106,7 @@ pub(crate) fn step_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
         {
             continue;
         }
-        gather(ws, g.states, g.forces, first, filled);
+        gather::<R, G, L, T>(ws, g.states, g.forces, first, filled);
         let spec = StepSpec {
             params: &g.params[if g.params.len() == 1 { 0 } else { group }],
             dt: g.plan.dt,
@@ -113,26 +114,23 @@ pub(crate) fn step_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
             guard: g.plan.guard,
         };
         let verdict = guarded_rk4(spec, ws);
+        let mut write = [false; L];
         for lane in 0..filled {
             let env = first + lane;
             if g.stepped.is_some_and(|s| !s[env]) {
                 continue;
             }
             g.status[env] = verdict[lane];
-            if !verdict[lane].is_failure() {
-                let (row, y) = (&mut g.states[env * d..(env + 1) * d], &ws.y[..d]);
-                for j in 0..d {
-                    row[j] = y[j].0[lane].to_f64();
-                }
-            }
+            write[lane] = !verdict[lane].is_failure();
         }
+        R::lanes_to_rows(&ws.y, g.states, d, first, &write);
     }
 }
 
 /// Transposes envs `first..first + filled` into the lanes; lanes past the end
 /// repeat the first env (their results are discarded).
 #[inline(always)]
-fn gather<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+fn gather<R: RowMover, G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     ws: &mut LaneWorkspace<G, L, T>,
     states: &[f64],
     forces: &[f64],
@@ -141,15 +139,10 @@ fn gather<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
 ) {
     let d = ws.lay.dim();
     let f = G::CartL::DIM;
-    // Slices of known length let LLVM drop the bounds checks of the inner loops.
-    let y = &mut ws.y[..d];
+    R::rows_to_lanes(states, d, first, filled, &mut ws.y);
     let mut force = [Lanes::<L, T>::zero(); 3];
     for lane in 0..L {
         let env = first + if lane < filled { lane } else { 0 };
-        let row = &states[env * d..(env + 1) * d];
-        for j in 0..d {
-            y[j].0[lane] = T::from_f64(row[j]);
-        }
         let push = &forces[env * f..(env + 1) * f];
         for c in 0..f {
             force[c].0[lane] = T::from_f64(push[c]);
