@@ -25,8 +25,9 @@ use rayon::prelude::*;
 /// to balance 2..64 cores at N = 4096.
 pub const CHUNK: usize = 32;
 
-/// Envs per parallel work item of the lane kernel (a multiple of [`LANES`]): the
-/// lanes are independent, so this changes no result, only the scheduling.
+/// Envs per unit of the lane kernel's work split (a multiple of [`LANES`]): a thread
+/// steps a run of whole units. The lanes are independent, so this changes no result,
+/// only the scheduling.
 pub const LANE_CHUNK: usize = 128;
 
 /// Smallest batch stepped by the lane kernel: below it the per-env path is faster.
@@ -231,7 +232,11 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
         }
     }
 
-    /// Steps every env (env-major `states`) in work items of [`LANE_CHUNK`] envs.
+    /// Steps every env (env-major `states`): one contiguous run of whole
+    /// [`LANE_CHUNK`]s per thread of the pool, each through its first chunk's stepper.
+    /// Few large items rather than many small ones: a thread then tends to step the
+    /// same envs every step, so their rows stay in its core's cache, and the pool is
+    /// woken fewer times. Lanes are independent, so no result depends on this split.
     fn step(
         &mut self,
         states: &mut [f64],
@@ -242,17 +247,20 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
         let num_envs = status.len();
         let (d, f) = (states.len() / num_envs, forces.len() / num_envs);
         let (kernel, params) = (self.kernel, &self.params[..]);
-        let work = |(((states, forces), status), worker): LaneItem<'_, G, L, T>| {
-            worker.step(kernel, params, states, forces, None, plan, status);
+        let chunks = num_envs.div_ceil(LANE_CHUNK);
+        let per_thread = chunks.div_ceil(rayon::current_num_threads().max(1));
+        let work = |(((states, forces), status), workers): LaneItem<'_, G, L, T>| {
+            workers[0].step(kernel, params, states, forces, None, plan, status);
         };
-        if num_envs <= LANE_CHUNK {
-            work((((states, forces), status), &mut self.workers[0]));
+        if per_thread >= chunks {
+            work((((states, forces), status), &mut self.workers[..]));
         } else {
+            let part = per_thread * LANE_CHUNK;
             states
-                .par_chunks_mut(LANE_CHUNK * d)
-                .zip(forces.par_chunks(LANE_CHUNK * f))
-                .zip(status.par_chunks_mut(LANE_CHUNK))
-                .zip(self.workers.par_iter_mut())
+                .par_chunks_mut(part * d)
+                .zip(forces.par_chunks(part * f))
+                .zip(status.par_chunks_mut(part))
+                .zip(self.workers.par_chunks_mut(per_thread))
                 .for_each(work);
         }
     }
@@ -514,5 +522,5 @@ impl<G: LaneScene> Batch<G> {
 /// One parallel work item of the lane path.
 type LaneItem<'a, G, const L: usize, T> = (
     ((&'a mut [f64], &'a [f64]), &'a mut [StepStatus]),
-    &'a mut LaneStepper<G, L, T>,
+    &'a mut [LaneStepper<G, L, T>],
 );
