@@ -25,6 +25,19 @@ def _core_targets(ctx: BenchContext) -> list[list[str]]:
          f"{step * 1e6:.3f} us" if step else "n/a", _verdict(step <= 0.5e-6 if step else None)],
         ["4096-state batch, 2 cores (criterion batch/4096)", ">= 4 M env-steps/s",
          fmt_rate(rate), _verdict(rate >= 4e6 if rate else None)],
+    ] + _lane_targets(crit)  # fmt: skip
+
+
+def _lane_targets(crit: dict[str, dict[str, float]]) -> list[list[str]]:
+    """The SIMD-lane goals of the raw batch: 4096 paper systems, widest kernel, 2 cores."""
+    f64 = max((4096 / m for k, v in crit.items() if k.startswith("batch_kernel/avx")
+               and k.endswith("/4096") and (m := v.get("median"))), default=None)  # fmt: skip
+    f32_time = crit.get("batch_kernel/f32/4096", {}).get("median")
+    f32 = 4096 / f32_time if f32_time else None
+    return [
+        [f"4096 paper systems on SIMD lanes, {name}, 2 cores (criterion batch_kernel)", f">= {goal / 1e6:g} M env-steps/s",
+         fmt_rate(r), _verdict(r >= goal if r else None)]
+        for name, r, goal in (("f64", f64, 20e6), ("f32", f32, 35e6))
     ]  # fmt: skip
 
 
@@ -49,6 +62,22 @@ def _package_targets(ctx: BenchContext) -> list[list[str]]:
         worst = max(value.values())
         shown = ", ".join(f"n={k}: " + (f"{v:.1%}" if n_envs > 1 else f"{v * 1e6:.1f} us") for k, v in value.items())
         rows.append([f"vector env Python overhead, N = {n_envs}", what, shown, _verdict(worst < bound)])
+    return rows + _vector_speed_targets(ctx)
+
+
+def _vector_speed_targets(ctx: BenchContext) -> list[list[str]]:
+    """The vector env's rate at N = 4096 (5 spatial links) and one planar link against
+    Gymnasium's NumPy CartPoleVectorEnv in the same run."""
+    five = ctx.results.get("vector", {}).get("chaincart", {}).get((5, 4096), {}).get("vector")
+    rows = [["ChainCartVectorEnv, 5 spatial links, N = 4096", ">= 8 M env-steps/s", fmt_rate(five),
+             _verdict(five >= 8e6 if five else None)]]  # fmt: skip
+    planar = ctx.results.get("planar_link", {})
+    cartpole = planar.get("cartpole")
+    for precision in ("f64", "f32"):
+        r = planar.get(precision, {}).get("vector")
+        ok = r > cartpole if r and cartpole else None
+        rows.append([f"ChainCartVectorEnv, 1 planar link, {precision}, N = 4096", "> CartPoleVectorEnv",
+                     f"{fmt_rate(r)} vs {fmt_rate(cartpole)}", _verdict(ok)])  # fmt: skip
     return rows
 
 

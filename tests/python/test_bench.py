@@ -151,6 +151,27 @@ def test_bench_quick_prints_tables_and_writes_plots(tmp_path: Path) -> None:
     assert "| f64 | 0.001 |" in section and "| f32 | 0.001 |" in section
 
 
+def test_speed_targets_judge_the_lane_and_vector_goals_from_the_measured_rates() -> None:
+    from types import SimpleNamespace
+
+    from chaincart_env.bench.targets import _lane_targets, _vector_speed_targets
+
+    per_step = {"batch_kernel/avx2/4096": 4096 / 15e6, "batch_kernel/avx512/4096": 4096 / 25e6,
+                "batch_kernel/f32/4096": 4096 / 30e6, "batch_kernel/avx512/1": 1e-9}  # fmt: skip
+    rows = _lane_targets({k: {"median": t} for k, t in per_step.items()})
+    # The widest kernel's rate counts (not the N = 1 row); f64 met, f32 short of 35 M.
+    assert [r[2:] for r in rows] == [["25.00 M", "met"], ["30.00 M", "NOT met"]]
+    assert [r[3] for r in _lane_targets({})] == ["not measured", "not measured"]
+    results = {
+        "vector": {"chaincart": {(5, 4096): {"vector": 7.5e6}, (1, 4096): {"vector": 9e6}}},
+        "planar_link": {"cartpole": 20e6, "f64": {"vector": 18e6}, "f32": {"vector": 21e6}},
+    }
+    rows = _vector_speed_targets(SimpleNamespace(results=results))  # type: ignore[arg-type]
+    assert [r[3] for r in rows] == ["NOT met", "NOT met", "met"]
+    assert rows[2][2] == "21.00 M vs 20.00 M"
+    assert [r[3] for r in _vector_speed_targets(SimpleNamespace(results={}))] == ["not measured"] * 3  # type: ignore[arg-type]
+
+
 def test_the_lane_trajectories_follow_the_model_in_f64_and_stay_within_the_bound_in_f32() -> None:
     from chaincart_env.bench import fig1
     from chaincart_env.bench.precision import lane_trajectory
