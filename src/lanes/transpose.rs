@@ -9,7 +9,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::simd::{LaneReal, Lanes};
-use std::any::TypeId;
 
 /// How a lane group is filled from env rows and written back.
 pub(crate) trait RowMover {
@@ -147,9 +146,10 @@ impl RowMover for Avx512Rows {
 }
 
 /// Whether `A` is `B` (known at compile time, so the test folds away).
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn is<A: 'static, B: 'static>() -> bool {
-    TypeId::of::<A>() == TypeId::of::<B>()
+    std::any::TypeId::of::<A>() == std::any::TypeId::of::<B>()
 }
 
 #[cfg(target_arch = "x86_64")]
