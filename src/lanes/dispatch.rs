@@ -4,13 +4,9 @@
 //! detection, so the shipped library is built for baseline x86-64 and still uses
 //! AVX2 or AVX-512 where present. No clone enables FMA: results are the same on all.
 
-use super::rk4::LaneWorkspace;
-use super::simd::LaneReal;
-use super::stepper::{step_groups, Groups};
 #[cfg(target_arch = "x86_64")]
 use super::transpose::Avx512Rows;
-use super::transpose::ScalarRows;
-use super::vector::LaneGeometry;
+use super::transpose::{RowMover, ScalarRows};
 use crate::error::{InputError, Result};
 
 /// One compiled variant of the lane kernel.
@@ -81,43 +77,43 @@ impl Kernel {
     }
 }
 
-/// `step_groups` compiled for `kernel`. A kernel the CPU lacks is never run:
-/// it falls back to the baseline one (callers check with [`Kernel::checked`]).
-pub fn run_groups<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
-    kernel: Kernel,
-    ws: &mut LaneWorkspace<G, L, T>,
-    groups: Groups<'_, L, T>,
-) {
+/// Work on lane groups that is compiled once per kernel: [`LaneWork::run`] is
+/// `#[inline(always)]` in every implementation, so each dispatched clone below gets
+/// its own copy with the clone's instruction set. `R` is how the clone moves env rows
+/// into lanes and back.
+pub(crate) trait LaneWork {
+    /// Does the work, moving rows with `R`.
+    fn run<R: RowMover>(self);
+}
+
+/// Runs `work` compiled for `kernel`. A kernel the CPU lacks is never run: it falls
+/// back to the baseline one (callers check with [`Kernel::checked`]).
+#[inline(always)]
+pub(crate) fn run_on<W: LaneWork>(kernel: Kernel, work: W) {
     #[cfg(target_arch = "x86_64")]
     {
         if kernel == Kernel::Avx512 && kernel.is_available() {
             // SAFETY: the CPU supports AVX-512F (checked just above).
-            return unsafe { groups_avx512(ws, groups) };
+            return unsafe { on_avx512(work) };
         }
         if kernel == Kernel::Avx2 && kernel.is_available() {
             // SAFETY: the CPU supports AVX2 (checked just above).
-            return unsafe { groups_avx2(ws, groups) };
+            return unsafe { on_avx2(work) };
         }
     }
     let _ = kernel; // only read on x86-64
-    step_groups::<ScalarRows, _, L, T>(ws, groups)
+    work.run::<ScalarRows>()
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2")]
-unsafe fn groups_avx2<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
-    ws: &mut LaneWorkspace<G, L, T>,
-    groups: Groups<'_, L, T>,
-) {
-    step_groups::<ScalarRows, _, L, T>(ws, groups)
+unsafe fn on_avx2<W: LaneWork>(work: W) {
+    work.run::<ScalarRows>()
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,avx2,avx512f")]
-unsafe fn groups_avx512<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
-    ws: &mut LaneWorkspace<G, L, T>,
-    groups: Groups<'_, L, T>,
-) {
+unsafe fn on_avx512<W: LaneWork>(work: W) {
     // Rows move through AVX-512 registers: this function only runs where the CPU has it.
-    step_groups::<Avx512Rows, _, L, T>(ws, groups)
+    work.run::<Avx512Rows>()
 }

@@ -6,7 +6,8 @@
 //! * [`params`]: chain parameters per lane (a shared chain is a broadcast).
 //! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
 //! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
-//! * [`stepper`]: env-major batches in and out of lane groups.
+//! * [`stepper`]: stepping envs in lane groups, from env-major rows or in place.
+//! * [`resident`]: states kept in lane groups between steps (no transposes).
 //! * `transpose`: moving env rows into lanes and back (8 x 8 blocks on AVX-512).
 //! * [`chunk`]: the lane path of one chunk of envs for scene-generic code (the env batch).
 //!
@@ -17,6 +18,7 @@
 pub mod chunk;
 pub mod dispatch;
 pub mod params;
+pub mod resident;
 pub mod rk4;
 pub mod simd;
 pub mod stepper;
@@ -26,6 +28,7 @@ pub mod vector;
 pub use chunk::{chunk_lanes, ChunkLanes, ChunkSpec, LaneChunk};
 pub use dispatch::Kernel;
 pub use params::LaneParams;
+pub use resident::LaneStates;
 pub use simd::LaneReal;
 pub use stepper::{LaneStepper, StepPlan};
 pub use vector::LaneGeometry;

@@ -5,6 +5,10 @@
 //! operations in the same order. Everything here is `#[inline(always)]`: it is
 //! compiled into each dispatched kernel in [`super::dispatch`].
 
+// Index loops on purpose: `copy_from_slice` and iterator adaptors are not always
+// inlined, and whatever is not inlined runs as baseline code.
+#![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
+
 use super::params::LaneParams;
 use super::simd::{flat, flat_mut, is_dense, LaneReal, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
@@ -28,10 +32,9 @@ pub struct LaneWorkspace<G: LaneGeometry<L, T>, const L: usize, T: LaneReal = f6
     sweep: Sweep<G, L, T>,
     stages: [Vec<Lanes<L, T>>; 4],
     trial: Vec<Lanes<L, T>>,
-    /// State at the start of the control period (the guard compares against it).
+    /// State at the start of the control period (the guard compares against it, and
+    /// a lane that must not move is restored from it).
     start: Vec<Lanes<L, T>>,
-    /// The state being stepped, component-major: `y[j].0[k]` is component j of lane k.
-    pub(crate) y: Vec<Lanes<L, T>>,
     pub(crate) force: G::CartL,
 }
 
@@ -50,7 +53,6 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWorkspace<G, L, T> 
             stages: [v(), v(), v(), v()],
             trial: v(),
             start: v(),
-            y: v(),
             force: G::CartL::zero(),
         }
     }
@@ -211,13 +213,14 @@ fn rk4_combine<const L: usize, T: LaneReal>(y: &mut [Lanes<L, T>], c: f64, k: [&
 fn rk4_substep<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     p: &LaneParams<L, T>,
     ws: &mut LaneWorkspace<G, L, T>,
+    y: &mut [Lanes<L, T>],
     h: f64,
 ) {
     let lay = ws.lay;
     let force = ws.force;
     let [k1, k2, k3, k4] = &mut ws.stages;
     let sw = &mut ws.sweep;
-    let (y, tmp) = (&mut ws.y[..], &mut ws.trial[..]);
+    let tmp = &mut ws.trial[..];
     derivative(p, lay, y, force, sw, k1);
     axpy(tmp, y, 0.5 * h, k1);
     derivative(p, lay, tmp, force, sw, k2);
@@ -237,28 +240,55 @@ fn project<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
 ) {
     let one = Lanes::splat(T::ONE);
     for i in 0..lay.n {
+        // Both loads before both stores: storing q first made LLVM copy w through
+        // the stack in odd pieces and stall reading it back (store forwarding).
         let q = load_q(lay, y, i);
+        let w = G::SpinL::load(y, lay.w(i));
         let q = q * (one / q.norm_squared().sqrt());
+        let w = G::lanes_tangent(w, q);
         q.store(y, lay.q(i));
-        G::lanes_tangent(G::SpinL::load(y, lay.w(i)), q).store(y, lay.w(i));
+        w.store(y, lay.w(i));
     }
 }
 
-/// Advances `ws.y` by one control period under `ws.force` and returns each lane's
-/// status. Lanes that failed hold garbage in `ws.y`: the caller keeps their old state.
+/// Advances the lane group `y` (component-major: `y[j].0[k]` is component j of lane
+/// k) by one control period under `ws.force` and returns each lane's status. Lanes
+/// that failed hold garbage in `y`: the caller keeps their old state, or gets it back
+/// with [`roll_back`].
 #[inline(always)]
 pub fn guarded_rk4<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     spec: StepSpec<'_, L, T>,
     ws: &mut LaneWorkspace<G, L, T>,
+    y: &mut [Lanes<L, T>],
 ) -> [StepStatus; L] {
-    for j in 0..ws.y.len().min(ws.start.len()) {
-        ws.start[j] = ws.y[j];
+    let y = &mut y[..ws.lay.dim()];
+    for j in 0..y.len().min(ws.start.len()) {
+        ws.start[j] = y[j];
     }
     let h = spec.dt / spec.substeps as f64;
     for _ in 0..spec.substeps {
-        rk4_substep(spec.params, ws, h);
+        rk4_substep(spec.params, ws, y, h);
     }
-    classify(spec, ws)
+    classify(spec, ws, y)
+}
+
+/// Puts the lanes with `keep[k]` of `y` back where the last [`guarded_rk4`] on `ws`
+/// started them (a failed env keeps its last good state, an env that was not to step
+/// does not move), leaving every other lane as it is.
+#[inline(always)]
+pub(crate) fn roll_back<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
+    ws: &LaneWorkspace<G, L, T>,
+    y: &mut [Lanes<L, T>],
+    keep: &[bool; L],
+) {
+    for j in 0..y.len().min(ws.start.len()) {
+        let start = &ws.start[j];
+        for k in 0..L {
+            if keep[k] {
+                y[j].0[k] = start.0[k];
+            }
+        }
+    }
 }
 
 /// The scalar guard's verdict per lane: non-finite, then constraint violation, then
@@ -267,8 +297,9 @@ pub fn guarded_rk4<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
 fn classify<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     spec: StepSpec<'_, L, T>,
     ws: &LaneWorkspace<G, L, T>,
+    y: &[Lanes<L, T>],
 ) -> [StepStatus; L] {
-    let (lay, y, start) = (ws.lay, &ws.y[..], &ws.start[..]);
+    let (lay, start) = (ws.lay, &ws.start[..]);
     // `v - v` is 0 for a finite v and NaN otherwise; the sum is an ordered
     // floating-point reduction, which also keeps LLVM from gathering across lanes.
     let mut poison = Lanes::zero();
@@ -290,6 +321,9 @@ fn classify<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     let max_turn = spec.guard.max_turn_per_step;
     let chord = chord2.sqrt();
     let mut status = [StepStatus::Ok; L];
+    if all_resolved(finite, violated, spin_turn, chord, substeps, max_turn) {
+        return status;
+    }
     for k in 0..L {
         status[k] = if !finite[k] {
             StepStatus::NonFinite
@@ -307,6 +341,29 @@ fn classify<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
         };
     }
     status
+}
+
+/// Whether every lane passes the guard with the `asin` of [`swept_per_step`] skipped:
+/// finite, within the unit-length tolerance, spin within `max_turn` and the swept
+/// angle's cheap bound within it too. Then each lane's verdict is `Ok`, exactly as the
+/// per-lane test would find (which still decides every other case). Branch-free over
+/// the lanes, so it compiles to a few packed compares instead of `L` branchy verdicts.
+#[inline(always)]
+fn all_resolved<const L: usize, T: LaneReal>(
+    finite: [bool; L],
+    violated: [bool; L],
+    spin_turn: Lanes<L, T>,
+    chord: Lanes<L, T>,
+    substeps: f64,
+    max_turn: f64,
+) -> bool {
+    let bound = max_turn * substeps;
+    let mut ok = true;
+    for k in 0..L {
+        let cheap = chord.0[k].to_f64() * std::f64::consts::FRAC_PI_2 * (1.0 + 1e-9) <= bound;
+        ok &= finite[k] & !violated[k] & (spin_turn.0[k].to_f64() <= max_turn) & cheap;
+    }
+    ok
 }
 
 /// `v - v`: 0 where v is finite, NaN where it is infinite or NaN.

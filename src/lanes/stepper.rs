@@ -1,15 +1,16 @@
-//! Steps envs stored env-major (the batch layout) through the lane kernel: each
-//! group of `L` consecutive envs is transposed into one component-major lane group,
-//! stepped together, and only the lanes whose step succeeded are written back, so a
-//! failed env keeps its last good state without a backup copy and without touching
-//! its neighbours.
+//! Steps envs through the lane kernel, `L` consecutive envs per lane group, from
+//! either layout: env-major rows (each group is transposed into one component-major
+//! lane group, stepped, and only the lanes whose step succeeded are written back),
+//! or groups that stay component-major between steps ([`super::LaneStates`], no
+//! transposes; a lane that failed or was not to step is put back where it started).
+//! Either way a failed env keeps its last good state and its neighbours are untouched.
 
 // Index loops on purpose: they must inline into the dispatched kernels.
 #![allow(clippy::needless_range_loop)]
 
-use super::dispatch::{run_groups, Kernel};
+use super::dispatch::{run_on, Kernel, LaneWork};
 use super::params::LaneParams;
-use super::rk4::{guarded_rk4, LaneWorkspace, StepSpec};
+use super::rk4::{guarded_rk4, roll_back, LaneWorkspace, StepSpec};
 use super::simd::{LaneReal, Lanes};
 use super::transpose::RowMover;
 use super::vector::{LaneGeometry, LaneVector};
@@ -26,34 +27,70 @@ pub struct StepPlan<'a> {
     pub guard: &'a Guard,
 }
 
-/// The envs of one [`LaneStepper::step`] call and where their results go.
+/// The envs of one step and where their results go.
 pub struct Groups<'a, const L: usize, T: LaneReal = f64> {
-    /// Parameters of each group of lanes.
+    /// Parameters of each group of lanes (or one broadcast entry for all).
     pub params: &'a [LaneParams<L, T>],
-    /// The envs' states, env-major.
-    pub states: &'a mut [f64],
     /// One force per env.
     pub forces: &'a [f64],
     /// Which envs step (all when `None`).
     pub stepped: Option<&'a [bool]>,
     /// Period, substeps and guard.
     pub plan: StepPlan<'a>,
-    /// Where each env's status goes.
+    /// Where each env's status goes (one per env: its length is the number of envs).
     pub status: &'a mut [StepStatus],
+}
+
+impl<const L: usize, T: LaneReal> Groups<'_, L, T> {
+    /// The step of group `group`, whose first env is `first`.
+    #[inline(always)]
+    fn spec(&self, group: usize) -> StepSpec<'_, L, T> {
+        StepSpec {
+            params: &self.params[if self.params.len() == 1 { 0 } else { group }],
+            dt: self.plan.dt,
+            substeps: self.plan.substeps,
+            guard: self.plan.guard,
+        }
+    }
+
+    /// Whether no env of envs `first..first + filled` steps.
+    #[inline(always)]
+    fn idle(&self, first: usize, filled: usize) -> bool {
+        self.stepped
+            .is_some_and(|s| !s[first..first + filled].contains(&true))
+    }
+
+    /// Writes the statuses of the group's stepped envs; returns, per lane, whether
+    /// the lane holds a result to keep (a stepped env whose step succeeded).
+    #[inline(always)]
+    fn record(&mut self, first: usize, filled: usize, verdict: &[StepStatus; L]) -> [bool; L] {
+        let mut keep = [false; L];
+        for lane in 0..filled {
+            let env = first + lane;
+            if self.stepped.is_some_and(|s| !s[env]) {
+                continue;
+            }
+            self.status[env] = verdict[lane];
+            keep[lane] = !verdict[lane].is_failure();
+        }
+        keep
+    }
 }
 
 /// The buffers of one worker's lane groups, allocated once.
 #[derive(Debug, Clone)]
 pub struct LaneStepper<G: LaneGeometry<L, T>, const L: usize, T: LaneReal = f64> {
     ws: LaneWorkspace<G, L, T>,
+    /// The group being stepped when the envs come as rows.
+    group: Vec<Lanes<L, T>>,
 }
 
 impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
     /// A stepper for chains of `n_links` links.
     pub fn new(n_links: usize) -> Self {
-        Self {
-            ws: LaneWorkspace::new(n_links),
-        }
+        let ws = LaneWorkspace::new(n_links);
+        let group = vec![Lanes::zero(); ws.lay.dim()];
+        Self { ws, group }
     }
 
     /// Length of one env's state.
@@ -80,66 +117,140 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
         debug_assert_eq!(states.len(), status.len() * self.state_dim());
         let groups = Groups {
             params,
-            states,
             forces,
             stepped,
             plan,
             status,
         };
-        run_groups(kernel, &mut self.ws, groups);
+        run_on(
+            kernel,
+            StepRows::<G, L, T> {
+                stepper: self,
+                states,
+                groups,
+            },
+        );
+    }
+
+    /// [`LaneStepper::step`] for envs kept in lane groups: `lanes` holds
+    /// `status.len().div_ceil(L)` groups of `state_dim` lanes each (see
+    /// [`super::LaneStates`]), stepped in place. A lane whose step failed, or that was
+    /// not to step, is put back where it started; lanes past the last env step like
+    /// the others under the first env's force and report nothing.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_lanes(
+        &mut self,
+        kernel: Kernel,
+        params: &[LaneParams<L, T>],
+        lanes: &mut [Lanes<L, T>],
+        forces: &[f64],
+        stepped: Option<&[bool]>,
+        plan: StepPlan<'_>,
+        status: &mut [StepStatus],
+    ) {
+        debug_assert_eq!(lanes.len(), status.len().div_ceil(L) * self.state_dim());
+        let groups = Groups {
+            params,
+            forces,
+            stepped,
+            plan,
+            status,
+        };
+        run_on(
+            kernel,
+            StepLanes::<G, L, T> {
+                ws: &mut self.ws,
+                lanes,
+                groups,
+            },
+        );
     }
 }
 
 /// [`LaneStepper::step`]'s work: transpose in, step, transpose out, group by group.
-/// Inlined into each dispatched kernel so that the transposes get its instructions too.
-#[inline(always)]
-pub(crate) fn step_groups<R: RowMover, G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
-    ws: &mut LaneWorkspace<G, L, T>,
-    g: Groups<'_, L, T>,
-) {
-    let d = ws.lay.dim();
-    let num_envs = g.status.len();
-    for (group, first) in (0..num_envs).step_by(L).enumerate() {
-        let filled = L.min(num_envs - first);
-        if g.stepped
-            .is_some_and(|s| !s[first..first + filled].contains(&true))
-        {
-            continue;
-        }
-        gather::<R, G, L, T>(ws, g.states, g.forces, first, filled);
-        let spec = StepSpec {
-            params: &g.params[if g.params.len() == 1 { 0 } else { group }],
-            dt: g.plan.dt,
-            substeps: g.plan.substeps,
-            guard: g.plan.guard,
-        };
-        let verdict = guarded_rk4(spec, ws);
-        let mut write = [false; L];
-        for lane in 0..filled {
-            let env = first + lane;
-            if g.stepped.is_some_and(|s| !s[env]) {
+struct StepRows<'a, 'b, G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
+    stepper: &'a mut LaneStepper<G, L, T>,
+    states: &'a mut [f64],
+    groups: Groups<'b, L, T>,
+}
+
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWork for StepRows<'_, '_, G, L, T> {
+    #[inline(always)]
+    fn run<R: RowMover>(self) {
+        let Self {
+            stepper,
+            states,
+            groups: mut g,
+        } = self;
+        let LaneStepper { ws, group: y } = stepper;
+        let d = ws.lay.dim();
+        let num_envs = g.status.len();
+        for (group, first) in (0..num_envs).step_by(L).enumerate() {
+            let filled = L.min(num_envs - first);
+            if g.idle(first, filled) {
                 continue;
             }
-            g.status[env] = verdict[lane];
-            write[lane] = !verdict[lane].is_failure();
+            R::rows_to_lanes(states, d, first, filled, y);
+            ws.force = gather_forces::<G, L, T>(g.forces, first, filled);
+            let verdict = guarded_rk4(g.spec(group), ws, y);
+            let write = g.record(first, filled, &verdict);
+            R::lanes_to_rows(y, states, d, first, &write);
         }
-        R::lanes_to_rows(&ws.y, g.states, d, first, &write);
     }
 }
 
-/// Transposes envs `first..first + filled` into the lanes; lanes past the end
-/// repeat the first env (their results are discarded).
+/// [`LaneStepper::step_lanes`]'s work: step each group in place, roll back what must
+/// not move.
+struct StepLanes<'a, 'b, G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
+    ws: &'a mut LaneWorkspace<G, L, T>,
+    lanes: &'a mut [Lanes<L, T>],
+    groups: Groups<'b, L, T>,
+}
+
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWork for StepLanes<'_, '_, G, L, T> {
+    #[inline(always)]
+    fn run<R: RowMover>(self) {
+        let Self {
+            ws,
+            lanes,
+            groups: mut g,
+        } = self;
+        let d = ws.lay.dim();
+        let num_envs = g.status.len();
+        for (group, y) in lanes.chunks_exact_mut(d).enumerate() {
+            let first = group * L;
+            let filled = L.min(num_envs - first);
+            if g.idle(first, filled) {
+                continue;
+            }
+            ws.force = gather_forces::<G, L, T>(g.forces, first, filled);
+            let verdict = guarded_rk4(g.spec(group), ws, y);
+            let keep = g.record(first, filled, &verdict);
+            // Lanes past the last env are nobody's; they are rolled back on failure
+            // only so that a blow-up does not stay in the group.
+            let back: [bool; L] = std::array::from_fn(|k| {
+                if k < filled {
+                    !keep[k]
+                } else {
+                    verdict[k].is_failure()
+                }
+            });
+            if back.contains(&true) {
+                roll_back(ws, y, &back);
+            }
+        }
+    }
+}
+
+/// The forces of envs `first..first + filled` in lanes; lanes past the end repeat
+/// the first env's.
 #[inline(always)]
-fn gather<R: RowMover, G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
-    ws: &mut LaneWorkspace<G, L, T>,
-    states: &[f64],
+fn gather_forces<G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
     forces: &[f64],
     first: usize,
     filled: usize,
-) {
-    let d = ws.lay.dim();
+) -> G::CartL {
     let f = G::CartL::DIM;
-    R::rows_to_lanes(states, d, first, filled, &mut ws.y);
     let mut force = [Lanes::<L, T>::zero(); 3];
     for lane in 0..L {
         let env = first + if lane < filled { lane } else { 0 };
@@ -148,5 +259,5 @@ fn gather<R: RowMover, G: LaneGeometry<L, T>, const L: usize, T: LaneReal>(
             force[c].0[lane] = T::from_f64(push[c]);
         }
     }
-    ws.force = G::CartL::load(&force, 0);
+    G::CartL::load(&force, 0)
 }
