@@ -165,7 +165,7 @@ fn batch(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::from_parameter(num_envs), &num_envs, |b, _| {
             b.iter(|| {
                 // Restart from the same states so every iteration does the same work.
-                batch.states_mut().copy_from_slice(&states);
+                batch.set_states(&states).unwrap();
                 batch.step(black_box(&forces)).unwrap();
             })
         });
@@ -304,7 +304,7 @@ fn batch_kernels(c: &mut Criterion) {
             batch.set_precision(precision).unwrap();
             let states = repeated(&y0, num_envs);
             let forces = vec![0.0; 2 * num_envs];
-            batch.states_mut().copy_from_slice(&states);
+            batch.set_states(&states).unwrap();
             group.throughput(Throughput::Elements(num_envs as u64));
             group.bench_with_input(BenchmarkId::new(name, num_envs), &num_envs, |b, _| {
                 // Keep stepping the same (slowly moving) states: no copy in the timed loop.

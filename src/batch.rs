@@ -14,9 +14,11 @@
 use crate::error::{check_finite, check_len, check_positive, InputError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::{Method, StepOptions, Stepper};
-use crate::lanes::simd::LaneReal;
+use crate::lanes::resident::{load_groups, store_groups};
+use crate::lanes::simd::{LaneReal, Lanes};
 use crate::lanes::{
-    Kernel, LaneGeometry, LaneParams, LaneScene, LaneStepper, StepPlan, LANES, LANES_F32,
+    Kernel, LaneGeometry, LaneParams, LaneScene, LaneStates, LaneStepper, StepPlan, LANES,
+    LANES_F32,
 };
 use crate::model::Chain;
 use rayon::prelude::*;
@@ -214,10 +216,24 @@ impl Precision {
     }
 }
 
-/// The lane path of a batch: kernel, broadcast parameters, one stepper per work item.
+/// Which copy of the states is up to date while the lane kernel steps a batch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Current {
+    /// The env-major rows (written by the caller since the last step).
+    Rows,
+    /// The lane groups (stepped since the rows were last brought up to date).
+    Lanes,
+    /// Both hold the same states.
+    Both,
+}
+
+/// The lane path of a batch: kernel, broadcast parameters, the states kept in lane
+/// groups between steps, one stepper per work item.
 struct LanePath<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
     kernel: Kernel,
     params: [LaneParams<L, T>; 1],
+    states: LaneStates<L, T>,
+    current: Current,
     workers: Vec<LaneStepper<G, L, T>>,
 }
 
@@ -226,41 +242,74 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
         Self {
             kernel,
             params: [LaneParams::broadcast(chain.params())],
+            states: LaneStates::new(chain.state_dim(), num_envs),
+            current: Current::Rows,
             workers: (0..num_envs.div_ceil(LANE_CHUNK))
                 .map(|_| LaneStepper::new(chain.n_links()))
                 .collect(),
         }
     }
 
-    /// Steps every env (env-major `states`): one contiguous run of whole
-    /// [`LANE_CHUNK`]s per thread of the pool, each through its first chunk's stepper.
-    /// Few large items rather than many small ones: a thread then tends to step the
-    /// same envs every step, so their rows stay in its core's cache, and the pool is
-    /// woken fewer times. Lanes are independent, so no result depends on this split.
+    /// Brings `rows` up to date if the lanes moved since they were, each thread
+    /// moving the envs it steps.
+    fn sync_rows(&mut self, rows: &mut [f64]) {
+        if self.current != Current::Lanes {
+            return;
+        }
+        self.current = Current::Both;
+        let (kernel, d) = (self.kernel, self.states.dim());
+        let lanes = self.states.lanes();
+        let part = self.part();
+        if part >= self.states.num_envs() {
+            return store_groups(kernel, lanes, rows, d);
+        }
+        lanes
+            .par_chunks(part / L * d)
+            .zip(rows.par_chunks_mut(part * d))
+            .for_each(|(lanes, rows)| store_groups(kernel, lanes, rows, d));
+    }
+
+    /// Envs per thread: a contiguous run of whole [`LANE_CHUNK`]s. Few large items
+    /// rather than many small ones, so a thread tends to step the same envs every
+    /// step (they stay in its core's cache) and the pool is woken fewer times.
+    fn part(&self) -> usize {
+        let chunks = self.states.num_envs().div_ceil(LANE_CHUNK);
+        chunks.div_ceil(rayon::current_num_threads().max(1)) * LANE_CHUNK
+    }
+
+    /// Steps every env, each thread first loading its envs' lanes from `rows` if
+    /// those were written since the last step. A thread's run of envs goes through
+    /// the stepper of its first [`LANE_CHUNK`]. Lanes are independent, so no result
+    /// depends on the split.
     fn step(
         &mut self,
-        states: &mut [f64],
+        rows: &[f64],
         forces: &[f64],
         status: &mut [StepStatus],
         plan: StepPlan<'_>,
     ) {
+        let load = self.current == Current::Rows;
+        self.current = Current::Lanes;
         let num_envs = status.len();
-        let (d, f) = (states.len() / num_envs, forces.len() / num_envs);
+        let (d, f) = (self.states.dim(), forces.len() / num_envs);
         let (kernel, params) = (self.kernel, &self.params[..]);
-        let chunks = num_envs.div_ceil(LANE_CHUNK);
-        let per_thread = chunks.div_ceil(rayon::current_num_threads().max(1));
-        let work = |(((states, forces), status), workers): LaneItem<'_, G, L, T>| {
-            workers[0].step(kernel, params, states, forces, None, plan, status);
+        let work = |((((lanes, rows), forces), status), workers): LaneItem<'_, G, L, T>| {
+            if load {
+                load_groups(kernel, lanes, rows, d);
+            }
+            workers[0].step_lanes(kernel, params, lanes, forces, None, plan, status);
         };
-        if per_thread >= chunks {
-            work((((states, forces), status), &mut self.workers[..]));
+        let part = self.part();
+        let lanes = self.states.lanes_mut();
+        if part >= num_envs {
+            work(((((lanes, rows), forces), status), &mut self.workers[..]));
         } else {
-            let part = per_thread * LANE_CHUNK;
-            states
-                .par_chunks_mut(part * d)
+            lanes
+                .par_chunks_mut(part / L * d)
+                .zip(rows.par_chunks(part * d))
                 .zip(forces.par_chunks(part * f))
                 .zip(status.par_chunks_mut(part))
-                .zip(self.workers.par_chunks_mut(per_thread))
+                .zip(self.workers.par_chunks_mut(part / LANE_CHUNK))
                 .for_each(work);
         }
     }
@@ -360,6 +409,7 @@ impl<G: LaneScene> Batch<G> {
             }
         };
         if precision != self.precision() {
+            self.sync_rows();
             self.lanes = Some(match precision {
                 Precision::F64 => LaneMode::F64(LanePath::new(&self.chain, self.num_envs, kernel)),
                 Precision::F32 => LaneMode::F32(LanePath::new(&self.chain, self.num_envs, kernel)),
@@ -373,6 +423,7 @@ impl<G: LaneScene> Batch<G> {
     /// integrator is not rk4.
     pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
         let Some(kernel) = kernel else {
+            self.sync_rows();
             self.lanes = None;
             return Ok(());
         };
@@ -416,18 +467,42 @@ impl<G: LaneScene> Batch<G> {
     pub fn state_dim(&self) -> usize {
         self.chain.state_dim()
     }
-    /// All states, env-major: env k is `states[k*dim..(k+1)*dim]`.
-    pub fn states(&self) -> &[f64] {
+    /// All states, env-major: env k is `states[k*dim..(k+1)*dim]`. On the lane path
+    /// the states stay in lane groups between steps; reading them after a step moves
+    /// them out once (hence `&mut`), and reading again before the next step is free.
+    pub fn states(&mut self) -> &[f64] {
+        self.sync_rows();
         &self.states
     }
-    /// Every env's state, env-major, for writing.
+    /// Every env's state, env-major, for writing (the next step reads them back in).
     pub fn states_mut(&mut self) -> &mut [f64] {
+        self.sync_rows();
+        self.rows_written();
         &mut self.states
     }
-    /// Env `env`'s state.
-    pub fn state(&self, env: usize) -> &[f64] {
+    /// Env `env`'s state (see [`Batch::states`]).
+    pub fn state(&mut self, env: usize) -> &[f64] {
         let d = self.state_dim();
-        &self.states[env * d..(env + 1) * d]
+        &self.states()[env * d..(env + 1) * d]
+    }
+
+    /// Brings the env-major states up to date with the lanes.
+    fn sync_rows(&mut self) {
+        let rows = &mut self.states[..];
+        match self.lanes.as_mut() {
+            Some(LaneMode::F64(path)) => path.sync_rows(rows),
+            Some(LaneMode::F32(path)) => path.sync_rows(rows),
+            None => {}
+        }
+    }
+
+    /// The env-major states were written: the next lane step starts from them.
+    fn rows_written(&mut self) {
+        match self.lanes.as_mut() {
+            Some(LaneMode::F64(path)) => path.current = Current::Rows,
+            Some(LaneMode::F32(path)) => path.current = Current::Rows,
+            None => {}
+        }
     }
     /// Statuses of the last step.
     pub fn status(&self) -> &[StepStatus] {
@@ -453,8 +528,20 @@ impl<G: LaneScene> Batch<G> {
         let d = self.state_dim();
         check_len("state", state, d)?;
         check_finite("state", state)?;
-        self.states[env * d..(env + 1) * d].copy_from_slice(state);
+        self.states_mut()[env * d..(env + 1) * d].copy_from_slice(state);
         self.status[env] = StepStatus::Ok;
+        Ok(())
+    }
+
+    /// Overwrites every env's state (env-major, validated: length, finiteness) and
+    /// clears the statuses. Unlike writing through [`Batch::states_mut`], the old
+    /// states are not moved out of the lanes first.
+    pub fn set_states(&mut self, states: &[f64]) -> Result<()> {
+        check_len("states", states, self.states.len())?;
+        check_finite("states", states)?;
+        self.states.copy_from_slice(states);
+        self.rows_written();
+        self.status.fill(StepStatus::Ok);
         Ok(())
     }
 
@@ -510,7 +597,7 @@ impl<G: LaneScene> Batch<G> {
             substeps: self.opts.substeps,
             guard: &self.guard,
         };
-        let (states, status) = (&mut self.states[..], &mut self.status[..]);
+        let (states, status) = (&self.states[..], &mut self.status[..]);
         match self.lanes.as_mut() {
             Some(LaneMode::F64(path)) => path.step(states, forces, status, plan),
             Some(LaneMode::F32(path)) => path.step(states, forces, status, plan),
@@ -519,8 +606,12 @@ impl<G: LaneScene> Batch<G> {
     }
 }
 
-/// One parallel work item of the lane path.
+/// One parallel work item of the lane path: lane groups, their rows, forces,
+/// statuses, steppers.
 type LaneItem<'a, G, const L: usize, T> = (
-    ((&'a mut [f64], &'a [f64]), &'a mut [StepStatus]),
+    (
+        ((&'a mut [Lanes<L, T>], &'a [f64]), &'a [f64]),
+        &'a mut [StepStatus],
+    ),
     &'a mut [LaneStepper<G, L, T>],
 );

@@ -516,3 +516,85 @@ fn f32_needs_the_lane_kernel() {
     rk4.set_kernel(None).unwrap();
     assert_eq!(rk4.precision(), Precision::F64);
 }
+
+/// A scripted run of 40 steps of 37 envs: between steps it writes one env
+/// (`set_state`), edits rows in place (`states_mut`), overwrites every env
+/// (`set_states`) and changes kernel; with `read`, it also reads every state after
+/// every step. Returns the final states' bits, every status and every state read.
+fn scripted_run(
+    kernels: [Option<Kernel>; 2],
+    precision: Precision,
+    read: bool,
+) -> (Vec<u64>, Vec<StepStatus>, Vec<u64>) {
+    let num_envs = 37;
+    let (mut batch, starts) = common::batches::random_batch(num_envs, Method::Rk4, 5);
+    batch.set_kernel(kernels[0]).unwrap();
+    batch.set_precision(precision).unwrap();
+    let (mut statuses, mut seen) = (vec![], vec![]);
+    for step in 0..40 {
+        match step {
+            5 => batch.set_state(3, &starts[30]).unwrap(),
+            10 => {
+                let d = batch.state_dim();
+                let rows = batch.states_mut();
+                rows.copy_within(0..d, d); // env 1 becomes a copy of env 0
+            }
+            15 => batch.set_states(&starts.concat()).unwrap(),
+            20 => batch.set_kernel(kernels[1]).unwrap(),
+            _ => {}
+        }
+        let mut f = common::batches::forces(num_envs, step);
+        f[2 * 11] *= if step % 6 == 2 { 1e9 } else { 1.0 };
+        batch.step(&f).unwrap();
+        statuses.extend_from_slice(batch.status());
+        if read {
+            seen.extend(bits(batch.states()));
+            seen.extend(bits(batch.state(num_envs - 1)));
+        }
+    }
+    (bits(batch.states()), statuses, seen)
+}
+
+#[test]
+fn states_read_or_written_between_lane_steps_are_the_per_env_ones() {
+    let kernels = available_kernels();
+    let (first, last) = (kernels[0], *kernels.last().unwrap());
+    let reference = scripted_run([None, None], Precision::F64, true);
+    assert!(reference.1.iter().any(|s| s.is_failure()));
+    for (a, b) in [(first, last), (last, first)] {
+        let unread = scripted_run([Some(a), Some(b)], Precision::F64, false);
+        assert_eq!(unread.0, reference.0, "{a:?} then {b:?}");
+        assert_eq!(unread.1, reference.1, "{a:?} then {b:?}");
+        let read = scripted_run([Some(a), Some(b)], Precision::F64, true);
+        assert!(read == reference, "{a:?} then {b:?}, read every step");
+    }
+    // f32 keeps its states in f32 lanes between steps; reading them changes nothing.
+    let f32_read = scripted_run([Some(last), Some(first)], Precision::F32, true);
+    let f32_unread = scripted_run([Some(first), Some(last)], Precision::F32, false);
+    assert_eq!(f32_read.0, f32_unread.0);
+    assert_eq!(f32_read.1, f32_unread.1);
+    assert!(
+        f32_read.0 != reference.0,
+        "f32 must differ from f64 somewhere"
+    );
+}
+
+#[test]
+fn switching_precision_or_to_the_per_env_path_keeps_the_states() {
+    let (mut batch, _) = common::batches::random_batch(21, Method::Rk4, 8);
+    let forces = common::batches::forces(21, 0);
+    batch.step(&forces).unwrap();
+    let f64_states = batch.states().to_vec();
+    batch.step(&forces).unwrap();
+    batch.set_precision(Precision::F32).unwrap();
+    batch.set_precision(Precision::F64).unwrap();
+    let mut per_env = common::batches::random_batch(21, Method::Rk4, 8).0;
+    per_env.set_kernel(None).unwrap();
+    per_env.set_states(&f64_states).unwrap();
+    per_env.step(&forces).unwrap();
+    assert_eq!(bits(batch.states()), bits(per_env.states()));
+    batch.step(&forces).unwrap();
+    batch.set_kernel(None).unwrap();
+    per_env.step(&forces).unwrap();
+    assert_eq!(bits(batch.states()), bits(per_env.states()));
+}
