@@ -369,6 +369,7 @@ fn a_chunk_with_a_chain_per_env_steps_each_env_as_its_own_chain() {
         &vec![true; num_envs],
         plan,
         &mut status,
+        None,
     );
     let d = chain.state_dim();
     let opts = StepOptions::new(Method::Rk4, 2).unwrap();
@@ -597,4 +598,84 @@ fn switching_precision_or_to_the_per_env_path_keeps_the_states() {
     batch.set_kernel(None).unwrap();
     per_env.step(&forces).unwrap();
     assert_eq!(bits(batch.states()), bits(per_env.states()));
+}
+
+/// Steps `num_envs` random envs of scene `G` through a chunk's lane path with measuring
+/// on, and checks every successful env's measures against the scalar ones of the
+/// state it reached, bit for bit.
+fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
+    n: usize,
+    precision: Precision,
+    kernel: Kernel,
+) {
+    use chaincart::lanes::measure::{measure, MeasureInto, Measures};
+    use chaincart::lanes::{chunk_lanes, ChunkSpec};
+    let num_envs = 29;
+    let mut rng = rng(40 + n as u64);
+    let chain = Chain::<G>::new(random_params(&mut rng, n, 10.0, 10.0));
+    let spec = ChunkSpec {
+        num_envs,
+        per_env: false,
+        kernel,
+        precision,
+    };
+    let mut lanes = chunk_lanes(&chain, spec);
+    let mut states: Vec<f64> = (0..num_envs)
+        .flat_map(|_| G::random_state(&mut rng, n, 3.0))
+        .collect();
+    let f = chain.force_dim();
+    let forces: Vec<f64> = (0..f * num_envs).map(|j| (j % 7) as f64 - 3.0).collect();
+    let target: Vec<f64> = (0..n)
+        .map(|i| if i % 3 == 1 { -1.0 } else { 1.0 })
+        .collect();
+    let guard = Guard::default();
+    let plan = StepPlan {
+        dt: 2e-3,
+        substeps: 2,
+        guard: &guard,
+    };
+    let mut status = vec![StepStatus::SolverFailure; num_envs];
+    let mut out = Measures::new(num_envs);
+    let into = MeasureInto {
+        target: &target,
+        out: &mut out,
+    };
+    let stepped: Vec<bool> = (0..num_envs).map(|k| k != 4).collect();
+    lanes.step(
+        &mut states,
+        &forces,
+        &stepped,
+        plan,
+        &mut status,
+        Some(into),
+    );
+    let d = chain.state_dim();
+    let what = format!("{} n = {n}, {precision:?}, {kernel:?}", G::NAME);
+    let mut checked = 0;
+    for k in 0..num_envs {
+        if !stepped[k] || status[k].is_failure() {
+            continue;
+        }
+        let y = &states[k * d..(k + 1) * d];
+        let (lane, scalar) = (out.get(k), measure(chain.layout(), y, &target));
+        let fields = |m: &chaincart::lanes::measure::StateMeasure| {
+            bits(&[m.q2, m.w2, m.e_q, m.e_w, m.x2, m.v2])
+        };
+        assert_eq!(fields(&lane), fields(&scalar), "env {k}, {what}");
+        assert_eq!(lane.x_max, scalar.x_max, "env {k}, {what}");
+        checked += 1;
+    }
+    assert!(checked >= num_envs - 3, "{checked} envs checked, {what}");
+}
+
+#[test]
+fn lanes_measure_each_stepped_state_as_the_scalar_code_does() {
+    for kernel in available_kernels() {
+        for precision in [Precision::F64, Precision::F32] {
+            for n in [1, 2, 5] {
+                lane_measures_match::<Spatial>(n, precision, kernel);
+                lane_measures_match::<Planar>(n, precision, kernel);
+            }
+        }
+    }
 }

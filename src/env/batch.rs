@@ -197,7 +197,7 @@ macro_rules! ctx {
 
 /// Env `k`'s generator streams for `seed`: start states, parameters, noise.
 fn seed_env(data: &mut EnvData, k: usize, seed: u64) {
-    data.slots[k].rng = ChaCha8Rng::seed_from_u64(seed);
+    data.start_rngs[k] = ChaCha8Rng::seed_from_u64(seed);
     let stream = |s| {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(s);
@@ -239,14 +239,8 @@ impl<G: Geometry> EnvBatch<G> {
         let unseeded = ChaCha8Rng::seed_from_u64(0);
         let mut data = EnvData {
             states: vec![0.0; num_envs * d],
-            slots: vec![
-                Slot {
-                    rng: unseeded.clone(),
-                    steps: 0,
-                    ended: false,
-                };
-                num_envs
-            ],
+            slots: vec![Slot::default(); num_envs],
+            start_rngs: vec![unseeded.clone(); num_envs],
             params: if widths.param_scalars == 1 {
                 EnvParams::filled(true_chain.params(), num_envs)
             } else {
@@ -622,7 +616,7 @@ impl<G: Geometry> EnvBatch<G> {
         let d = &self.data;
         Snapshot {
             states: d.states.clone(),
-            rng: d.slots.iter().map(|s| rng_to_bytes(&s.rng)).collect(),
+            rng: d.start_rngs.iter().map(rng_to_bytes).collect(),
             steps: d.slots.iter().map(|s| s.steps).collect(),
             ended: d.slots.iter().map(|s| s.ended).collect(),
             param_rng: d.param_rngs.iter().map(rng_to_bytes).collect(),
@@ -663,7 +657,7 @@ impl<G: Geometry> EnvBatch<G> {
         }
         d.states.copy_from_slice(&snap.states);
         for (k, slot) in d.slots.iter_mut().enumerate() {
-            slot.rng = rng_from_bytes(&snap.rng[k]);
+            d.start_rngs[k] = rng_from_bytes(&snap.rng[k]);
             slot.steps = snap.steps[k];
             slot.ended = snap.ended[k];
         }

@@ -14,7 +14,8 @@ use super::config::{AutoresetMode, TaskConfig};
 use super::reality::{EnvParams, ParamRow, RealityGap};
 use super::start::perturb;
 use crate::batch::{GuardedStepper, StepStatus, CHUNK};
-use crate::geometry::{Geometry, Layout, Vector};
+use crate::geometry::{Geometry, Vector};
+use crate::lanes::measure::{measure, MeasureInto, Measures, StateMeasure};
 use crate::lanes::{ChunkLanes, StepPlan, LANES_F32};
 use crate::model::Chain;
 use crate::params::ChainParams;
@@ -22,11 +23,11 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-/// Per-env bookkeeping besides the state.
-#[derive(Debug, Clone)]
+/// Per-env bookkeeping besides the state, read and written every step (kept apart
+/// from the env's start-state generator, ten times its size and needed only at
+/// resets, so that a step's pass over the envs reads 16 bytes per env, not 336).
+#[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Slot {
-    /// Stream 0 of the env's generator: start states.
-    pub rng: ChaCha8Rng,
     pub steps: u64,
     /// The episode has ended and the env has not been reset since.
     pub ended: bool,
@@ -82,6 +83,8 @@ impl Widths {
 pub(super) struct EnvData {
     pub states: Vec<f64>,
     pub slots: Vec<Slot>,
+    /// Stream 0 of each env's generator: start states.
+    pub start_rngs: Vec<ChaCha8Rng>,
     pub params: EnvParams,
     /// Parameter stream of each env's generator (randomisation on).
     pub param_rngs: Vec<ChaCha8Rng>,
@@ -100,6 +103,7 @@ impl EnvData {
         DataRange {
             states: &mut self.states,
             slots: &mut self.slots,
+            start_rngs: &mut self.start_rngs,
             cart_mass: &mut self.params.cart_mass,
             link_masses: &mut self.params.link_masses,
             link_lengths: &mut self.params.link_lengths,
@@ -131,6 +135,7 @@ fn row<S>(s: &mut [S], k: usize, width: usize) -> &mut [S] {
 pub(super) struct DataRange<'a> {
     states: &'a mut [f64],
     slots: &'a mut [Slot],
+    start_rngs: &'a mut [ChaCha8Rng],
     cart_mass: &'a mut [f64],
     link_masses: &'a mut [f64],
     link_lengths: &'a mut [f64],
@@ -146,6 +151,7 @@ impl<'a> DataRange<'a> {
     fn split_at(self, at: usize, w: &Widths) -> (Self, Self) {
         let (states, states2) = cut(self.states, at, w.state);
         let (slots, slots2) = cut(self.slots, at, 1);
+        let (start_rngs, start_rngs2) = cut(self.start_rngs, at, 1);
         let (cart_mass, cart_mass2) = cut(self.cart_mass, at, w.param_scalars);
         let (link_masses, link_masses2) = cut(self.link_masses, at, w.param_links);
         let (link_lengths, link_lengths2) = cut(self.link_lengths, at, w.param_links);
@@ -159,6 +165,7 @@ impl<'a> DataRange<'a> {
             Self {
                 states,
                 slots,
+                start_rngs,
                 cart_mass,
                 link_masses,
                 link_lengths,
@@ -172,6 +179,7 @@ impl<'a> DataRange<'a> {
             DataRange {
                 states: states2,
                 slots: slots2,
+                start_rngs: start_rngs2,
                 cart_mass: cart_mass2,
                 link_masses: link_masses2,
                 link_lengths: link_lengths2,
@@ -197,6 +205,7 @@ impl<'a> DataRange<'a> {
             return EnvMut {
                 y: row(self.states, k, w.state),
                 slot: &mut self.slots[k],
+                start_rng: &mut self.start_rngs[k],
                 params: None,
                 param_rng: None,
                 noise_rng: None,
@@ -214,6 +223,7 @@ impl<'a> DataRange<'a> {
         EnvMut {
             y: row(self.states, k, w.state),
             slot: &mut self.slots[k],
+            start_rng: &mut self.start_rngs[k],
             params,
             param_rng: self.param_rngs.get_mut(k),
             noise_rng: self.noise_rngs.get_mut(k),
@@ -228,6 +238,8 @@ impl<'a> DataRange<'a> {
 pub(super) struct EnvMut<'a> {
     pub y: &'a mut [f64],
     pub slot: &'a mut Slot,
+    /// Stream 0 of the env's generator: start states.
+    pub start_rng: &'a mut ChaCha8Rng,
     /// The env's own parameters (randomisation on), else the batch's shared set.
     pub params: Option<ParamRow<'a>>,
     pub param_rng: Option<&'a mut ChaCha8Rng>,
@@ -341,6 +353,8 @@ pub(super) struct LaneScratch {
     /// Per env, whether it steps (false: it was autoreset instead).
     stepped: Vec<bool>,
     status: Vec<StepStatus>,
+    /// Per env, what the task reads of the state its step reached.
+    measures: Measures,
 }
 
 impl<G: Geometry> Worker<G> {
@@ -360,6 +374,7 @@ impl<G: Geometry> Worker<G> {
             a2: vec![0.0; num_envs],
             stepped: vec![false; num_envs],
             status: vec![StepStatus::Ok; num_envs],
+            measures: Measures::new(num_envs),
         });
     }
 
@@ -481,27 +496,52 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         substeps: task.step_options.substeps,
         guard: &task.guard,
     };
+    let measures = MeasureInto {
+        target: &task.target,
+        out: &mut l.measures,
+    };
     l.lanes.step(
         &mut data.states[..num_envs * w.state],
         &l.forces[..num_envs * f],
         &l.stepped[..num_envs],
         plan,
         &mut l.status[..num_envs],
+        Some(measures),
     );
+    let noisy = w.noisy > 0;
     for k in 0..num_envs {
         if !l.stepped[k] {
             continue;
         }
-        let e = data.env(k, w);
+        let mut e = data.env(k, w);
         // The env's own chain is only read by the diagnostics: load it only for them.
         let chain = if ctx.diagnostics {
             env_chain(ctx, scratch, &e.params)
         } else {
             ctx.chain
         };
-        if finish_step(ctx, chain, e, out.env(k, w), l.status[k], l.a2[k]) {
+        let status = l.status[k];
+        // A failed env kept its old state, which its lane did not measure.
+        let m = if status.is_failure() {
+            measure(ctx.chain.layout(), e.y, &task.target)
+        } else {
+            l.measures.get(k)
+        };
+        let mut o = out.env(k, w);
+        let reset = finish_step(ctx, chain, &mut e, &mut o, status, &m, l.a2[k]);
+        if noisy {
+            emit_obs(&task.reality, &mut e, o.obs);
+        }
+        if reset {
             load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
         }
+    }
+    if !noisy {
+        // Every env's observation is its state: one pass over the chunk's rows.
+        write_obs(
+            &data.states[..num_envs * w.state],
+            &mut out.obs[..num_envs * w.state],
+        );
     }
 }
 
@@ -545,7 +585,7 @@ pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
         ctx.chain.layout(),
         ctx.base,
         ctx.task.start_noise,
-        &mut e.slot.rng,
+        e.start_rng,
         e.y,
     );
     e.slot.steps = 0;
@@ -636,21 +676,6 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: 
     a2
 }
 
-/// `(sum |q_i - s_i e3|^2, sum |w_i|^2, e_q, e_w)`.
-#[inline(always)]
-pub(super) fn distances<G: Geometry>(lay: Layout<G>, y: &[f64], s: &[f64]) -> (f64, f64, f64, f64) {
-    let (mut q2, mut w2, mut e_q, mut e_w) = (0.0, 0.0, 0.0, 0.0);
-    for (i, &si) in s.iter().enumerate() {
-        let dq = (lay.load_q(y, i) - G::down_unit() * si).norm_squared();
-        let dw = lay.load_w(y, i).norm_squared();
-        q2 += dq;
-        w2 += dw;
-        e_q += dq.sqrt();
-        e_w += dw.sqrt();
-    }
-    (q2, w2, e_q, e_w)
-}
-
 fn write_diagnostics<G: Geometry>(chain: &Chain<G>, y: &[f64], diag: &mut [f64]) {
     let e = chain.energy(y);
     let r = chain.residuals(y);
@@ -670,48 +695,42 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
     *o.terminated = false;
     *o.truncated = false;
     *o.event = event::RESET;
-    let (_, _, e_q, e_w) = distances(ctx.chain.layout(), e.y, &ctx.task.target);
-    o.errors.copy_from_slice(&[e_q, e_w]);
+    let m = measure(ctx.chain.layout(), e.y, &ctx.task.target);
+    o.errors.copy_from_slice(&[m.e_q, m.e_w]);
     if ctx.diagnostics {
         let chain = env_chain(ctx, scratch, &e.params);
         write_diagnostics(chain, e.y, o.diag);
     }
 }
 
-/// Reward, flags, errors and event bits of the state an env step reached.
+/// Reward, flags, errors and event bits of the state an env step reached, from its
+/// measures `m`.
 #[inline(always)]
 fn score<G: Geometry>(
     ctx: &Ctx<'_, G>,
-    y: &[f64],
+    m: &StateMeasure,
     steps: u64,
     failed: bool,
     a2: f64,
     o: &mut EnvOut<'_, impl Real, impl Real>,
 ) -> u8 {
     let task = ctx.task;
-    let lay = ctx.chain.layout();
-    let off_track = !failed
-        && y[lay.x()..lay.x() + G::Cart::DIM]
-            .iter()
-            .any(|x| x.abs() > task.track_limit);
+    let off_track = !failed && m.x_max > task.track_limit;
     let terminated = failed || off_track;
     let truncated = steps >= task.max_episode_steps;
-    let (q2, w2, e_q, e_w) = distances(lay, y, &task.target);
     let w = &task.reward;
     *o.reward = if failed {
         0.0
     } else {
-        let x2 = lay.load_x(y).norm_squared();
-        let v2 = lay.load_xdot(y).norm_squared();
-        (-(w.q * q2 + w.w * w2 + w.x * x2 + w.v * v2 + w.u * a2)).exp()
+        (-(w.q * m.q2 + w.w * m.w2 + w.x * m.x2 + w.v * m.v2 + w.u * a2)).exp()
     };
     *o.terminated = terminated;
     *o.truncated = truncated;
-    o.errors.copy_from_slice(&[e_q, e_w]);
+    o.errors.copy_from_slice(&[m.e_q, m.e_w]);
     let mut ev = 0;
     if terminated || truncated {
         ev |= event::ENDED;
-        if !terminated && e_q <= task.success.e_q && e_w <= task.success.e_w {
+        if !terminated && m.e_q <= task.success.e_q && m.e_w <= task.success.e_w {
             ev |= event::SUCCESS;
         }
     }
@@ -754,42 +773,45 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         &task.step_options,
         &task.guard,
     );
-    finish_step(ctx, chain, e, o, status, a2);
+    let m = measure(chain.layout(), e.y, &task.target);
+    let mut o = o;
+    finish_step(ctx, chain, &mut e, &mut o, status, &m, a2);
+    emit_obs(&task.reality, &mut e, o.obs);
 }
 
-/// After env `e`'s physics (status `status`, squared applied action `a2`): step count,
-/// reward, flags and events, diagnostics (on `chain`, the env's own), the end of the
-/// episode (same-step reset or "ended") and the observation. Returns whether the env
-/// was reset (its parameters may have changed).
+/// After env `e`'s physics (status `status`, measures `m` of the state it holds,
+/// squared applied action `a2`): step count, reward, flags and events, diagnostics (on
+/// `chain`, the env's own) and the end of the episode (same-step reset or "ended").
+/// The caller writes the observation. Returns whether the env was reset (its
+/// parameters may have changed).
 #[inline(always)]
 fn finish_step<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
     chain: &Chain<G>,
-    mut e: EnvMut<'_>,
-    mut o: EnvOut<'_, T, A>,
+    e: &mut EnvMut<'_>,
+    o: &mut EnvOut<'_, T, A>,
     status: StepStatus,
+    m: &StateMeasure,
     a2: f64,
 ) -> bool {
     let task = ctx.task;
     e.slot.steps += 1;
-    let ev = score(ctx, e.y, e.slot.steps, status.is_failure(), a2, &mut o);
+    let ev = score(ctx, m, e.slot.steps, status.is_failure(), a2, o);
     *o.event = ev;
     if ctx.diagnostics {
         write_diagnostics(chain, e.y, o.diag);
     }
-    let mut reset = false;
-    if ev & event::ENDED != 0 {
-        if ctx.mode == AutoresetMode::SameStep {
-            match e.noise_rng.as_deref_mut() {
-                None => o.finals.copy_from_slice(e.y),
-                Some(rng) => add_noise(&task.reality, e.y, rng, o.finals),
-            }
-            reset_env(ctx, &mut e);
-            reset = true;
-        } else {
-            e.slot.ended = true;
-        }
+    if ev & event::ENDED == 0 {
+        return false;
     }
-    emit_obs(&task.reality, &mut e, o.obs);
-    reset
+    if ctx.mode != AutoresetMode::SameStep {
+        e.slot.ended = true;
+        return false;
+    }
+    match e.noise_rng.as_deref_mut() {
+        None => o.finals.copy_from_slice(e.y),
+        Some(rng) => add_noise(&task.reality, e.y, rng, o.finals),
+    }
+    reset_env(ctx, e);
+    true
 }

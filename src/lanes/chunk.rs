@@ -5,6 +5,7 @@
 //! into every lane, or one chain per env loaded lane by lane.
 
 use super::dispatch::Kernel;
+use super::measure::MeasureInto;
 use super::params::LaneParams;
 use super::simd::LaneReal;
 use super::stepper::{LaneStepper, StepPlan};
@@ -17,7 +18,8 @@ use crate::params::ChainParams;
 
 /// The lane kernel for one chunk, seen from scene-generic code.
 pub trait ChunkLanes: Send + Sync {
-    /// Steps the envs with `stepped[k]` (see [`LaneStepper::step`]).
+    /// Steps the envs with `stepped[k]` (see [`LaneStepper::step`]) and, if asked,
+    /// measures their new states as they go ([`LaneStepper::step_measured`]).
     fn step(
         &mut self,
         states: &mut [f64],
@@ -25,6 +27,7 @@ pub trait ChunkLanes: Send + Sync {
         stepped: &[bool],
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
+        measure: Option<MeasureInto<'_>>,
     );
 
     /// Gives env `k` of the chunk the chain `params` (same number of links). Only a
@@ -101,7 +104,9 @@ impl<G: LaneGeometry<LANES>> LaneChunk<G> {
     }
 }
 
-impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> ChunkLanes for LaneChunk<G, L, T> {
+impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal> ChunkLanes
+    for LaneChunk<G, L, T>
+{
     fn step(
         &mut self,
         states: &mut [f64],
@@ -109,11 +114,16 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> ChunkLanes for LaneChun
         stepped: &[bool],
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
+        measure: Option<MeasureInto<'_>>,
     ) {
         let stepped = Some(stepped);
-        let (kernel, params) = (self.kernel, &self.params[..]);
-        self.stepper
-            .step(kernel, params, states, forces, stepped, plan, status);
+        let (kernel, params, stepper) = (self.kernel, &self.params[..], &mut self.stepper);
+        match measure {
+            None => stepper.step(kernel, params, states, forces, stepped, plan, status),
+            Some(m) => {
+                stepper.step_measured(kernel, params, states, forces, stepped, plan, status, m)
+            }
+        }
     }
 
     fn set_env_params(&mut self, k: usize, params: &ChainParams) -> Result<()> {
@@ -137,11 +147,24 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> ChunkLanes for LaneChun
     }
 }
 
+/// Chains of up to this many links are stepped two vector widths at a time: their
+/// step is short, and a group twice as wide gives the core two independent chains of
+/// operations to overlap (one planar link: +18% env steps/s on one core; with two
+/// links the wider group was slower, and four widths were no better than two).
+pub const MAX_LINKS_IN_DOUBLE_GROUPS: usize = 1;
+
 /// The lane path of a chunk of envs of `chain` as `spec` says, boxed for
 /// scene-generic code.
 pub fn chunk_lanes<G: LaneScene>(chain: &Chain<G>, spec: ChunkSpec) -> Box<dyn ChunkLanes> {
-    match spec.precision {
-        Precision::F64 => Box::new(LaneChunk::<G, LANES, f64>::for_spec(chain, spec)),
-        Precision::F32 => Box::new(LaneChunk::<G, LANES_F32, f32>::for_spec(chain, spec)),
+    let wide = chain.n_links() <= MAX_LINKS_IN_DOUBLE_GROUPS;
+    match (spec.precision, wide) {
+        (Precision::F64, false) => Box::new(LaneChunk::<G, LANES, f64>::for_spec(chain, spec)),
+        (Precision::F64, true) => {
+            Box::new(LaneChunk::<G, { 2 * LANES }, f64>::for_spec(chain, spec))
+        }
+        (Precision::F32, false) => Box::new(LaneChunk::<G, LANES_F32, f32>::for_spec(chain, spec)),
+        (Precision::F32, true) => Box::new(LaneChunk::<G, { 2 * LANES_F32 }, f32>::for_spec(
+            chain, spec,
+        )),
     }
 }

@@ -4,6 +4,7 @@
 //! * [`simd`]: `L` numbers per value, plain arrays that LLVM vectorises.
 //! * [`vector`]: lane vectors and the spatial/planar scene operations on them.
 //! * [`params`]: chain parameters per lane (a shared chain is a broadcast).
+//! * [`measure`]: what the RL task reads of a stepped state, measured in the lanes.
 //! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
 //! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
 //! * [`stepper`]: stepping envs in lane groups, from env-major rows or in place.
@@ -17,6 +18,7 @@
 
 pub mod chunk;
 pub mod dispatch;
+pub mod measure;
 pub mod params;
 pub mod resident;
 pub mod rk4;
@@ -40,5 +42,17 @@ pub const LANES: usize = 8;
 pub const LANES_F32: usize = 16;
 
 /// A scene with lane kernels in both precisions (the spatial and the planar one).
-pub trait LaneScene: LaneGeometry<LANES> + LaneGeometry<LANES_F32, f32> {}
-impl<G: LaneGeometry<LANES> + LaneGeometry<LANES_F32, f32>> LaneScene for G {}
+pub trait LaneScene:
+    LaneGeometry<LANES>
+    + LaneGeometry<LANES_F32, f32>
+    + LaneGeometry<{ 2 * LANES }>
+    + LaneGeometry<{ 2 * LANES_F32 }, f32>
+{
+}
+impl<G> LaneScene for G where
+    G: LaneGeometry<LANES>
+        + LaneGeometry<LANES_F32, f32>
+        + LaneGeometry<{ 2 * LANES }>
+        + LaneGeometry<{ 2 * LANES_F32 }, f32>
+{
+}

@@ -9,11 +9,13 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::dispatch::{run_on, Kernel, LaneWork};
+use super::measure::{AfterStep, MeasureInto, NoMeasure};
 use super::params::LaneParams;
 use super::rk4::{guarded_rk4, roll_back, LaneWorkspace, StepSpec};
 use super::simd::{LaneReal, Lanes};
 use super::transpose::RowMover;
 use super::vector::{LaneGeometry, LaneVector};
+use super::LANES;
 use crate::batch::{Guard, StepStatus};
 
 /// How a control period is stepped: period, integrator substeps, failure guard.
@@ -124,10 +126,12 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
         };
         run_on(
             kernel,
-            StepRows::<G, L, T> {
-                stepper: self,
+            StepRows {
+                ws: &mut self.ws,
+                group: &mut self.group,
                 states,
                 groups,
+                after: NoMeasure,
             },
         );
     }
@@ -167,22 +171,66 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
     }
 }
 
-/// [`LaneStepper::step`]'s work: transpose in, step, transpose out, group by group.
-struct StepRows<'a, 'b, G: LaneGeometry<L, T>, const L: usize, T: LaneReal> {
-    stepper: &'a mut LaneStepper<G, L, T>,
-    states: &'a mut [f64],
-    groups: Groups<'b, L, T>,
+impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal>
+    LaneStepper<G, L, T>
+{
+    /// [`LaneStepper::step`], measuring each stepped env's new state as it goes (see
+    /// [`MeasureInto`]; the measures of failed envs are garbage).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_measured(
+        &mut self,
+        kernel: Kernel,
+        params: &[LaneParams<L, T>],
+        states: &mut [f64],
+        forces: &[f64],
+        stepped: Option<&[bool]>,
+        plan: StepPlan<'_>,
+        status: &mut [StepStatus],
+        measure: MeasureInto<'_>,
+    ) {
+        debug_assert_eq!(states.len(), status.len() * self.state_dim());
+        let groups = Groups {
+            params,
+            forces,
+            stepped,
+            plan,
+            status,
+        };
+        run_on(
+            kernel,
+            StepRows {
+                ws: &mut self.ws,
+                group: &mut self.group,
+                states,
+                groups,
+                after: measure,
+            },
+        );
+    }
 }
 
-impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWork for StepRows<'_, '_, G, L, T> {
+/// [`LaneStepper::step`]'s work: transpose in, step, `after`, transpose out, group by
+/// group.
+struct StepRows<'a, 'b, G: LaneGeometry<L, T>, const L: usize, T: LaneReal, A> {
+    ws: &'a mut LaneWorkspace<G, L, T>,
+    group: &'a mut [Lanes<L, T>],
+    states: &'a mut [f64],
+    groups: Groups<'b, L, T>,
+    after: A,
+}
+
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal, A: AfterStep<G, L, T>> LaneWork
+    for StepRows<'_, '_, G, L, T, A>
+{
     #[inline(always)]
     fn run<R: RowMover>(self) {
         let Self {
-            stepper,
+            ws,
+            group: y,
             states,
             groups: mut g,
+            mut after,
         } = self;
-        let LaneStepper { ws, group: y } = stepper;
         let d = ws.lay.dim();
         let num_envs = g.status.len();
         for (group, first) in (0..num_envs).step_by(L).enumerate() {
@@ -194,6 +242,7 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneWork for StepRows<'
             ws.force = gather_forces::<G, L, T>(g.forces, first, filled);
             let verdict = guarded_rk4(g.spec(group), ws, y);
             let write = g.record(first, filled, &verdict);
+            after.group(ws.lay, y, first, filled);
             R::lanes_to_rows(y, states, d, first, &write);
         }
     }

@@ -38,6 +38,8 @@ pub trait LaneVector<const L: usize, T: LaneReal = f64>:
     }
     /// Components `y[at..at + DIM]` of a component-major state.
     fn load(y: &[Lanes<L, T>], at: usize) -> Self;
+    /// Components `component(at)..component(at + DIM - 1)`.
+    fn load_with(at: usize, component: impl Fn(usize) -> Lanes<L, T>) -> Self;
     /// Writes the vector's components from index `at` of a component-major buffer.
     fn store(self, y: &mut [Lanes<L, T>], at: usize);
 }
@@ -63,6 +65,15 @@ impl<const D: usize, const L: usize, T: LaneReal> LaneVector<L, T> for LaneVec<D
         let mut out = Self::zero();
         for d in 0..D {
             out.0[d] = src[d];
+        }
+        out
+    }
+    #[inline(always)]
+    fn load_with(at: usize, component: impl Fn(usize) -> Lanes<L, T>) -> Self {
+        // A plain loop: `std::array::from_fn` was left as a call out of the kernel.
+        let mut out = Self::zero();
+        for d in 0..D {
+            out.0[d] = component(at + d);
         }
         out
     }

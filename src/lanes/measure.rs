@@ -1,0 +1,206 @@
+//! What the RL task reads of a state (distances to the target equilibrium, the cart's
+//! offset and speed), computed one state at a time or for a whole lane group at once
+//! right after its step, with the same operations in the same order, so both give
+//! the same bits. Lanes of any width and number type are measured eight at a time in
+//! f64 (f32 lanes widened exactly as they are read), as the scalar code measures the
+//! f64 state.
+
+// Index loops on purpose: they must inline into the dispatched kernels.
+#![allow(clippy::needless_range_loop)]
+
+use super::simd::{LaneReal, Lanes};
+use super::vector::{LaneGeometry, LaneVector};
+use super::{LANES, LANES_F32};
+use crate::geometry::{Geometry, Layout, Vector};
+
+/// The quantities of one state the task's reward, termination and success read.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StateMeasure {
+    /// `sum_i |q_i - s_i e3|^2`.
+    pub q2: f64,
+    /// `sum_i |w_i|^2`.
+    pub w2: f64,
+    /// `e_q = sum_i |q_i - s_i e3|`.
+    pub e_q: f64,
+    /// `e_w = sum_i |w_i|`.
+    pub e_w: f64,
+    /// `|x|^2`, the cart's squared offset.
+    pub x2: f64,
+    /// `|xdot|^2`.
+    pub v2: f64,
+    /// The largest `|x_k|` over the cart's axes.
+    pub x_max: f64,
+}
+
+/// [`StateMeasure`]s of many envs, one array per quantity: the lanes of a group are
+/// stored whole (written per env as a struct, LLVM vectorised the measuring across
+/// the quantities instead of along the lanes).
+#[derive(Debug, Clone, Default)]
+pub struct Measures {
+    q2: Vec<f64>,
+    w2: Vec<f64>,
+    e_q: Vec<f64>,
+    e_w: Vec<f64>,
+    x2: Vec<f64>,
+    v2: Vec<f64>,
+    x_max: Vec<f64>,
+}
+
+impl Measures {
+    /// Room for `num_envs` envs, rounded up to whole lane groups of either precision.
+    pub fn new(num_envs: usize) -> Self {
+        let v = || vec![0.0; num_envs.div_ceil(LANES_F32) * LANES_F32];
+        Self {
+            q2: v(),
+            w2: v(),
+            e_q: v(),
+            e_w: v(),
+            x2: v(),
+            v2: v(),
+            x_max: v(),
+        }
+    }
+
+    /// Env `k`'s measures.
+    #[inline(always)]
+    pub fn get(&self, k: usize) -> StateMeasure {
+        StateMeasure {
+            q2: self.q2[k],
+            w2: self.w2[k],
+            e_q: self.e_q[k],
+            e_w: self.e_w[k],
+            x2: self.x2[k],
+            v2: self.v2[k],
+            x_max: self.x_max[k],
+        }
+    }
+
+    /// Stores eight envs' measures from `first` on (the room is whole groups).
+    #[inline(always)]
+    fn put(&mut self, first: usize, m: [&Lanes<LANES>; 7]) {
+        let rows = [
+            &mut self.q2,
+            &mut self.w2,
+            &mut self.e_q,
+            &mut self.e_w,
+            &mut self.x2,
+            &mut self.v2,
+            &mut self.x_max,
+        ];
+        for (row, lanes) in rows.into_iter().zip(m) {
+            row[first..first + LANES].copy_from_slice(&lanes.0);
+        }
+    }
+}
+
+/// The measures of state `y` for the target signs `s` (one per link).
+#[inline(always)]
+pub fn measure<G: Geometry>(lay: Layout<G>, y: &[f64], s: &[f64]) -> StateMeasure {
+    let (mut q2, mut w2, mut e_q, mut e_w) = (0.0, 0.0, 0.0, 0.0);
+    for (i, &si) in s.iter().enumerate() {
+        let dq = (lay.load_q(y, i) - G::down_unit() * si).norm_squared();
+        let dw = lay.load_w(y, i).norm_squared();
+        q2 += dq;
+        w2 += dw;
+        e_q += dq.sqrt();
+        e_w += dw.sqrt();
+    }
+    let x = &y[lay.x()..lay.x() + G::Cart::DIM];
+    StateMeasure {
+        q2,
+        w2,
+        e_q,
+        e_w,
+        x2: lay.load_x(y).norm_squared(),
+        v2: lay.load_xdot(y).norm_squared(),
+        x_max: x.iter().fold(0.0, |m: f64, v| m.max(v.abs())),
+    }
+}
+
+/// [`measure`] of every lane of the lane group `y` (component-major, any lane width
+/// and number type) into `out` from env `first` on, eight lanes at a time, widened to
+/// f64 as they are read.
+#[inline(always)]
+pub fn measure_group<G, const L: usize, T: LaneReal>(
+    lay: Layout<G>,
+    y: &[Lanes<L, T>],
+    s: &[f64],
+    out: &mut Measures,
+    first: usize,
+) where
+    G: LaneGeometry<LANES> + Geometry,
+{
+    let y = &y[..lay.dim()];
+    for at in (0..L).step_by(LANES) {
+        let component = |j: usize| {
+            let mut v = Lanes::<LANES>::zero();
+            for k in 0..LANES.min(L - at) {
+                v.0[k] = y[j].0[at + k].to_f64();
+            }
+            v
+        };
+        measure_f64x8::<G>(lay, component, s, out, first + at);
+    }
+}
+
+/// [`measure`] of eight f64 lanes (`component(j)` is component j) into `out` from env
+/// `first` on.
+#[inline(always)]
+fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
+    lay: Layout<G>,
+    component: impl Fn(usize) -> Lanes<LANES>,
+    s: &[f64],
+    out: &mut Measures,
+    first: usize,
+) {
+    let zero = Lanes::<LANES>::zero();
+    let (mut q2, mut w2, mut e_q, mut e_w) = (zero, zero, zero, zero);
+    for (i, &si) in s.iter().enumerate() {
+        let q = G::LinkL::load_with(lay.q(i), &component);
+        let dq = (q - G::lanes_down_unit() * Lanes::splat(si)).norm_squared();
+        let dw = G::SpinL::load_with(lay.w(i), &component).norm_squared();
+        q2 = q2 + dq;
+        w2 = w2 + dw;
+        e_q = e_q + dq.sqrt();
+        e_w = e_w + dw.sqrt();
+    }
+    let x2 = G::CartL::load_with(lay.x(), &component).norm_squared();
+    let v2 = G::CartL::load_with(lay.xdot(), &component).norm_squared();
+    // Equal to the scalar fold but perhaps for the sign of a zero (never compared).
+    let mut x_max = zero;
+    for c in 0..G::CartL::DIM {
+        x_max = x_max.max(component(lay.x() + c).abs());
+    }
+    out.put(first, [&q2, &w2, &e_q, &e_w, &x2, &v2, &x_max]);
+}
+
+/// Work done on each lane group right after its step, before it is written back.
+pub(crate) trait AfterStep<G: Geometry, const L: usize, T: LaneReal> {
+    /// Group `y` holds envs `first..first + filled` (lanes that failed hold garbage).
+    fn group(&mut self, lay: Layout<G>, y: &[Lanes<L, T>], first: usize, filled: usize);
+}
+
+/// Nothing after the step.
+pub(crate) struct NoMeasure;
+
+impl<G: Geometry, const L: usize, T: LaneReal> AfterStep<G, L, T> for NoMeasure {
+    #[inline(always)]
+    fn group(&mut self, _: Layout<G>, _: &[Lanes<L, T>], _: usize, _: usize) {}
+}
+
+/// Measures every stepped group against a target (see [`super::ChunkLanes::step`]).
+pub struct MeasureInto<'a> {
+    /// The target signs, one per link.
+    pub target: &'a [f64],
+    /// Room for the measures of every env of the step (those of failed envs are garbage).
+    pub out: &'a mut Measures,
+}
+
+impl<G: LaneGeometry<LANES> + Geometry, const L: usize, T: LaneReal> AfterStep<G, L, T>
+    for MeasureInto<'_>
+{
+    #[inline(always)]
+    fn group(&mut self, lay: Layout<G>, y: &[Lanes<L, T>], first: usize, _filled: usize) {
+        measure_group(lay, y, self.target, self.out, first);
+    }
+}
