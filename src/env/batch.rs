@@ -59,6 +59,54 @@ pub const DIAGNOSTICS: [&str; 5] = [
     "residual_tangency",
 ];
 
+/// The episode-end info of one step, one entry per env: false / zero where the
+/// episode did not end.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EpisodeEnds {
+    /// The episode ended (terminated or truncated).
+    pub ended: Vec<bool>,
+    /// It ended at the time limit within the success tolerances.
+    pub success: Vec<bool>,
+    /// It was terminated by a failed integration step.
+    pub numerical_failure: Vec<bool>,
+    /// It was terminated by the cart leaving the track.
+    pub out_of_track: Vec<bool>,
+    /// `e_q` of the state it ended in.
+    pub e_q: Vec<f64>,
+    /// `e_w` of the state it ended in.
+    pub e_w: Vec<f64>,
+}
+
+impl EpisodeEnds {
+    /// From a step's [`event`] bits and interleaved `(e_q, e_w)` errors. Reads the
+    /// errors of the envs that ended only: right after a step the arrays sit in the
+    /// caches of the threads that wrote them, and a few dozen ended envs are much
+    /// cheaper to fetch than every env's errors.
+    pub fn from_events(events: &[u8], errors: &[f64]) -> Self {
+        let n = events.len();
+        let mut ends = Self {
+            ended: vec![false; n],
+            success: vec![false; n],
+            numerical_failure: vec![false; n],
+            out_of_track: vec![false; n],
+            e_q: vec![0.0; n],
+            e_w: vec![0.0; n],
+        };
+        for (k, &bits) in events.iter().enumerate() {
+            if bits & event::ENDED == 0 {
+                continue;
+            }
+            ends.ended[k] = true;
+            ends.success[k] = bits & event::SUCCESS != 0;
+            ends.numerical_failure[k] = bits & event::NUMERICAL_FAILURE != 0;
+            ends.out_of_track[k] = bits & event::OUT_OF_TRACK != 0;
+            ends.e_q[k] = errors[2 * k];
+            ends.e_w[k] = errors[2 * k + 1];
+        }
+        ends
+    }
+}
+
 /// Element type of caller-provided observation and action buffers.
 pub trait Real: Copy + Send + Sync + 'static {
     /// The number closest to `v`.

@@ -38,7 +38,7 @@ pub mod start;
 mod step;
 
 pub use batch::{
-    event, AnyEnvBatch, EnvBatch, Real, Snapshot, StepOutputs, DIAGNOSTICS,
+    event, AnyEnvBatch, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS,
     F32_MIN_UNIT_LENGTH_TOLERANCE,
 };
 pub use config::{

@@ -591,3 +591,27 @@ fn construction_errors_name_the_problem() {
         .unwrap();
     assert!(e.to_string().contains("n_links = 1"), "{e}");
 }
+
+#[test]
+fn episode_ends_report_the_envs_that_ended_and_nothing_else() {
+    use super::event::{ENDED, NUMERICAL_FAILURE, OUT_OF_TRACK, RESET, SUCCESS};
+    let events = [
+        0,
+        ENDED | SUCCESS,
+        RESET,
+        ENDED | OUT_OF_TRACK,
+        ENDED | NUMERICAL_FAILURE,
+        SUCCESS,
+    ];
+    let errors: Vec<f64> = (0..2 * events.len()).map(|i| i as f64 + 0.5).collect();
+    let ends = super::EpisodeEnds::from_events(&events, &errors);
+    assert_eq!(ends.ended, [false, true, false, true, true, false]);
+    assert_eq!(ends.success, [false, true, false, false, false, false]);
+    assert_eq!(ends.out_of_track, [false, false, false, true, false, false]);
+    assert_eq!(
+        ends.numerical_failure,
+        [false, false, false, false, true, false]
+    );
+    assert_eq!(ends.e_q, [0.0, 2.5, 0.0, 6.5, 8.5, 0.0]);
+    assert_eq!(ends.e_w, [0.0, 3.5, 0.0, 7.5, 9.5, 0.0]);
+}

@@ -10,7 +10,9 @@ use super::reality::{param_arrays, params_dict};
 use crate::batch::Precision;
 use crate::env::batch::RNG_BYTES;
 use crate::env::EnvParams;
-use crate::env::{AnyEnvBatch, AutoresetMode, Real, Snapshot, StepOutputs, DIAGNOSTICS};
+use crate::env::{
+    AnyEnvBatch, AutoresetMode, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS,
+};
 use numpy::{
     Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyUntypedArrayMethods,
@@ -324,34 +326,14 @@ impl EnvBatch {
     /// `(ended, is_success, numerical_failure, out_of_track, e_q, e_w)`, the last five
     /// false / zero where the episode did not end.
     fn episode_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
-        use crate::env::event;
-        let (events, errors) = (self.batch.events(), self.batch.errors());
-        let flag = |bit: u8| -> Vec<bool> {
-            events
-                .iter()
-                .map(|&e| e & event::ENDED != 0 && e & bit != 0)
-                .collect()
-        };
-        let error = |k: usize| -> Vec<f64> {
-            events
-                .iter()
-                .enumerate()
-                .map(|(i, &e)| {
-                    if e & event::ENDED != 0 {
-                        errors[2 * i + k]
-                    } else {
-                        0.0
-                    }
-                })
-                .collect()
-        };
+        let ends = EpisodeEnds::from_events(self.batch.events(), self.batch.errors());
         (
-            PyArray1::from_vec(py, flag(event::ENDED)),
-            PyArray1::from_vec(py, flag(event::SUCCESS)),
-            PyArray1::from_vec(py, flag(event::NUMERICAL_FAILURE)),
-            PyArray1::from_vec(py, flag(event::OUT_OF_TRACK)),
-            PyArray1::from_vec(py, error(0)),
-            PyArray1::from_vec(py, error(1)),
+            PyArray1::from_vec(py, ends.ended),
+            PyArray1::from_vec(py, ends.success),
+            PyArray1::from_vec(py, ends.numerical_failure),
+            PyArray1::from_vec(py, ends.out_of_track),
+            PyArray1::from_vec(py, ends.e_q),
+            PyArray1::from_vec(py, ends.e_w),
         )
             .into_pyobject(py)
     }
