@@ -601,14 +601,15 @@ fn switching_precision_or_to_the_per_env_path_keeps_the_states() {
 }
 
 /// Steps `num_envs` random envs of scene `G` through a chunk's lane path with measuring
-/// on, and checks every successful env's measures against the scalar ones of the
-/// state it reached, bit for bit.
+/// on, and checks every successful env's measures (the reward included) against the
+/// scalar ones of the state it reached, bit for bit.
 fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
     n: usize,
     precision: Precision,
     kernel: Kernel,
 ) {
-    use chaincart::lanes::measure::{measure, MeasureInto, Measures};
+    use chaincart::env::RewardWeights;
+    use chaincart::lanes::measure::{measure, room, MeasureInto, MeasureTask, Measures};
     use chaincart::lanes::{chunk_lanes, ChunkSpec};
     let num_envs = 29;
     let mut rng = rng(40 + n as u64);
@@ -635,9 +636,22 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
         guard: &guard,
     };
     let mut status = vec![StepStatus::SolverFailure; num_envs];
+    // Weights large enough that rewards are not all 0 or 1, and an action per env.
+    let weights = RewardWeights {
+        q: 0.3,
+        w: 0.02,
+        x: 0.1,
+        v: 0.05,
+        u: 0.7,
+    };
+    let a2: Vec<f64> = (0..room(num_envs)).map(|k| (k % 5) as f64 * 0.4).collect();
     let mut out = Measures::new(num_envs);
     let into = MeasureInto {
-        target: &target,
+        task: MeasureTask {
+            target: &target,
+            weights: &weights,
+            a2: &a2,
+        },
         out: &mut out,
     };
     let stepped: Vec<bool> = (0..num_envs).map(|k| k != 4).collect();
@@ -651,21 +665,29 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
     );
     let d = chain.state_dim();
     let what = format!("{} n = {n}, {precision:?}, {kernel:?}", G::NAME);
-    let mut checked = 0;
+    let (mut checked, mut graded) = (0, 0);
     for k in 0..num_envs {
         if !stepped[k] || status[k].is_failure() {
             continue;
         }
         let y = &states[k * d..(k + 1) * d];
-        let (lane, scalar) = (out.get(k), measure(chain.layout(), y, &target));
+        let scalar = measure(chain.layout(), y, &target, &weights, a2[k]);
+        let lane = out.get(k);
         let fields = |m: &chaincart::lanes::measure::StateMeasure| {
-            bits(&[m.q2, m.w2, m.e_q, m.e_w, m.x2, m.v2])
+            bits(&[m.q2, m.w2, m.e_q, m.e_w, m.x2, m.v2, m.reward])
         };
         assert_eq!(fields(&lane), fields(&scalar), "env {k}, {what}");
         assert_eq!(lane.x_max, scalar.x_max, "env {k}, {what}");
+        if lane.reward > 1e-300 && lane.reward < 1.0 {
+            graded += 1;
+        }
         checked += 1;
     }
     assert!(checked >= num_envs - 3, "{checked} envs checked, {what}");
+    assert!(
+        graded >= checked / 2,
+        "{graded} rewards strictly between 0 and 1, {what}"
+    );
 }
 
 #[test]

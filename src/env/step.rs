@@ -15,7 +15,7 @@ use super::reality::{EnvParams, ParamRow, RealityGap};
 use super::start::perturb;
 use crate::batch::{GuardedStepper, StepStatus, CHUNK};
 use crate::geometry::{Geometry, Vector};
-use crate::lanes::measure::{measure, MeasureInto, Measures, StateMeasure};
+use crate::lanes::measure::{measure, room, MeasureInto, MeasureTask, Measures, StateMeasure};
 use crate::lanes::{ChunkLanes, StepPlan, LANES_F32};
 use crate::model::Chain;
 use crate::params::ChainParams;
@@ -371,7 +371,8 @@ impl<G: Geometry> Worker<G> {
         self.lanes = lanes.map(|lanes| LaneScratch {
             lanes,
             forces: vec![0.0; num_envs * G::Cart::DIM],
-            a2: vec![0.0; num_envs],
+            // Lane groups read the padding past the last env too.
+            a2: vec![0.0; room(num_envs)],
             stepped: vec![false; num_envs],
             status: vec![StepStatus::Ok; num_envs],
             measures: Measures::new(num_envs),
@@ -497,7 +498,11 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         guard: &task.guard,
     };
     let measures = MeasureInto {
-        target: &task.target,
+        task: MeasureTask {
+            target: &task.target,
+            weights: &task.reward,
+            a2: &l.a2,
+        },
         out: &mut l.measures,
     };
     l.lanes.step(
@@ -523,12 +528,12 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         let status = l.status[k];
         // A failed env kept its old state, which its lane did not measure.
         let m = if status.is_failure() {
-            measure(ctx.chain.layout(), e.y, &task.target)
+            measure(ctx.chain.layout(), e.y, &task.target, &task.reward, l.a2[k])
         } else {
             l.measures.get(k)
         };
         let mut o = out.env(k, w);
-        let reset = finish_step(ctx, chain, &mut e, &mut o, status, &m, l.a2[k]);
+        let reset = finish_step(ctx, chain, &mut e, &mut o, status, &m);
         if noisy {
             emit_obs(&task.reality, &mut e, o.obs);
         }
@@ -695,7 +700,13 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
     *o.terminated = false;
     *o.truncated = false;
     *o.event = event::RESET;
-    let m = measure(ctx.chain.layout(), e.y, &ctx.task.target);
+    let m = measure(
+        ctx.chain.layout(),
+        e.y,
+        &ctx.task.target,
+        &ctx.task.reward,
+        0.0,
+    );
     o.errors.copy_from_slice(&[m.e_q, m.e_w]);
     if ctx.diagnostics {
         let chain = env_chain(ctx, scratch, &e.params);
@@ -704,26 +715,20 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
 }
 
 /// Reward, flags, errors and event bits of the state an env step reached, from its
-/// measures `m`.
+/// measures `m` (which hold the reward).
 #[inline(always)]
 fn score<G: Geometry>(
     ctx: &Ctx<'_, G>,
     m: &StateMeasure,
     steps: u64,
     failed: bool,
-    a2: f64,
     o: &mut EnvOut<'_, impl Real, impl Real>,
 ) -> u8 {
     let task = ctx.task;
     let off_track = !failed && m.x_max > task.track_limit;
     let terminated = failed || off_track;
     let truncated = steps >= task.max_episode_steps;
-    let w = &task.reward;
-    *o.reward = if failed {
-        0.0
-    } else {
-        (-(w.q * m.q2 + w.w * m.w2 + w.x * m.x2 + w.v * m.v2 + w.u * a2)).exp()
-    };
+    *o.reward = if failed { 0.0 } else { m.reward };
     *o.terminated = terminated;
     *o.truncated = truncated;
     o.errors.copy_from_slice(&[m.e_q, m.e_w]);
@@ -773,14 +778,14 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         &task.step_options,
         &task.guard,
     );
-    let m = measure(chain.layout(), e.y, &task.target);
+    let m = measure(chain.layout(), e.y, &task.target, &task.reward, a2);
     let mut o = o;
-    finish_step(ctx, chain, &mut e, &mut o, status, &m, a2);
+    finish_step(ctx, chain, &mut e, &mut o, status, &m);
     emit_obs(&task.reality, &mut e, o.obs);
 }
 
-/// After env `e`'s physics (status `status`, measures `m` of the state it holds,
-/// squared applied action `a2`): step count, reward, flags and events, diagnostics (on
+/// After env `e`'s physics (status `status`, measures `m` of the state it holds and
+/// the step's reward): step count, reward, flags and events, diagnostics (on
 /// `chain`, the env's own) and the end of the episode (same-step reset or "ended").
 /// The caller writes the observation. Returns whether the env was reset (its
 /// parameters may have changed).
@@ -792,11 +797,10 @@ fn finish_step<G: Geometry, T: Real, A: Real>(
     o: &mut EnvOut<'_, T, A>,
     status: StepStatus,
     m: &StateMeasure,
-    a2: f64,
 ) -> bool {
     let task = ctx.task;
     e.slot.steps += 1;
-    let ev = score(ctx, m, e.slot.steps, status.is_failure(), a2, o);
+    let ev = score(ctx, m, e.slot.steps, status.is_failure(), o);
     *o.event = ev;
     if ctx.diagnostics {
         write_diagnostics(chain, e.y, o.diag);

@@ -1,16 +1,18 @@
 //! What the RL task reads of a state (distances to the target equilibrium, the cart's
-//! offset and speed), computed one state at a time or for a whole lane group at once
-//! right after its step, with the same operations in the same order, so both give
-//! the same bits. Lanes of any width and number type are measured eight at a time in
+//! offset and speed, and the reward they give with the squared action), computed one
+//! state at a time or for a whole lane group at once right after its step, with the
+//! same operations in the same order, so both give the same bits. Lanes of any width and number type are measured eight at a time in
 //! f64 (f32 lanes widened exactly as they are read), as the scalar code measures the
 //! f64 state.
 
 // Index loops on purpose: they must inline into the dispatched kernels.
 #![allow(clippy::needless_range_loop)]
 
+use super::exp::exp;
 use super::simd::{LaneReal, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
 use super::{LANES, LANES_F32};
+use crate::env::RewardWeights;
 use crate::geometry::{Geometry, Layout, Vector};
 
 /// The quantities of one state the task's reward, termination and success read.
@@ -30,6 +32,15 @@ pub struct StateMeasure {
     pub v2: f64,
     /// The largest `|x_k|` over the cart's axes.
     pub x_max: f64,
+    /// The reward of a step that reached this state ([`reward`]).
+    pub reward: f64,
+}
+
+/// The reward `exp(-(w_q q2 + w_w w2 + w_x x2 + w_v v2 + w_u a2))` of a state with these
+/// measures reached by an action whose squared norm is `a2`.
+#[inline(always)]
+pub fn reward(w: &RewardWeights, q2: f64, w2: f64, x2: f64, v2: f64, a2: f64) -> f64 {
+    exp(-(w.q * q2 + w.w * w2 + w.x * x2 + w.v * v2 + w.u * a2))
 }
 
 /// [`StateMeasure`]s of many envs, one array per quantity: the lanes of a group are
@@ -44,12 +55,13 @@ pub struct Measures {
     x2: Vec<f64>,
     v2: Vec<f64>,
     x_max: Vec<f64>,
+    reward: Vec<f64>,
 }
 
 impl Measures {
-    /// Room for `num_envs` envs, rounded up to whole lane groups of either precision.
+    /// Room for `num_envs` envs, rounded up to whole lane groups of any width.
     pub fn new(num_envs: usize) -> Self {
-        let v = || vec![0.0; num_envs.div_ceil(LANES_F32) * LANES_F32];
+        let v = || vec![0.0; room(num_envs)];
         Self {
             q2: v(),
             w2: v(),
@@ -58,6 +70,7 @@ impl Measures {
             x2: v(),
             v2: v(),
             x_max: v(),
+            reward: v(),
         }
     }
 
@@ -72,12 +85,13 @@ impl Measures {
             x2: self.x2[k],
             v2: self.v2[k],
             x_max: self.x_max[k],
+            reward: self.reward[k],
         }
     }
 
     /// Stores eight envs' measures from `first` on (the room is whole groups).
     #[inline(always)]
-    fn put(&mut self, first: usize, m: [&Lanes<LANES>; 7]) {
+    fn put(&mut self, first: usize, m: [&Lanes<LANES>; 8]) {
         let rows = [
             &mut self.q2,
             &mut self.w2,
@@ -86,6 +100,7 @@ impl Measures {
             &mut self.x2,
             &mut self.v2,
             &mut self.x_max,
+            &mut self.reward,
         ];
         for (row, lanes) in rows.into_iter().zip(m) {
             row[first..first + LANES].copy_from_slice(&lanes.0);
@@ -93,9 +108,22 @@ impl Measures {
     }
 }
 
-/// The measures of state `y` for the target signs `s` (one per link).
+/// Room for the per-env values of `num_envs` envs that lane groups of any width (up
+/// to two vectors of f32) read or write whole.
+pub fn room(num_envs: usize) -> usize {
+    num_envs.div_ceil(2 * LANES_F32) * 2 * LANES_F32
+}
+
+/// The measures of state `y` for the target signs `s` (one per link), reached by an
+/// action of squared norm `a2`, rewarded with weights `w`.
 #[inline(always)]
-pub fn measure<G: Geometry>(lay: Layout<G>, y: &[f64], s: &[f64]) -> StateMeasure {
+pub fn measure<G: Geometry>(
+    lay: Layout<G>,
+    y: &[f64],
+    s: &[f64],
+    w: &RewardWeights,
+    a2: f64,
+) -> StateMeasure {
     let (mut q2, mut w2, mut e_q, mut e_w) = (0.0, 0.0, 0.0, 0.0);
     for (i, &si) in s.iter().enumerate() {
         let dq = (lay.load_q(y, i) - G::down_unit() * si).norm_squared();
@@ -106,25 +134,28 @@ pub fn measure<G: Geometry>(lay: Layout<G>, y: &[f64], s: &[f64]) -> StateMeasur
         e_w += dw.sqrt();
     }
     let x = &y[lay.x()..lay.x() + G::Cart::DIM];
+    let x2 = lay.load_x(y).norm_squared();
+    let v2 = lay.load_xdot(y).norm_squared();
     StateMeasure {
         q2,
         w2,
         e_q,
         e_w,
-        x2: lay.load_x(y).norm_squared(),
-        v2: lay.load_xdot(y).norm_squared(),
+        x2,
+        v2,
         x_max: x.iter().fold(0.0, |m: f64, v| m.max(v.abs())),
+        reward: reward(w, q2, w2, x2, v2, a2),
     }
 }
 
 /// [`measure`] of every lane of the lane group `y` (component-major, any lane width
 /// and number type) into `out` from env `first` on, eight lanes at a time, widened to
-/// f64 as they are read.
+/// f64 as they are read (`a2` holds every env's squared action, with [`room`]).
 #[inline(always)]
 pub fn measure_group<G, const L: usize, T: LaneReal>(
     lay: Layout<G>,
     y: &[Lanes<L, T>],
-    s: &[f64],
+    task: &MeasureTask<'_>,
     out: &mut Measures,
     first: usize,
 ) where
@@ -139,7 +170,7 @@ pub fn measure_group<G, const L: usize, T: LaneReal>(
             }
             v
         };
-        measure_f64x8::<G>(lay, component, s, out, first + at);
+        measure_f64x8::<G>(lay, component, task, out, first + at);
     }
 }
 
@@ -149,10 +180,11 @@ pub fn measure_group<G, const L: usize, T: LaneReal>(
 fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     lay: Layout<G>,
     component: impl Fn(usize) -> Lanes<LANES>,
-    s: &[f64],
+    task: &MeasureTask<'_>,
     out: &mut Measures,
     first: usize,
 ) {
+    let s = task.target;
     let zero = Lanes::<LANES>::zero();
     let (mut q2, mut w2, mut e_q, mut e_w) = (zero, zero, zero, zero);
     for (i, &si) in s.iter().enumerate() {
@@ -171,7 +203,13 @@ fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     for c in 0..G::CartL::DIM {
         x_max = x_max.max(component(lay.x() + c).abs());
     }
-    out.put(first, [&q2, &w2, &e_q, &e_w, &x2, &v2, &x_max]);
+    // Lane by lane with the scalar function: LLVM vectorises the loop, bits unchanged.
+    let a2 = &task.a2[first..first + LANES];
+    let mut rewards = zero;
+    for k in 0..LANES {
+        rewards.0[k] = reward(task.weights, q2.0[k], w2.0[k], x2.0[k], v2.0[k], a2[k]);
+    }
+    out.put(first, [&q2, &w2, &e_q, &e_w, &x2, &v2, &x_max, &rewards]);
 }
 
 /// Work done on each lane group right after its step, before it is written back.
@@ -188,10 +226,20 @@ impl<G: Geometry, const L: usize, T: LaneReal> AfterStep<G, L, T> for NoMeasure 
     fn group(&mut self, _: Layout<G>, _: &[Lanes<L, T>], _: usize, _: usize) {}
 }
 
-/// Measures every stepped group against a target (see [`super::ChunkLanes::step`]).
-pub struct MeasureInto<'a> {
+/// What measuring reads besides the state.
+pub struct MeasureTask<'a> {
     /// The target signs, one per link.
     pub target: &'a [f64],
+    /// The reward's weights.
+    pub weights: &'a RewardWeights,
+    /// Each env's squared applied action, with [`room`].
+    pub a2: &'a [f64],
+}
+
+/// Measures every stepped group (see [`super::ChunkLanes::step`]).
+pub struct MeasureInto<'a> {
+    /// Target, reward weights and actions.
+    pub task: MeasureTask<'a>,
     /// Room for the measures of every env of the step (those of failed envs are garbage).
     pub out: &'a mut Measures,
 }
@@ -201,6 +249,6 @@ impl<G: LaneGeometry<LANES> + Geometry, const L: usize, T: LaneReal> AfterStep<G
 {
     #[inline(always)]
     fn group(&mut self, lay: Layout<G>, y: &[Lanes<L, T>], first: usize, _filled: usize) {
-        measure_group(lay, y, self.target, self.out, first);
+        measure_group(lay, y, &self.task, self.out, first);
     }
 }

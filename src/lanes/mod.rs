@@ -4,6 +4,7 @@
 //! * [`simd`]: `L` numbers per value, plain arrays that LLVM vectorises.
 //! * [`vector`]: lane vectors and the spatial/planar scene operations on them.
 //! * [`params`]: chain parameters per lane (a shared chain is a broadcast).
+//! * [`exp`]: `exp` written once for scalar and lane code (the reward).
 //! * [`measure`]: what the RL task reads of a stepped state, measured in the lanes.
 //! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
 //! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
@@ -18,6 +19,7 @@
 
 pub mod chunk;
 pub mod dispatch;
+pub mod exp;
 pub mod measure;
 pub mod params;
 pub mod resident;
