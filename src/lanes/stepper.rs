@@ -116,7 +116,6 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
     ) {
-        debug_assert_eq!(states.len(), status.len() * self.state_dim());
         let groups = Groups {
             params,
             forces,
@@ -124,6 +123,18 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
             plan,
             status,
         };
+        self.step_rows(kernel, states, groups, NoMeasure);
+    }
+
+    /// Steps the rows of `states` group by group, running `after` on each stepped group.
+    fn step_rows<A: AfterStep<G, L, T>>(
+        &mut self,
+        kernel: Kernel,
+        states: &mut [f64],
+        groups: Groups<'_, L, T>,
+        after: A,
+    ) {
+        debug_assert_eq!(states.len(), groups.status.len() * self.state_dim());
         run_on(
             kernel,
             StepRows {
@@ -131,7 +142,7 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
                 group: &mut self.group,
                 states,
                 groups,
-                after: NoMeasure,
+                after,
             },
         );
     }
@@ -188,7 +199,6 @@ impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal>
         status: &mut [StepStatus],
         measure: MeasureInto<'_>,
     ) {
-        debug_assert_eq!(states.len(), status.len() * self.state_dim());
         let groups = Groups {
             params,
             forces,
@@ -196,16 +206,7 @@ impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal>
             plan,
             status,
         };
-        run_on(
-            kernel,
-            StepRows {
-                ws: &mut self.ws,
-                group: &mut self.group,
-                states,
-                groups,
-                after: measure,
-            },
-        );
+        self.step_rows(kernel, states, groups, measure);
     }
 }
 
