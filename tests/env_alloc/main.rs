@@ -9,7 +9,7 @@ use chaincart::{ChainParams, SpatialChain, StepOptions};
 #[path = "../common/alloc_counter.rs"]
 mod alloc_counter;
 
-use alloc_counter::{counts, CountingAllocator};
+use alloc_counter::{allocations_of, CountingAllocator};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
@@ -76,19 +76,17 @@ fn env_steps_and_resets_allocate_nothing() {
                 }
                 batch.reset(Some(&seeds), None, &mut obs).unwrap();
             };
-            run(&mut batch); // warm up the thread pool
-            let (before, before_here) = counts();
-            run(&mut batch);
-            let (after, after_here) = counts();
-            let (during, here) = (after - before, after_here - before_here);
+            run(&mut batch); // warm up the workers' scratch
+            let (during, here) = allocations_of(|| run(&mut batch));
             eprintln!(
                 "{mode:?} N = {n} reality {reality} {precision:?} (kernel {:?}): {during} allocations ({here} on the calling thread)",
                 batch.kernel()
             );
             assert_eq!(here, 0, "{mode:?} N = {n} reality {reality} {precision:?}");
-            // A stray allocation or two can come from the harness's other threads;
-            // anything that scaled with N would show far more.
-            assert!(during <= 5, "{mode:?} N = {n}: {during} allocations");
+            assert_eq!(
+                during, 0,
+                "{mode:?} N = {n} reality {reality} {precision:?}"
+            );
         }
     }
 }
