@@ -269,6 +269,27 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
             .for_each(|(lanes, rows)| store_groups(kernel, lanes, rows, d));
     }
 
+    /// Takes new states for every env: each thread copies its envs' rows and loads
+    /// their lane groups from the same source, so both copies hold them after.
+    fn set_rows(&mut self, rows: &mut [f64], states: &[f64]) {
+        self.current = Current::Both;
+        let (kernel, d) = (self.kernel, self.states.dim());
+        let work = |((lanes, rows), states): ((&mut [Lanes<L, T>], &mut [f64]), &[f64])| {
+            rows.copy_from_slice(states);
+            load_groups(kernel, lanes, states, d);
+        };
+        let part = self.part();
+        if part >= self.states.num_envs() {
+            return work(((self.states.lanes_mut(), rows), states));
+        }
+        self.states
+            .lanes_mut()
+            .par_chunks_mut(part / L * d)
+            .zip(rows.par_chunks_mut(part * d))
+            .zip(states.par_chunks(part * d))
+            .for_each(work);
+    }
+
     /// Envs per thread: a contiguous run of whole [`LANE_CHUNK`]s. Few large items
     /// rather than many small ones, so a thread tends to step the same envs every
     /// step (they stay in its core's cache) and the pool is woken fewer times.
@@ -535,12 +556,17 @@ impl<G: LaneScene> Batch<G> {
 
     /// Overwrites every env's state (env-major, validated: length, finiteness) and
     /// clears the statuses. Unlike writing through [`Batch::states_mut`], the old
-    /// states are not moved out of the lanes first.
+    /// states are not moved out of the lanes first, and on the lane path the threads
+    /// that step the envs also take in their new states.
     pub fn set_states(&mut self, states: &[f64]) -> Result<()> {
         check_len("states", states, self.states.len())?;
         check_finite("states", states)?;
-        self.states.copy_from_slice(states);
-        self.rows_written();
+        let rows = &mut self.states[..];
+        match self.lanes.as_mut() {
+            Some(LaneMode::F64(path)) => path.set_rows(rows, states),
+            Some(LaneMode::F32(path)) => path.set_rows(rows, states),
+            None => rows.copy_from_slice(states),
+        }
         self.status.fill(StepStatus::Ok);
         Ok(())
     }

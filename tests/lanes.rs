@@ -580,6 +580,43 @@ fn states_read_or_written_between_lane_steps_are_the_per_env_ones() {
     );
 }
 
+/// `set_states` on a batch split between threads, where each thread takes in its
+/// own envs: reading back gives the states as given in both precisions, and the
+/// next step starts from them as it would from rows written in place.
+#[test]
+fn states_set_on_a_batch_split_between_threads_read_back_and_step_as_given() {
+    use chaincart::batch::LANE_CHUNK;
+    let num_envs = 2 * LANE_CHUNK + 7;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let (_, starts) = common::batches::random_batch(num_envs, Method::Rk4, 9);
+        let given = starts.concat();
+        let forces = common::batches::forces(num_envs, 3);
+        for precision in [Precision::F64, Precision::F32] {
+            let (mut set, _) = common::batches::random_batch(num_envs, Method::Rk4, 10);
+            let (mut written, _) = common::batches::random_batch(num_envs, Method::Rk4, 10);
+            for batch in [&mut set, &mut written] {
+                batch.set_precision(precision).unwrap();
+                batch.step(&forces).unwrap(); // the old states now live in the lanes
+            }
+            set.set_states(&given).unwrap();
+            written.states_mut().copy_from_slice(&given);
+            assert_eq!(bits(set.states()), bits(&given), "{precision:?}");
+            set.step(&forces).unwrap();
+            written.step(&forces).unwrap();
+            assert_eq!(bits(set.states()), bits(written.states()), "{precision:?}");
+            assert_ne!(
+                bits(set.states()),
+                bits(&given),
+                "{precision:?}: a step moves"
+            );
+        }
+    });
+}
+
 #[test]
 fn switching_precision_or_to_the_per_env_path_keeps_the_states() {
     let (mut batch, _) = common::batches::random_batch(21, Method::Rk4, 8);
