@@ -274,7 +274,7 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
     fn set_rows(&mut self, rows: &mut [f64], states: &[f64]) {
         self.current = Current::Both;
         let (kernel, d) = (self.kernel, self.states.dim());
-        let work = |((lanes, rows), states): ((&mut [Lanes<L, T>], &mut [f64]), &[f64])| {
+        let work = |((lanes, rows), states): SetItem<'_, L, T>| {
             rows.copy_from_slice(states);
             load_groups(kernel, lanes, states, d);
         };
@@ -335,6 +335,10 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LanePath<G, L, T> {
         }
     }
 }
+
+/// One parallel work item of [`LanePath::set_rows`]: lane groups, their rows, the
+/// new states.
+type SetItem<'a, const L: usize, T> = ((&'a mut [Lanes<L, T>], &'a mut [f64]), &'a [f64]);
 
 /// The lane path in the chosen precision.
 enum LaneMode<G: LaneScene> {
