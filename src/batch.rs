@@ -135,7 +135,7 @@ impl<G: Geometry> GuardedStepper<G> {
         let status = match self.stepper.step(chain, y, force, dt, opts) {
             Err(_) => StepStatus::SolverFailure,
             Ok(()) if !y.iter().all(|v| v.is_finite()) => StepStatus::NonFinite,
-            Ok(()) if chain.residuals(y).unit_length > guard.unit_length_tolerance => {
+            Ok(()) if chain.unit_length_residual(y) > guard.unit_length_tolerance => {
                 StepStatus::ConstraintViolation
             }
             Ok(()) if turn_per_step(chain, &self.backup, y, dt, opts) > guard.max_turn_per_step => {
