@@ -138,7 +138,10 @@ impl<G: Geometry> GuardedStepper<G> {
             Ok(()) if chain.unit_length_residual(y) > guard.unit_length_tolerance => {
                 StepStatus::ConstraintViolation
             }
-            Ok(()) if turn_per_step(chain, &self.backup, y, dt, opts) > guard.max_turn_per_step => {
+            Ok(())
+                if turn_per_step(chain, &self.backup, y, dt, opts, guard.max_turn_per_step)
+                    > guard.max_turn_per_step =>
+            {
                 StepStatus::Unresolved
             }
             Ok(()) => StepStatus::Ok,
@@ -152,13 +155,16 @@ impl<G: Geometry> GuardedStepper<G> {
 
 /// Estimated largest angle a link turned in one integrator step: the larger of the
 /// end spin times the step and the angle between the old and new link directions
-/// spread over the substeps. The adaptive method controls its own error: 0.
+/// spread over the substeps, the latter left out (0) when a cheap bound already puts
+/// it within `max_turn` (see [`swept_per_step`]), which leaves the verdict
+/// `turn > max_turn` unchanged. The adaptive method controls its own error: 0.
 fn turn_per_step<G: Geometry>(
     chain: &Chain<G>,
     old: &[f64],
     new: &[f64],
     dt: f64,
     opts: &StepOptions,
+    max_turn: f64,
 ) -> f64 {
     if opts.method == Method::Adaptive {
         return 0.0;
@@ -169,8 +175,21 @@ fn turn_per_step<G: Geometry>(
         .map(|i| (lay.load_q(new, i) - lay.load_q(old, i)).norm_squared())
         .fold(0.0, f64::max)
         .sqrt();
+    (chain.max_spin(new) * dt / substeps).max(swept_per_step(chord, substeps, max_turn))
+}
+
+/// The angle between the old and new link directions spread over the substeps,
+/// `2 asin(min(chord / 2, 1)) / substeps` (the per-env and the lane guards share it);
+/// skipped (0) when `swept <= chord pi / 2` already proves it within `max_turn`, which
+/// at resolved step sizes is nearly always and saves the `asin`.
+#[inline(always)]
+pub(crate) fn swept_per_step(chord: f64, substeps: f64, max_turn: f64) -> f64 {
+    // A relative margin far above the few roundings between the bound and the value.
+    if chord * std::f64::consts::FRAC_PI_2 * (1.0 + 1e-9) <= max_turn * substeps {
+        return 0.0;
+    }
     let swept = 2.0 * (0.5 * chord).min(1.0).asin();
-    (chain.max_spin(new) * dt / substeps).max(swept / substeps)
+    swept / substeps
 }
 
 /// One parallel work item: a chunk's states, forces and statuses, and its worker.

@@ -12,7 +12,7 @@
 use super::params::LaneParams;
 use super::simd::{flat, flat_mut, is_dense, LaneReal, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
-use crate::batch::{Guard, StepStatus};
+use crate::batch::{swept_per_step, Guard, StepStatus};
 use crate::geometry::Layout;
 
 /// The per-link rows of the tension system of one derivative evaluation.
@@ -371,18 +371,4 @@ fn all_resolved<const L: usize, T: LaneReal>(
 #[allow(clippy::eq_op)]
 fn nan_unless_finite<const L: usize, T: LaneReal>(v: Lanes<L, T>) -> Lanes<L, T> {
     v - v
-}
-
-/// The angle between the old and new link directions spread over the substeps,
-/// `2 asin(min(chord / 2, 1)) / substeps`, as the scalar guard computes it; skipped
-/// (0) when `swept <= chord pi / 2` already proves it within `max_turn`, which at
-/// resolved step sizes is nearly always and saves the `asin`.
-#[inline(always)]
-fn swept_per_step(chord: f64, substeps: f64, max_turn: f64) -> f64 {
-    // A relative margin far above the few roundings between the bound and the value.
-    if chord * std::f64::consts::FRAC_PI_2 * (1.0 + 1e-9) <= max_turn * substeps {
-        return 0.0;
-    }
-    let swept = 2.0 * (0.5 * chord).min(1.0).asin();
-    swept / substeps
 }
