@@ -664,3 +664,51 @@ type LaneItem<'a, G, const L: usize, T> = (
     ),
     &'a mut [LaneStepper<G, L, T>],
 );
+
+#[cfg(test)]
+mod tests {
+    use super::swept_per_step;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The guard's verdict with the exact swept angle, as if no bound were tried.
+    fn exact_exceeds(chord: f64, substeps: f64, max_turn: f64) -> bool {
+        2.0 * (0.5 * chord).min(1.0).asin() / substeps > max_turn
+    }
+
+    #[test]
+    fn skipping_the_asin_never_changes_the_turn_verdict() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut skipped = 0;
+        for _ in 0..200_000 {
+            let substeps = [1.0, 2.0, 4.0, 10.0][rng.random_range(0..4)];
+            let max_turn: f64 = rng.random_range(0.01..1.5);
+            // Half the chords right at the bound, where a wrong shortcut would show.
+            let chord = if rng.random_bool(0.5) {
+                let at_bound = max_turn * substeps / std::f64::consts::FRAC_PI_2;
+                (at_bound * (1.0 + rng.random_range(-1e-6..1e-6))).min(2.5)
+            } else {
+                rng.random_range(0.0..2.5)
+            };
+            let swept = swept_per_step(chord, substeps, max_turn);
+            if swept == 0.0 && chord > 0.0 {
+                skipped += 1;
+            }
+            assert_eq!(
+                swept > max_turn,
+                exact_exceeds(chord, substeps, max_turn),
+                "chord {chord}, substeps {substeps}, max_turn {max_turn}"
+            );
+        }
+        // The shortcut is taken, else this test would prove nothing about it.
+        assert!(skipped > 10_000, "{skipped}");
+    }
+
+    #[test]
+    fn the_swept_angle_is_exact_when_the_bound_cannot_decide() {
+        // A half-turn chord (2) sweeps pi; far beyond any bound of 0.1 rad per step.
+        assert_eq!(swept_per_step(2.0, 1.0, 0.1), std::f64::consts::PI);
+        assert_eq!(swept_per_step(2.0, 4.0, 0.1), std::f64::consts::PI / 4.0);
+        assert_eq!(swept_per_step(1e-3, 1.0, 0.1), 0.0);
+    }
+}
