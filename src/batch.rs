@@ -184,12 +184,19 @@ fn turn_per_step<G: Geometry>(
 /// at resolved step sizes is nearly always and saves the `asin`.
 #[inline(always)]
 pub(crate) fn swept_per_step(chord: f64, substeps: f64, max_turn: f64) -> f64 {
-    // A relative margin far above the few roundings between the bound and the value.
-    if chord * std::f64::consts::FRAC_PI_2 * (1.0 + 1e-9) <= max_turn * substeps {
+    if swept_surely_within(chord, max_turn * substeps) {
         return 0.0;
     }
     let swept = 2.0 * (0.5 * chord).min(1.0).asin();
     swept / substeps
+}
+
+/// Whether `swept <= chord pi / 2` proves the swept angle `2 asin(min(chord / 2, 1))`
+/// within `bound` (the per-step limit times the substeps) without the `asin`.
+#[inline(always)]
+pub(crate) fn swept_surely_within(chord: f64, bound: f64) -> bool {
+    // A relative margin far above the few roundings between the bound and the value.
+    chord * std::f64::consts::FRAC_PI_2 * (1.0 + 1e-9) <= bound
 }
 
 /// One parallel work item: a chunk's states, forces and statuses, and its worker.

@@ -12,7 +12,7 @@
 use super::params::LaneParams;
 use super::simd::{flat, flat_mut, is_dense, LaneReal, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
-use crate::batch::{swept_per_step, Guard, StepStatus};
+use crate::batch::{swept_per_step, swept_surely_within, Guard, StepStatus};
 use crate::geometry::Layout;
 
 /// The per-link rows of the tension system of one derivative evaluation.
@@ -360,7 +360,7 @@ fn all_resolved<const L: usize, T: LaneReal>(
     let bound = max_turn * substeps;
     let mut ok = true;
     for k in 0..L {
-        let cheap = chord.0[k].to_f64() * std::f64::consts::FRAC_PI_2 * (1.0 + 1e-9) <= bound;
+        let cheap = swept_surely_within(chord.0[k].to_f64(), bound);
         ok &= finite[k] & !violated[k] & (spin_turn.0[k].to_f64() <= max_turn) & cheap;
     }
     ok
