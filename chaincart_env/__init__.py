@@ -37,7 +37,7 @@ from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
     from chaincart_env.lqr import LQRPolicy
-    from chaincart_env.roa import region_of_attraction
+    from chaincart_env.tools.roa import region_of_attraction
     from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
@@ -84,7 +84,7 @@ def __getattr__(name: str) -> Any:
 
         return LQRPolicy
     if name == "region_of_attraction":
-        from chaincart_env.roa import region_of_attraction
+        from chaincart_env.tools.roa import region_of_attraction
 
         return region_of_attraction
     raise AttributeError(f"module 'chaincart_env' has no attribute {name!r}")

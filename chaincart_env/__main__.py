@@ -20,7 +20,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     bench = commands.add_parser(
         "bench", help="benchmark suite: throughput vs CartPole, MuJoCo, speed/accuracy, scaling, render (Markdown)"
     )
-    from chaincart_env.bench.cli import add_bench_arguments
+    from chaincart_env.tools.bench.cli import add_bench_arguments
 
     add_bench_arguments(bench)
 
@@ -30,19 +30,19 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     soak.add_argument("--seed", type=int, default=0)
     soak.add_argument("--scene", default=None, help="scene name (default: the default scene)")
 
-    from chaincart_env.analysis_cli import add_commands as add_analysis_commands
+    from chaincart_env.tools.analysis_cli import add_commands as add_analysis_commands
 
     add_analysis_commands(commands)  # figures, roa: each sets args.handler
 
-    from chaincart_env.compare.cli import add_commands as add_compare_commands
+    from chaincart_env.tools.compare.cli import add_commands as add_compare_commands
 
     add_compare_commands(commands)  # compare, evaluate: each sets args.handler
 
-    from chaincart_env.animate import add_animate_command
+    from chaincart_env.tools.animate import add_animate_command
 
     add_animate_command(commands)  # animate: sets args.handler
 
-    from chaincart_env.config_docs import add_docs_command
+    from chaincart_env.tools.config_docs import add_docs_command
 
     add_docs_command(commands)  # docs: sets args.handler
 
@@ -74,14 +74,14 @@ def _run_builtin(args: argparse.Namespace, bench: argparse.ArgumentParser) -> in
             if value is not None and value < least:
                 raise InvalidInputError(f"--{name.replace('_', '-')} {value}: expected an integer >= {least}")
     if args.command == "soak":
-        from chaincart_env.soak import main as soak_main
+        from chaincart_env.tools.soak import main as soak_main
 
         return soak_main(args.steps, args.num_envs, args.seed, args.scene)
     if args.command == "demo":
-        from chaincart_env.demo import run_demo
+        from chaincart_env.tools.demo import run_demo
 
         return run_demo(scene=args.scene, policy=args.policy, seed=args.seed, max_steps=args.steps)
-    from chaincart_env.bench.cli import run_from_args
+    from chaincart_env.tools.bench.cli import run_from_args
 
     return run_from_args(args, bench)
 

@@ -31,6 +31,8 @@ __all__ = [
     "START_NAMES",
     "CONFIG_KEYS",
     "REALITY_KEYS",
+    "env_arguments",
+    "value_text",
 ]
 
 #: Every configuration keyword as the core defines it, in the order of
@@ -49,6 +51,23 @@ START_NAMES: tuple[str, ...] = tuple(_core.START_NAMES)
 DEFAULT_SCENE: str = _core.DEFAULT_SCENE
 
 _REWARD_DEFAULTS: dict[str, float] = dict(_core.REWARD_WEIGHTS)
+
+
+def value_text(value: Any) -> str:
+    """A configuration value as the docs show it (Python literals, ``None`` for off)."""
+    if isinstance(value, tuple):
+        return "(" + ", ".join(value_text(v) for v in value) + ")"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k!r}: {value_text(v)}" for k, v in value.items()) + "}"
+    return repr(value)
+
+
+def env_arguments(indent: str = "    ") -> str:
+    """The env keywords as a reStructuredText bullet list (for the env docstring)."""
+    lines = []
+    for name, default, help_text, _ in CONFIG_KEYS:
+        lines.append(f"{indent}* ``{name}`` (default ``{value_text(default)}``): {help_text}")
+    return "\n".join(lines)
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,7 @@ from gymnasium.error import ResetNeeded
 
 from chaincart_env import _core
 from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
-from chaincart_env.config import ChainCartConfig
-from chaincart_env.config_docs import env_arguments
+from chaincart_env.config import ChainCartConfig, env_arguments
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering

@@ -13,9 +13,9 @@ import pytest
 from paper_dense import elwm_derivative, link_accelerations
 
 from chaincart_env import ChainCart
-from chaincart_env.bench.fig1 import AccuracyPoint, mass_positions
-from chaincart_env.bench.accuracy import pareto_front
-from chaincart_env.bench.mujoco_chain import (
+from chaincart_env.tools.bench.fig1 import AccuracyPoint, mass_positions
+from chaincart_env.tools.bench.accuracy import pareto_front
+from chaincart_env.tools.bench.mujoco_chain import (
     build_mjcf,
     chain_point_accelerations,
     mujoco_accelerations,
@@ -23,9 +23,9 @@ from chaincart_env.bench.mujoco_chain import (
     random_spatial_state,
     state_to_mujoco,
 )
-from chaincart_env.bench.report import markdown_table
-from chaincart_env.bench.scaling import fit_loglog_slope, parse_scaling_output
-from chaincart_env.bench.suite import parse_sections
+from chaincart_env.tools.bench.report import markdown_table
+from chaincart_env.tools.bench.scaling import fit_loglog_slope, parse_scaling_output
+from chaincart_env.tools.bench.suite import parse_sections
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Measured: MuJoCo's accelerations match ours to ~1e-11 relative (1e-14 kg m^2 link
@@ -154,7 +154,7 @@ def test_bench_quick_prints_tables_and_writes_plots(tmp_path: Path) -> None:
 def test_speed_targets_judge_the_lane_and_vector_goals_from_the_measured_rates() -> None:
     from types import SimpleNamespace
 
-    from chaincart_env.bench.targets import _lane_targets, _vector_speed_targets
+    from chaincart_env.tools.bench.targets import _lane_targets, _vector_speed_targets
 
     per_step = {"batch_kernel/avx2/4096": 4096 / 15e6, "batch_kernel/avx512/4096": 4096 / 25e6,
                 "batch_kernel/f32/4096": 4096 / 30e6, "batch_kernel/avx512/1": 1e-9}  # fmt: skip
@@ -173,8 +173,8 @@ def test_speed_targets_judge_the_lane_and_vector_goals_from_the_measured_rates()
 
 
 def test_the_lane_trajectories_follow_the_model_in_f64_and_stay_within_the_bound_in_f32() -> None:
-    from chaincart_env.bench import fig1
-    from chaincart_env.bench.precision import lane_trajectory
+    from chaincart_env.tools.bench import fig1
+    from chaincart_env.tools.bench.precision import lane_trajectory
 
     model = fig1.paper_model()
     lengths = np.array(model.link_lengths)
@@ -197,7 +197,7 @@ def test_mujoco_reset_of_an_unstable_run_is_reported_as_divergence(tmp_path: Pat
     """MuJoCo's Euler at 5 ms blows up on the Fig. 1 start at 9.95 s and MuJoCo silently
     resets the state (measured); the benchmark must report it (not measure drift on the reset run)
     and must not leave MUJOCO_LOG.TXT behind."""
-    from chaincart_env.bench.mujoco_compare import MujocoDiverged, run_mujoco
+    from chaincart_env.tools.bench.mujoco_compare import MujocoDiverged, run_mujoco
 
     monkeypatch.chdir(tmp_path)
     with pytest.raises(MujocoDiverged, match="diverged at t = "):

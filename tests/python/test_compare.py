@@ -15,8 +15,8 @@ from PIL import Image
 
 from chaincart_env import ChainCartConfig, ChainCartEnv, LQRPolicy
 from chaincart_env.__main__ import main
-from chaincart_env.compare.cli import compare_main
-from chaincart_env.compare.evaluation import (
+from chaincart_env.tools.compare.cli import compare_main
+from chaincart_env.tools.compare.evaluation import (
     EPISODE_COLUMNS,
     METRIC_COLUMNS,
     Rollouts,
@@ -25,12 +25,12 @@ from chaincart_env.compare.evaluation import (
     rollout,
     settle_times,
 )
-from chaincart_env.compare.filmstrip import filmstrip_size
-from chaincart_env.compare.job import EVALUATION_FILES, OUTPUT_FILES, SEED_FILES
-from chaincart_env.compare.learning_curve import LEARNING_CURVE_COLUMNS
-from chaincart_env.compare.plots import FIGURE_SIZE_PX
-from chaincart_env.compare.scene_options import parse_value
-from chaincart_env.compare.training import TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.filmstrip import filmstrip_size
+from chaincart_env.tools.compare.job import EVALUATION_FILES, OUTPUT_FILES, SEED_FILES
+from chaincart_env.tools.compare.learning_curve import LEARNING_CURVE_COLUMNS
+from chaincart_env.tools.compare.plots import FIGURE_SIZE_PX
+from chaincart_env.tools.compare.scene_options import parse_value
+from chaincart_env.tools.compare.training import TRAINING_EPISODE_COLUMNS
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 EPISODE_STEPS = 40
@@ -150,7 +150,7 @@ def test_evaluate_reproduces_the_comparison_from_the_saved_model(
 
 
 def test_a_reloaded_model_gives_identical_rollouts(tiny_run: pathlib.Path) -> None:
-    from chaincart_env.compare.run_files import load_run
+    from chaincart_env.tools.compare.run_files import load_run
 
     first, second = load_run(tiny_run / "seed-0"), load_run(tiny_run / "seed-0" / "model.zip")
     seeds = evaluation_seeds(100, 4)
@@ -283,7 +283,7 @@ def test_console_scripts_point_at_the_commands() -> None:
     import tomllib  # Python >= 3.11, as set-up uses
 
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
-    assert scripts["chaincart-compare"] == "chaincart_env.compare.cli:compare_main"
+    assert scripts["chaincart-compare"] == "chaincart_env.tools.compare.cli:compare_main"
     assert scripts["chaincart"] == "chaincart_env.__main__:main"
 
 
@@ -366,7 +366,7 @@ def test_an_interrupted_run_keeps_its_files_and_resumes_to_the_uninterrupted_res
 
 
 def test_the_scene_recipe_sets_the_training_defaults_and_options_override_it(tmp_path: pathlib.Path) -> None:
-    from chaincart_env.compare.recipes import GENERIC, recipe_for
+    from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
 
     recipe = recipe_for("inverted-2", "ppo")
     assert recipe is not GENERIC and recipe_for("swingup-1", "PPO") is GENERIC

@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 
 from chaincart_env.__main__ import main
-from chaincart_env.figures import (
+from chaincart_env.tools.figures import (
     SETTLE_TOLERANCE,
     Trajectory,
     link_directions,

@@ -219,7 +219,7 @@ def test_a_scene_setting_can_be_switched_off() -> None:
 def test_the_command_line_takes_the_keywords_with_the_cores_help() -> None:
     import argparse
 
-    from chaincart_env.compare.scene_options import add_scene_options, config_from_options
+    from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options
     from chaincart_env.config import REALITY_KEYS
 
     parser = argparse.ArgumentParser()
@@ -267,8 +267,8 @@ def test_copies_mid_episode_continue_identically_with_every_option(cls: type) ->
 
 
 def test_compare_evaluates_the_oracle_lqr_on_the_rollouts_own_envs() -> None:
-    from chaincart_env.compare.evaluation import evaluate_policies, evaluation_seeds
-    from chaincart_env.compare.job import lqr_baseline
+    from chaincart_env.tools.compare.evaluation import evaluate_policies, evaluation_seeds
+    from chaincart_env.tools.compare.job import lqr_baseline
 
     config = ChainCartConfig(scene="inverted-2-randomized", randomize={"cart_mass": 0.5, "link_lengths": 0.5})
     oracle = lqr_baseline(config, oracle=True)

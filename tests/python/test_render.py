@@ -19,12 +19,12 @@ from PIL import Image
 
 from chaincart_env import ChainCart, ChainCartEnv, ChainCartError, ChainCartVectorEnv, _core
 from chaincart_env.__main__ import main
-from chaincart_env.animate import animate, load_sb3_model, parse_settings
+from chaincart_env.tools.animate import animate, load_sb3_model, parse_settings
+from chaincart_env.tools.bench.render_benchmark import render_benchmark
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.rendering import (
     RenderUnavailable,
     check_display,
-    render_benchmark,
     tile_frames,
     tile_grid,
 )

@@ -22,11 +22,11 @@ from ray.rllib.algorithms.appo import APPOConfig
 
 from chaincart_env import ChainCartConfig, ChainCartEnv, ChainCartError, ChainCartVectorEnv, _core
 from chaincart_env.__main__ import main
-from chaincart_env.bench.rllib_sampling import measure_sampling
-from chaincart_env.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
-from chaincart_env.compare.job import OUTPUT_FILES, lqr_baseline
-from chaincart_env.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.compare.rllib_training import RLlibPolicy, ray_cluster
+from chaincart_env.tools.bench.rllib_sampling import measure_sampling
+from chaincart_env.tools.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
+from chaincart_env.tools.compare.job import OUTPUT_FILES, lqr_baseline
+from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.rllib_training import RLlibPolicy, ray_cluster
 from chaincart_env.rllib import (
     ENV_NAME,
     RunnerStartSeeds,
@@ -260,7 +260,7 @@ def test_compare_with_rllib_without_ray_says_which_extra_to_install(tmp_path: pa
 def test_the_rllib_trainer_and_evaluation_import_without_stable_baselines3() -> None:
     code = (
         "import sys; sys.modules['stable_baselines3'] = None\n"
-        "import chaincart_env.compare.job, chaincart_env.compare.run_files, chaincart_env.compare.rllib_training\n"
+        "import chaincart_env.tools.compare.job, chaincart_env.tools.compare.run_files, chaincart_env.tools.compare.rllib_training\n"
         "import chaincart_env.rllib\n"
         "try:\n    import stable_baselines3\nexcept ImportError:\n    print('blocked')\n"
     )

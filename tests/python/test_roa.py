@@ -13,7 +13,7 @@ from scipy.stats import binomtest
 
 from chaincart_env import ChainCartEnv, LQRPolicy
 from chaincart_env.__main__ import main
-from chaincart_env.roa import region_of_attraction, success_fractions, wilson_interval
+from chaincart_env.tools.roa import region_of_attraction, success_fractions, wilson_interval
 from chaincart_env.config import ChainCartConfig
 
 

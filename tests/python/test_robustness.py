@@ -205,7 +205,7 @@ def test_one_env_shared_by_threads_is_never_corrupted() -> None:
 
 def test_a_soak_keeps_memory_constant_and_observations_finite() -> None:
     # The 10-million-step soak is `python -m chaincart_env soak`; this is its short form.
-    from chaincart_env.soak import soak
+    from chaincart_env.tools.soak import soak
 
     report = soak(300_000, num_envs=256, warmup=200, n_links=3, planar=False, start_noise=0.3, max_episode_steps=50)
     assert report.env_steps >= 300_000 and report.episodes_ended > 0
@@ -215,7 +215,7 @@ def test_a_soak_keeps_memory_constant_and_observations_finite() -> None:
 
 
 def test_soak_rejects_bad_sizes() -> None:
-    from chaincart_env.soak import soak
+    from chaincart_env.tools.soak import soak
 
     with pytest.raises(ValueError, match="steps = 0"):
         soak(0)

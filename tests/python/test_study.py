@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from chaincart_env import ChainCartConfig, ChainCartError, LQRPolicy
-from chaincart_env.compare.statistics import aggregate_over_seeds, wilson_interval
-from chaincart_env.compare.sweeps import parse_sweep, run_sweep
+from chaincart_env.tools.compare.statistics import aggregate_over_seeds, wilson_interval
+from chaincart_env.tools.compare.sweeps import parse_sweep, run_sweep
 from chaincart_env.env import ChainCartEnv
-from chaincart_env.roa import success_fractions
+from chaincart_env.tools.roa import success_fractions
 
 
 def test_wilson_interval_matches_the_closed_form() -> None:
@@ -118,7 +118,7 @@ def _same_weights(a, b) -> bool:  # type: ignore[no-untyped-def]
 
 
 def test_periodic_evaluation_rows_best_model_and_no_effect_on_training(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from chaincart_env.compare.periodic_eval import PeriodicEvaluation, read_evaluations
+    from chaincart_env.tools.compare.periodic_eval import PeriodicEvaluation, read_evaluations
 
     config = ChainCartConfig(scene="inverted-1", max_episode_steps=50)
     evaluation = PeriodicEvaluation(config, seeds=[7, 8, 9], every=256, directory=tmp_path)
@@ -133,7 +133,7 @@ def test_periodic_evaluation_rows_best_model_and_no_effect_on_training(tmp_path)
     # The saved best model scores what its row says on the same starts.
     from stable_baselines3 import PPO
 
-    from chaincart_env.compare.evaluation import rollout
+    from chaincart_env.tools.compare.evaluation import rollout
 
     again = rollout(PPO.load(tmp_path / "best_model.zip", device="cpu"), "best", config, [7, 8, 9])
     assert float(np.mean(again.returns)) == pytest.approx(best["return_mean"], rel=1e-12)
@@ -146,7 +146,7 @@ def test_training_resumed_from_a_checkpoint_ends_bit_identical(tmp_path) -> None
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from chaincart_env.compare.checkpoints import Checkpointer, restore
+    from chaincart_env.tools.compare.checkpoints import Checkpointer, restore
 
     class Interrupt(BaseCallback):
         def _on_step(self) -> bool:
@@ -171,7 +171,7 @@ def test_training_resumed_from_a_checkpoint_ends_bit_identical(tmp_path) -> None
 def test_restore_without_a_checkpoint_names_what_is_missing(tmp_path) -> None:  # type: ignore[no-untyped-def]
     from stable_baselines3 import PPO
 
-    from chaincart_env.compare.checkpoints import restore
+    from chaincart_env.tools.compare.checkpoints import restore
 
     with pytest.raises(ChainCartError, match="no checkpoint"):
         restore(tmp_path, PPO)

@@ -92,7 +92,7 @@ def test_steps_trained_for_on_and_off_policy_algorithms() -> None:
     from stable_baselines3 import PPO, TD3
 
     from chaincart_env import ChainCartVecEnv
-    from chaincart_env.compare.training import steps_trained
+    from chaincart_env.tools.compare.training import steps_trained
 
     venv = ChainCartVecEnv(3)
     assert steps_trained(PPO("MlpPolicy", venv, n_steps=10, batch_size=30, device="cpu"), 31)[0] == 60

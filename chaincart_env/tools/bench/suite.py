@@ -1,0 +1,154 @@
+"""The benchmark suite behind ``python -m chaincart_env bench``: settings, the shared
+context the sections write into, and the section registry.
+
+Each section is a function ``section(ctx)`` that measures, appends Markdown to
+``ctx.report``, saves its PNG plots under ``ctx.settings.out_dir`` and leaves the
+numbers other sections need (the targets summary, the Pareto plot) in ``ctx.results``.
+Sections run in the order of :data:`SECTION_ORDER` whatever order they were asked in.
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+import gymnasium as gym
+import numpy as np
+
+from chaincart_env import _core
+from chaincart_env.tools.bench.report import Report
+
+__all__ = ["BenchSettings", "BenchContext", "SECTION_ORDER", "parse_sections", "run_suite", "readme_section", "mujoco_available"]
+
+#: Sections in the order they run (``--sections`` picks a subset).
+SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "rllib", "criterion", "targets")
+
+
+@dataclass(frozen=True)
+class BenchSettings:
+    quick: bool = False
+    sizes: tuple[int, ...] = (1, 16, 256, 4096)
+    links: tuple[int, ...] = (1, 2, 5, 10)
+    out_dir: Optional[Path] = None
+    note: str = ""
+
+    @property
+    def min_time(self) -> float:
+        """Seconds each timed loop runs at least."""
+        return 0.02 if self.quick else 0.25
+
+    @property
+    def repeats(self) -> int:
+        """Timed runs per measurement; the best counts (the machine is shared)."""
+        return 1 if self.quick else 3
+
+
+@dataclass
+class BenchContext:
+    settings: BenchSettings
+    report: Report = field(default_factory=Report)
+    results: dict[str, Any] = field(default_factory=dict)
+    plots: list[Path] = field(default_factory=list)
+
+    def plot_path(self, name: str) -> Optional[Path]:
+        """Where to save plot ``name`` (None when no --out was given)."""
+        if self.settings.out_dir is None:
+            return None
+        self.settings.out_dir.mkdir(parents=True, exist_ok=True)
+        path = self.settings.out_dir / name
+        self.plots.append(path)
+        return path
+
+
+def mujoco_available() -> bool:
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def parse_sections(text: str) -> list[str]:
+    """``"throughput,mujoco"`` (or ``"all"``) -> the sections in running order."""
+    asked = [s.strip() for s in text.split(",") if s.strip()]
+    if asked == ["all"]:
+        return list(SECTION_ORDER)
+    unknown = [s for s in asked if s not in SECTION_ORDER]
+    if unknown or not asked:
+        raise ValueError(f"sections {text!r}: expected a comma-separated subset of {', '.join(SECTION_ORDER)} or 'all'")
+    return [s for s in SECTION_ORDER if s in asked]
+
+
+def _machine_line(settings: BenchSettings) -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    versions = f"Python {platform.python_version()}, numpy {np.__version__}, gymnasium {gym.__version__}"
+    if mujoco_available():
+        import mujoco
+
+        versions += f", mujoco {mujoco.__version__}"
+    return (
+        f"{datetime.datetime.now().strftime('%Y-%m-%d %H:%M')}; {platform.machine()} "
+        f"({platform.processor() or 'cpu'}), {os.cpu_count()} logical CPUs, rayon threads {_core.num_threads()}, "
+        f"1-min load average at start {load:.2f}; {versions}. "
+        f"Each number is the best of {settings.repeats} timed run(s) of >= {settings.min_time} s: "
+        "on a shared machine the least disturbed run is the best estimate, and still a lower bound."
+    )
+
+
+def _sections() -> dict[str, Callable[[BenchContext], None]]:
+    # Imported here so that `--sections scaling` does not import SB3/torch, etc.
+    from chaincart_env.tools.bench import accuracy, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, targets
+
+    return {
+        "throughput": envs.throughput_section,
+        "mujoco": mujoco_compare.mujoco_section,
+        "accuracy": accuracy.accuracy_section,
+        "scaling": scaling.scaling_section,
+        "render": render_fps.render_section,
+        "rllib": rllib_sampling.rllib_section,
+        "criterion": criterion.criterion_section,
+        "targets": targets.targets_section,
+    }
+
+
+def run_suite(
+    settings: BenchSettings,
+    sections: Sequence[str],
+    markdown_file: Optional[Path] = None,
+    echo: bool = True,
+    command: str = "python -m chaincart_env bench",
+) -> BenchContext:
+    """Runs ``sections``; prints their Markdown (and writes it to ``markdown_file`` as
+    the performance page of the docs, see :func:`performance_page`)."""
+    ctx = BenchContext(settings, Report(echo=echo))
+    title = "chaincart benchmark" + (" (--quick: a smoke run, numbers are noisy)" if settings.quick else "")
+    ctx.report.heading(title, depth=-1)
+    ctx.report.paragraph(_machine_line(settings) + (f" {settings.note}" if settings.note else ""))
+    registry = _sections()
+    start, took = time.perf_counter(), []
+    for name in sections:
+        section_start = time.perf_counter()
+        registry[name](ctx)
+        took.append(f"{name} {time.perf_counter() - section_start:.0f} s")
+    if ctx.plots:
+        ctx.report.paragraph("Plots: " + ", ".join(f"`{p}`" for p in ctx.plots) + ".")
+    ctx.report.paragraph(f"Benchmark wall time: {time.perf_counter() - start:.0f} s ({', '.join(took)}).")
+    if markdown_file is not None:
+        markdown_file.parent.mkdir(parents=True, exist_ok=True)
+        markdown_file.write_text(performance_page(ctx.report.text(), command))
+    return ctx
+
+
+def performance_page(report: str, command: str) -> str:
+    """The report as the docs' performance page (``docs/performance.md``): the title
+    becomes ``# Performance`` with a line saying how it was made; the other headings keep
+    their level."""
+    lines = report.splitlines()
+    out = ["# Performance", "", f"Generated by `{command}` (numbers from one run; rerun it to check them).", ""]
+    out.extend(lines[1:])
+    return "\n".join(out).rstrip() + "\n"

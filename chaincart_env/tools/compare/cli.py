@@ -1,0 +1,211 @@
+"""Command line of the main job: ``compare`` (train, evaluate against LQR, report) and
+``evaluate`` (re-run the comparison of a saved model). Registered as subcommands of
+``python -m chaincart_env`` and as the console script ``chaincart-compare``.
+
+Nothing heavy is imported here: stable-baselines3 (or Ray) and torch load when a command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+from chaincart_env.errors import ChainCartError, InvalidInputError
+from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
+from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options, parse_value
+from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES, parse_sweep
+
+__all__ = ["add_commands", "compare_main"]
+
+DEFAULT_OUT = Path("runs/compare")
+ALGORITHM_NAMES = ("ppo", "sac", "td3")
+
+
+def _integer(minimum: int, what: str) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} = {text!r}: expected an integer >= {minimum}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{what} = {value}: expected an integer >= {minimum}")
+        return value
+
+    return parse
+
+
+def _add_evaluation_options(parser: argparse.ArgumentParser, defaults: bool) -> None:
+    parser.add_argument("--eval-episodes", type=_integer(1, "eval-episodes"), default=50 if defaults else None,
+                        help="seeded evaluation starts per policy" + (" (default: 50)" if defaults else
+                                                                      " (default: the run's)"))
+    parser.add_argument("--eval-seed", type=_integer(0, "eval-seed"), default=1_000_000 if defaults else None,
+                        help="seed of the first evaluation start; start i uses eval-seed + i"
+                        + (" (default: 1000000)" if defaults else " (default: the run's)"))
+    parser.add_argument("--torch-threads", type=_integer(1, "torch-threads"), default=1,
+                        help="torch threads (default 1: fastest for these small networks on a shared machine)")
+
+
+def _configure_compare(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--timesteps", type=_integer(1, "timesteps"), default=None,
+                        help=f"training budget in env steps (default: the scene's training recipe, "
+                        f"{GENERIC.timesteps} without one)")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default: {DEFAULT_OUT})")
+    parser.add_argument("--algo", type=str.lower, choices=ALGORITHM_NAMES, default="ppo",
+                        help="stable-baselines3 algorithm (default: ppo)")
+    seeds = parser.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=_integer(0, "seed"), default=None,
+                       help="one training seed: agent and env i seeded seed + i (default: 0)")
+    seeds.add_argument("--seeds", type=_seed_list, default=None, metavar="S1,S2,...",
+                       help="several training seeds, one independent agent each; tables and curves aggregate over "
+                       "them (mean and 95%% bootstrap interval over seeds)")
+    parser.add_argument("--sweep", dest="sweeps", action="append", default=[], metavar="AXIS=V1,V2,...",
+                        help="evaluate every policy on the same starts at each value of AXIS (repeatable; axes: "
+                        f"{', '.join(sorted(SWEEP_AXES))}; default: {_default_sweeps()})")
+    parser.add_argument("--eval-every", type=_integer(1, "eval-every"), default=20_000,
+                        help="timesteps between deterministic evaluations during training (default: 20000)")
+    parser.add_argument("--eval-starts", type=_integer(1, "eval-starts"), default=20,
+                        help="seeded starts of each evaluation during training (default: 20)")
+    parser.add_argument("--checkpoint-every", type=_integer(1, "checkpoint-every"), default=50_000,
+                        help="timesteps between checkpoints, for --resume (default: 50000)")
+    parser.add_argument("--resume", type=Path, default=None, metavar="RUN_DIR",
+                        help="continue an interrupted run with its own settings (other options are ignored)")
+    parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=None,
+                        help="training envs in the native VecEnv of the sb3 trainer (default: the scene's training "
+                        f"recipe, {GENERIC.num_envs} without one)")
+    parser.add_argument("--algo-kwarg", dest="algo_kwargs", action="append", default=[], metavar="KEY=VALUE",
+                        help="constructor keyword of the algorithm on top of the scene's training recipe (repeatable), "
+                        "e.g. --algo-kwarg n_steps=256; with --trainer rllib a PPOConfig.training keyword, "
+                        "e.g. --algo-kwarg train_batch_size_per_learner=4096")
+    _add_rllib_options(parser)
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_evaluation_options(parser, defaults=True)
+    add_scene_options(parser)
+    # Errors are reported by this (sub)parser, whatever parser dispatched.
+    parser.set_defaults(handler=lambda args, _dispatcher=None: _run_compare_command(args, parser))
+
+
+def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("trainer (Ray RLlib on a cluster: needs the rllib extra)")
+    group.add_argument("--trainer", choices=("sb3", "rllib"), default="sb3",
+                       help="sb3: stable-baselines3 on --num-envs envs in this process (default); rllib: Ray RLlib "
+                       "PPO on --num-env-runners runners of --envs-per-runner native envs each")
+    group.add_argument("--num-env-runners", type=_integer(0, "num-env-runners"), default=2,
+                       help="RLlib env runners, one CPU each (0: sample in the driver; default: 2)")
+    group.add_argument("--envs-per-runner", type=_integer(1, "envs-per-runner"), default=4,
+                       help="native envs in each RLlib env runner (default: 4)")
+    group.add_argument("--address", default=None,
+                       help="Ray cluster to train on ('auto': the one this machine joined with `ray start`, or "
+                       "HOST:PORT of its head); default: a local cluster started for the run")
+
+
+def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", type=Path,
+                        help="a run folder written by compare, or its model.zip or rllib_checkpoint")
+    parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
+    _add_evaluation_options(parser, defaults=False)
+    parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
+
+
+def _seed_list(text: str) -> list[int]:
+    try:
+        seeds = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seeds = {text!r}: expected integers >= 0 separated by commas") from None
+    if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"seeds = {text!r}: expected distinct integers >= 0 separated by commas")
+    return seeds
+
+
+def _default_sweeps() -> str:
+    return " ".join(f"{axis}={','.join(f'{v:g}' for v in values)}" for axis, values in DEFAULT_SWEEPS.items())
+
+
+def _algo_kwarg(text: str) -> tuple[str, Any]:
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip().isidentifier():
+        raise InvalidInputError(f"--algo-kwarg {text!r}: expected KEY=VALUE, e.g. --algo-kwarg n_steps=256")
+    return key.strip(), parse_value(value)
+
+
+def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
+    """``--sweep`` options as axis -> values (``None``: the default sweeps)."""
+    if not texts:
+        return None
+    sweeps: dict[str, list[float]] = {}
+    for text in texts:
+        axis, values = parse_sweep(text)
+        if axis in sweeps:
+            raise InvalidInputError(f"--sweep {axis} is given twice: expected each axis once")
+        sweeps[axis] = values
+    return sweeps
+
+
+def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from chaincart_env.tools.compare.job import resume_compare, run_compare
+
+    try:
+        if args.resume is not None:
+            resume_compare(args.resume)
+            return 0
+        config = config_from_options(args)
+        recipe = recipe_for(config.scene, args.algo) if args.trainer == "sb3" else GENERIC
+        hyperparameters = {**recipe.hyperparameters, **dict(_algo_kwarg(text) for text in args.algo_kwargs)}
+        sweeps = _sweeps(args.sweeps)
+    except (ChainCartError, TypeError) as error:
+        parser.error(str(error))
+    seeds = args.seeds if args.seeds is not None else [0 if args.seed is None else args.seed]
+    try:
+        run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps or recipe.timesteps,
+                    seeds=seeds, num_envs=args.num_envs or recipe.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
+                    sweeps=sweeps, eval_every=args.eval_every, eval_starts=args.eval_starts,
+                    checkpoint_every=args.checkpoint_every, progress_bar=not args.no_progress,
+                    torch_threads=args.torch_threads, hyperparameters=hyperparameters, trainer=args.trainer,
+                    rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner,
+                               address=args.address))
+    except ChainCartError as error:
+        parser.error(str(error))
+    return 0
+
+
+def _run_evaluate_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from chaincart_env.tools.compare.job import run_evaluate
+
+    try:
+        run_evaluate(args.model, out=args.out, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
+                     torch_threads=args.torch_threads)
+    except ChainCartError as error:
+        parser.error(str(error))
+    return 0
+
+
+def add_commands(commands: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    """Adds ``compare`` and ``evaluate`` to a subcommand set; each parser's ``handler``
+    default runs it as ``args.handler(args, dispatching_parser)``."""
+    _configure_compare(commands.add_parser(
+        "compare", help="train an SB3 (or RLlib) agent and compare it with the LQR baseline (the main job)",
+        description="Train a stable-baselines3 agent (or Ray RLlib PPO, on a cluster) on a scene, evaluate it and "
+        "the LQR baseline on the same seeded starts, and write tables, a learning curve, error plots, a filmstrip "
+        "and the model.",
+    ))
+    _configure_evaluate(commands.add_parser(
+        "evaluate", help="re-run the comparison of a model saved by compare",
+        description="Load a model saved by compare and re-run its comparison with the LQR baseline.",
+    ))
+
+
+def compare_main(argv: Optional[Sequence[str]] = None) -> int:
+    """The console script ``chaincart-compare``: ``compare`` with its options."""
+    parser = argparse.ArgumentParser(
+        prog="chaincart-compare",
+        description="Train a stable-baselines3 agent (or Ray RLlib PPO, --trainer rllib) and compare it with the "
+        "LQR baseline.",
+    )
+    _configure_compare(parser)
+    args = parser.parse_args(argv)
+    return int(args.handler(args, parser))
+
+
+if __name__ == "__main__":
+    sys.exit(compare_main())

@@ -1,0 +1,320 @@
+"""The main job: train one agent per training seed, evaluate them and the LQR baseline
+(on the main starts and over the sweeps), report; resume an interrupted run; re-run the
+evaluation of a saved run.
+
+A run directory holds ``config.json``, ``run.json`` (the settings, a ``status`` and
+per-seed progress), one ``seed-<s>/`` folder per training seed (the agent, its best
+model by evaluation, logs, checkpoints) and the study's tables and pictures
+(:data:`chaincart_env.tools.compare.study.EVALUATION_FILES`).
+
+``run.json``'s ``status`` is ``training``, ``evaluating``, ``done``, ``interrupted``
+(Ctrl-C or SIGTERM: everything produced so far stays, and ``compare --resume RUN``
+continues) or ``failed`` (with the error).
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import signal
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Iterator, Optional, Sequence
+
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.learning_curve import (
+    LEARNING_CURVE_COLUMNS, learning_curve, read_learning_curve, read_training_episodes,
+)  # fmt: skip
+from chaincart_env.tools.compare.plots import plot_learning_curve
+from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, load_run, save_run
+from chaincart_env.tools.compare.study import (
+    EVALUATION_FILES, describe, evaluate_study, lqr_baseline, policy_label, seed_directory,
+)  # fmt: skip
+from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
+from chaincart_env.tools.compare.tables import write_csv
+from chaincart_env.config import ChainCartConfig
+
+__all__ = [
+    "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "StudySettings",
+    "lqr_baseline", "policy_label", "resume_compare", "run_compare", "run_evaluate",
+]  # fmt: skip
+
+#: The trainers of compare: stable-baselines3 on one machine, Ray RLlib on a cluster.
+TRAINERS = ("sb3", "rllib")
+#: What compare writes at the top of the run directory.
+OUTPUT_FILES = EVALUATION_FILES + (CONFIG_FILE, RUN_FILE)
+#: What each ``seed-<s>/`` folder holds after training with stable-baselines3.
+SEED_FILES = (
+    "model.zip", "best_model.zip", "config.json", "run.json", "training_episodes.csv", "evaluations.csv",
+    "learning_curve.csv", "learning_curve.png",
+)
+
+
+class StudySettings(dict):  # type: ignore[type-arg]
+    """The settings of a run as saved in ``run.json`` (a plain dict with checks)."""
+
+    @classmethod
+    def checked(cls, **settings: Any) -> "StudySettings":
+        seeds = settings["seeds"]
+        if not seeds or len(set(seeds)) != len(seeds) or any(
+            isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds
+        ):
+            raise InvalidInputError(f"seeds = {seeds!r}: expected distinct integers >= 0, at least one")
+        if settings["trainer"] not in TRAINERS:
+            raise InvalidInputError(f"trainer = {settings['trainer']!r}: expected one of {list(TRAINERS)}")
+        for axis in settings["sweeps"]:
+            if axis not in SWEEP_AXES:
+                raise InvalidInputError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
+        for key in ("eval_every", "checkpoint_every", "eval_starts", "timesteps"):
+            value = settings[key]
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise InvalidInputError(f"{key} = {value!r}: expected an integer >= 1")
+        return cls(settings)
+
+
+def _write_json(path: Path, data: dict[str, Any]) -> None:
+    staging = path.with_suffix(".tmp")
+    staging.write_text(json.dumps(data, indent=2, default=repr) + "\n")
+    staging.replace(path)
+
+
+def _set_status(out: Path, run: dict[str, Any], status: str, **extra: Any) -> None:
+    run.update(status=status, **extra)
+    _write_json(out / RUN_FILE, run)
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM ends the run the way Ctrl-C does (``KeyboardInterrupt``)."""
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    try:
+        previous = signal.signal(signal.SIGTERM, interrupt)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _set_torch_threads(threads: Optional[int]) -> None:
+    if threads is not None:
+        import torch
+
+        torch.set_num_threads(threads)
+
+
+def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySettings, resume: bool) -> dict[str, Any]:
+    """Trains one seed into ``seed-<seed>/`` and saves it; returns its record for run.json."""
+    directory = seed_directory(out, seed)
+    directory.mkdir(parents=True, exist_ok=True)
+    algo, timesteps = settings["algo"], settings["timesteps"]
+    if settings["trainer"] == "rllib":
+        result, trained = _train_rllib(config, directory, seed, settings)
+    else:
+        from chaincart_env.tools.compare.training import train
+
+        eval_starts = list(range(settings["eval_seed"], settings["eval_seed"] + settings["eval_starts"]))
+        print(f"training {algo.upper()} for {timesteps} timesteps on {settings['num_envs']} envs, seed {seed} -> "
+              f"{directory}")
+        result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=settings["num_envs"],
+                       directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
+                       checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
+                       hyperparameters=settings["hyperparameters"], resume=resume)
+        trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=settings["num_envs"],
+                       resumed_from=result.resumed_from, evaluations=result.evaluations)
+    print(f"seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
+    info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
+                eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
+                hyperparameters=result.hyperparameters, training_wall_time_s=round(result.wall_time_s, 2),
+                training_episodes=result.episodes, **trained)
+    save_run(directory, result.model, config, info)
+    # Binned over the steps actually trained (SB3 rounds up to whole rollouts).
+    curve = learning_curve(read_training_episodes(directory / "training_episodes.csv"), info["timesteps_trained"])
+    write_csv(directory / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
+    return info
+
+
+def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: StudySettings) -> tuple[Any, dict[str, Any]]:
+    try:
+        import ray.rllib  # noqa: F401
+    except ImportError as error:
+        raise InvalidInputError(
+            f"--trainer rllib needs Ray RLlib ({error}): install the rllib extra, pip install 'chaincart-env[rllib]'"
+        ) from None
+    from chaincart_env.tools.compare.rllib_training import CHECKPOINT_DIR, train_rllib
+
+    if settings["algo"] != "ppo":
+        raise InvalidInputError(f"--trainer rllib with --algo {settings['algo']}: the RLlib trainer offers ppo only")
+    rllib = settings["rllib"]
+    runners, per_runner = rllib["num_env_runners"], rllib["envs_per_runner"]
+    print(f"training PPO with RLlib for {settings['timesteps']} timesteps on {runners} env runner(s) x "
+          f"{per_runner} envs, seed {seed} -> {directory}")
+    result = train_rllib(config, timesteps=settings["timesteps"], seed=seed, num_env_runners=runners,
+                         envs_per_runner=per_runner, address=rllib.get("address"),
+                         episodes_csv=directory / "training_episodes.csv", checkpoint=directory / CHECKPOINT_DIR,
+                         progress=settings["progress_bar"], hyperparameters=settings["hyperparameters"])
+    info = dict(timesteps_trained=result.timesteps_trained, num_env_runners=runners, envs_per_runner=per_runner,
+                num_envs=runners * per_runner, training_iterations=result.iterations, cluster=result.cluster)
+    return result, info
+
+
+def _training_notes(run: dict[str, Any]) -> list[str]:
+    notes = []
+    for seed, info in run["seed_runs"].items():
+        evaluations = info.get("evaluations") or {}
+        best = evaluations.get("best")
+        line = (f"Seed {seed}: {info['timesteps_trained']} timesteps in {info['training_wall_time_s']} s of training "
+                f"({info['training_episodes']} training episodes)")
+        if best:
+            line += (f"; best deterministic evaluation at {int(best['timesteps'])} timesteps "
+                     f"(success {best['success_rate']:.2f}, return {best['return_mean']:.1f}, "
+                     f"{int(best['episodes'])} starts)")
+        notes.append(line + ".")
+    return notes
+
+
+def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
+    settings = StudySettings(run["settings"])
+    for seed in settings["seeds"]:
+        if str(seed) in run["seed_runs"]:
+            continue  # trained before the interruption
+        _set_status(out, run, "training", training_seed=seed)
+        run["seed_runs"][str(seed)] = _train_seed(config, out, seed, settings, resume)
+        _set_status(out, run, "training")
+    _set_status(out, run, "evaluating")
+    summaries = evaluate_study(out, config, seeds=settings["seeds"], eval_seed=settings["eval_seed"],
+                               eval_episodes=settings["eval_episodes"], sweeps=settings["sweeps"],
+                               training_notes=_training_notes(run))
+    for seed in settings["seeds"]:
+        curve_csv = seed_directory(out, seed) / "learning_curve.csv"
+        if curve_csv.is_file():
+            plot_learning_curve(seed_directory(out, seed) / "learning_curve.png", read_learning_curve(curve_csv),
+                                policy_label(settings["algo"], settings["trainer"]),
+                                next(s for s in summaries if s["policy"] == "LQR"))
+    return summaries
+
+
+def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
+    _set_torch_threads(run["settings"].get("torch_threads"))
+    start = time.perf_counter()
+    print(describe(config))
+    try:
+        with _sigterm_as_interrupt():
+            summaries = _study(config, out, run, resume)
+    except KeyboardInterrupt:
+        _set_status(out, run, "interrupted", resume_with=f"python -m chaincart_env compare --resume {out}")
+        print(f"interrupted: what was produced is in {out}; continue with `compare --resume {out}`")
+        raise
+    except Exception as error:
+        _set_status(out, run, "failed", error=f"{type(error).__name__}: {error}")
+        raise
+    total = time.perf_counter() - start
+    run["wall_time_s"] = round(run.get("wall_time_s", 0.0) + total, 2)
+    _set_status(out, run, "done")
+    print(f"wall time {total:.1f} s; wrote {', '.join(OUTPUT_FILES)} and seed-<s>/ folders in {out}")
+    return summaries
+
+
+def run_compare(
+    config: ChainCartConfig,
+    *,
+    out: Path,
+    algo: str = "ppo",
+    timesteps: int,
+    seeds: Sequence[int] = (0,),
+    num_envs: int = 8,
+    eval_episodes: int = 50,
+    eval_seed: int = 1_000_000,
+    sweeps: Optional[dict[str, Sequence[float]]] = None,
+    eval_every: int = 20_000,
+    eval_starts: int = 20,
+    checkpoint_every: int = 50_000,
+    progress_bar: bool = True,
+    torch_threads: Optional[int] = None,
+    hyperparameters: Optional[dict[str, Any]] = None,
+    trainer: str = "sb3",
+    rllib: Optional[dict[str, Any]] = None,
+) -> list[dict[str, Any]]:
+    """Trains ``algo`` on ``config`` once per training seed, evaluates every agent and
+    the LQR baseline on ``eval_episodes`` seeded starts and over ``sweeps`` (default
+    :data:`DEFAULT_SWEEPS`), and writes the study into ``out``; returns the main
+    comparison's summaries. ``trainer="rllib"`` trains with Ray RLlib (``rllib =
+    {"num_env_runners": ..., "envs_per_runner": ..., "address": ...}``)."""
+    from chaincart_env.tools.compare.evaluation import evaluation_seeds
+
+    settings = StudySettings.checked(
+        algo=algo.lower(), timesteps=timesteps, seeds=list(seeds), num_envs=num_envs, eval_episodes=eval_episodes,
+        eval_seed=eval_seed, sweeps={k: list(v) for k, v in (DEFAULT_SWEEPS if sweeps is None else sweeps).items()},
+        eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every,
+        progress_bar=progress_bar, torch_threads=torch_threads, hyperparameters=dict(hyperparameters or {}),
+        trainer=trainer, rllib={"num_env_runners": 2, "envs_per_runner": 4, "address": None, **(rllib or {})},
+    )
+    evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
+    lqr_baseline(config)  # so does a scene without a baseline
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2) + "\n")
+    run = dict(
+        status="training", settings=settings, seed_runs={},
+        machine=f"{platform.machine()}, {platform.python_implementation()} {platform.python_version()}",
+    )
+    return _run(config, out, run, resume=False)
+
+
+def resume_compare(out: Path) -> list[dict[str, Any]]:
+    """Continues the run in ``out`` where it stopped: seeds already trained are kept, an
+    interrupted seed continues from its last checkpoint (ending as it would have without
+    the interruption), the rest train, then the study is evaluated."""
+    out = Path(out)
+    if not (out / RUN_FILE).is_file() or not (out / CONFIG_FILE).is_file():
+        raise InvalidInputError(f"--resume {out}: expected a run directory of compare (with {RUN_FILE} and {CONFIG_FILE})")
+    run = json.loads((out / RUN_FILE).read_text())
+    if "settings" not in run or "seed_runs" not in run:
+        raise InvalidInputError(f"--resume {out}: {RUN_FILE} is not that of a compare study")
+    config = ChainCartConfig(**json.loads((out / CONFIG_FILE).read_text()))
+    print(f"resuming {out} (status {run.get('status')!r}, seeds trained: {sorted(run['seed_runs']) or 'none'})")
+    return _run(config, out, run, resume=True)
+
+
+def run_evaluate(
+    path: Path,
+    *,
+    out: Optional[Path] = None,
+    eval_episodes: Optional[int] = None,
+    eval_seed: Optional[int] = None,
+    torch_threads: Optional[int] = None,
+) -> list[dict[str, Any]]:
+    """Re-runs the evaluation of a saved run (same starts and sweeps unless told
+    otherwise) into ``out`` (default ``<run>/evaluation``): a whole study directory, or
+    one seed's folder or model file (then that agent alone against the LQR)."""
+    _set_torch_threads(torch_threads)
+    path = Path(path)
+    if (path / RUN_FILE).is_file() and "settings" in json.loads((path / RUN_FILE).read_text()):
+        run = json.loads((path / RUN_FILE).read_text())
+        settings, directory, home = run["settings"], path, path
+        config = ChainCartConfig(**json.loads((path / CONFIG_FILE).read_text()))
+        seeds = [int(s) for s in run["seed_runs"]]
+        if not seeds:
+            raise InvalidInputError(f"{path} has no trained seed yet (status {run.get('status')!r}): nothing to evaluate")
+        sweeps = settings["sweeps"]
+    else:
+        saved = load_run(path)  # a seed folder, model.zip or RLlib checkpoint
+        directory, config, settings = saved.directory.parent, saved.config, saved.info
+        home, seeds, sweeps = saved.directory, [int(saved.info["seed"])], {}
+        if seed_directory(directory, seeds[0]) != saved.directory:
+            raise InvalidInputError(f"{path}: expected a seed-<s> folder of a compare run, or the run directory")
+    into = home / "evaluation" if out is None else Path(out)
+    episodes = int(settings.get("eval_episodes", 50)) if eval_episodes is None else eval_episodes
+    first = int(settings.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed
+    print(describe(config))
+    print(f"evaluating {directory} -> {into}")
+    summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
+                               sweeps=sweeps, into=into)
+    print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
+    return summaries

@@ -1,0 +1,133 @@
+"""Pictures drawn with matplotlib's Agg canvas (no pyplot, no display): the learning
+curve and the errors ``e_q(t)``, ``e_w(t)`` of the compared policies on one start."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.ticker import EngFormatter
+
+from chaincart_env.tools.compare.evaluation import Rollouts
+
+__all__ = [
+    "FIGURE_SIZE_PX", "draw_evaluation_curves", "draw_sweep", "plot_errors", "plot_evaluation_curves",
+    "plot_learning_curve", "plot_sweep",
+]
+
+_DPI = 100
+#: (width, height) in pixels of every plot PNG.
+FIGURE_SIZE_PX = (1000, 420)
+
+
+def _figure() -> Figure:
+    return Figure(figsize=(FIGURE_SIZE_PX[0] / _DPI, FIGURE_SIZE_PX[1] / _DPI), dpi=_DPI, layout="constrained")
+
+
+def plot_learning_curve(
+    path: Path, curve: Sequence[dict[str, Any]], algo: str, baseline: dict[str, Any]
+) -> None:
+    """Mean training-episode return and success rate against timesteps, with the
+    baseline's evaluation values as dashed lines."""
+    fig = _figure()
+    ret, succ = fig.subplots(1, 2)
+    steps = np.array([row["timesteps"] for row in curve], dtype=float)
+    mean = np.array([row["return_mean"] for row in curve], dtype=float)
+    std = np.array([row["return_std"] for row in curve], dtype=float)
+    ret.plot(steps, mean, marker=".", label=f"{algo} (training episodes)")
+    ret.fill_between(steps, mean - std, mean + std, alpha=0.2)
+    ret.axhline(baseline["return_mean"], color="k", ls="--", label=f"{baseline['policy']} (evaluation)")
+    ret.set(xlabel="timesteps", ylabel="episode return", title="return")
+    succ.plot(steps, [row["success_rate"] for row in curve], marker=".", label=f"{algo} (training episodes)")
+    succ.axhline(baseline["success_rate"], color="k", ls="--", label=f"{baseline['policy']} (evaluation)")
+    succ.set(xlabel="timesteps", ylabel="success rate", title="success rate", ylim=(-0.05, 1.05))
+    for ax in (ret, succ):
+        ax.xaxis.set_major_formatter(EngFormatter())
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best")
+    fig.savefig(path)
+
+
+def plot_errors(path: Path, runs: Sequence[Rollouts], tolerances: tuple[float, float]) -> None:
+    """``e_q(t)`` and ``e_w(t)`` of each policy's first episode (the same seeded
+    start), log scale, with the success tolerances dashed."""
+    fig = _figure()
+    axes = fig.subplots(1, 2)
+    for ax, key, tol in zip(axes, ("e_q", "e_w"), tolerances):
+        for run in runs:
+            series = getattr(run, key)[0, : run.lengths[0] + 1]
+            t = np.arange(series.size) * run.dt
+            ax.semilogy(t, np.maximum(series, 1e-8), label=run.policy)
+        ax.axhline(tol, color="k", ls="--", lw=1, label="success tolerance")
+        ax.set(xlabel="t (s)", ylabel=key, title=f"{key}(t), seed {int(runs[0].seeds[0])}")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(loc="best")
+    fig.savefig(path)
+
+
+def _policy_colors(names: Sequence[str]) -> dict[str, Any]:
+    from matplotlib import colormaps
+
+    palette = colormaps["tab10"]
+    return {name: palette(i % 10) for i, name in enumerate(names)}
+
+
+def draw_evaluation_curves(
+    ax: Any, curves: dict[str, Sequence[dict[str, Any]]], baseline: dict[str, Any], key: str = "success_rate"
+) -> None:
+    """Deterministic evaluations during training (one line per training seed, the mean
+    over seeds bold) against the baseline's value (dashed)."""
+    colors = _policy_colors(["agent"])
+    series = []
+    for seed, rows in sorted(curves.items()):
+        steps = np.array([r["timesteps"] for r in rows], dtype=float)
+        values = np.array([r[key] for r in rows], dtype=float)
+        series.append((steps, values))
+        ax.plot(steps, values, color=colors["agent"], alpha=0.35, lw=1, label=f"seed {seed}" if len(curves) <= 5 else None)
+    if len(series) > 1 and all(s[0].shape == series[0][0].shape and np.array_equal(s[0], series[0][0]) for s in series):
+        ax.plot(series[0][0], np.mean([s[1] for s in series], axis=0), color=colors["agent"], lw=2.5,
+                label=f"mean over {len(series)} seeds")
+    ax.axhline(baseline[key], color="k", ls="--", lw=1.2, label=f"{baseline['policy']}")
+    label = "success rate" if key == "success_rate" else "mean return"
+    ax.set(xlabel="training timesteps", ylabel=label, title=f"deterministic evaluation: {label}")
+    if key == "success_rate":
+        ax.set_ylim(-0.05, 1.05)
+    ax.xaxis.set_major_formatter(EngFormatter())
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+
+
+def draw_sweep(ax: Any, rows: Sequence[dict[str, Any]], axis_label: str) -> None:
+    """Success rate against one sweep axis, one line per policy with its 95% interval
+    as a band (``summarize_sweep`` rows of one axis)."""
+    policies = list(dict.fromkeys(r["policy"] for r in rows))
+    colors = _policy_colors(policies)
+    styles = ("-", "--", "-.", ":")
+    for k, policy in enumerate(policies):
+        mine = sorted((r for r in rows if r["policy"] == policy), key=lambda r: r["value"])
+        x = np.array([r["value"] for r in mine])
+        # Line styles differ so that policies with equal curves stay visible.
+        ax.plot(x, [r["success_rate"] for r in mine], marker="o", ls=styles[k % len(styles)], color=colors[policy],
+                label=policy)
+        ax.fill_between(x, [r["ci_low"] for r in mine], [r["ci_high"] for r in mine], color=colors[policy], alpha=0.2)
+    ax.set(xlabel=axis_label, ylabel="success rate", ylim=(-0.05, 1.05), title=f"success vs {axis_label}")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+
+
+def plot_sweep(path: Path, rows: Sequence[dict[str, Any]], axis_label: str) -> None:
+    """:func:`draw_sweep` alone in a PNG."""
+    fig = _figure()
+    draw_sweep(fig.subplots(1, 1), rows, axis_label)
+    fig.savefig(path)
+
+
+def plot_evaluation_curves(path: Path, curves: dict[str, Sequence[dict[str, Any]]], baseline: dict[str, Any]) -> None:
+    """Success rate and mean return of the deterministic evaluations during training."""
+    fig = _figure()
+    left, right = fig.subplots(1, 2)
+    draw_evaluation_curves(left, curves, baseline, "success_rate")
+    draw_evaluation_curves(right, curves, baseline, "return_mean")
+    fig.savefig(path)

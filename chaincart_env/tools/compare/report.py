@@ -1,0 +1,123 @@
+"""``report.md``: the study in one page (tables and the PNGs beside it), and the one
+summary figure (``summary.png``) a README can show."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from chaincart_env.tools.compare.tables import markdown_table
+
+__all__ = ["REPORT_FILE", "SUMMARY_FIGURE", "sweep_markdown", "write_report", "write_summary_figure"]
+
+REPORT_FILE = "report.md"
+SUMMARY_FIGURE = "summary.png"
+
+
+def _interval(row: dict[str, Any]) -> str:
+    if not math.isfinite(row["ci_low"]):
+        return "–"
+    return f"[{row['ci_low']:.2f}, {row['ci_high']:.2f}]"
+
+
+def _number(value: float, digits: int = 2) -> str:
+    return "–" if not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def sweep_markdown(rows: Sequence[dict[str, Any]], axis_label: str) -> str:
+    """One table per axis: a row per value and policy with the success rate and its
+    95% interval, mean return, mean time to settle and mean peak force."""
+    lines = [
+        f"| {axis_label} | policy | success [95% interval] | return | time to settle (s) | peak force (N) |",
+        "|---:|---|---:|---:|---:|---:|",
+    ]
+    policies = list(dict.fromkeys(r["policy"] for r in rows))
+    for value in sorted({r["value"] for r in rows}):
+        for policy in policies:
+            row = next(r for r in rows if r["value"] == value and r["policy"] == policy)
+            lines.append(
+                f"| {value:g} | {policy} | {row['success_rate']:.2f} {_interval(row)} | "
+                f"{_number(row['return_mean'], 1)} | {_number(row['settle_time_mean'])} | "
+                f"{_number(row['peak_force_mean'])} |"
+            )
+    intervals = sorted({f"{r['policy']}: {r['interval']} ({r['seeds']} seed{'s' if r['seeds'] != 1 else ''})" for r in rows})
+    return "\n".join(lines) + "\n\nIntervals: " + "; ".join(intervals) + ".\n"
+
+
+def write_report(
+    directory: Path,
+    *,
+    title: str,
+    setup: Sequence[str],
+    comparison: Sequence[dict[str, Any]],
+    sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
+    training: Sequence[str],
+    pictures: Sequence[tuple[str, str]],
+) -> str:
+    """Writes ``report.md`` into ``directory``: the setup, the comparison on the main
+    starts, one table per sweep axis, training notes and the pictures (``(file,
+    caption)``; only files that exist are linked). Returns the text."""
+    parts = [f"# {title}\n\n", *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n",
+             markdown_table(comparison)]
+    for axis, (label, rows) in sweeps.items():
+        parts.append(f"\n## Sweep: {label}\n\n")
+        parts.append(sweep_markdown(rows, label))
+    if training:
+        parts.append("\n## Training\n\n")
+        parts.extend(f"{line}\n\n" for line in training)
+    shown = [(name, caption) for name, caption in pictures if (Path(directory) / name).is_file()]
+    if shown:
+        parts.append("\n## Pictures\n")
+        parts.extend(f"\n![{caption}]({name})\n\n*{caption}*\n" for name, caption in shown)
+    text = "".join(parts)
+    (Path(directory) / REPORT_FILE).write_text(text)
+    return text
+
+
+def write_summary_figure(
+    path: Path,
+    *,
+    curves: dict[str, Sequence[dict[str, Any]]],
+    baseline: dict[str, Any],
+    sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
+    errors: Sequence[Any],
+    tolerances: tuple[float, float],
+    filmstrip: Path,
+) -> None:
+    """One figure: the evaluation learning curve against the baseline, success against
+    each sweep axis with its bands, ``e_q(t)`` of every policy from the first start, and
+    the filmstrip of that start."""
+    from matplotlib.figure import Figure
+    from PIL import Image
+
+    from chaincart_env.tools.compare.plots import draw_evaluation_curves, draw_sweep
+
+    panels = 2 + len(sweeps)
+    columns = 2
+    rows = (panels + 1) // columns + 1
+    fig = Figure(figsize=(12, 3.6 * rows), dpi=100, layout="constrained")
+    grid = fig.add_gridspec(rows, columns)
+    axes = [fig.add_subplot(grid[i // columns, i % columns]) for i in range(panels - 1)]
+    # The last panel (e_q(t)) takes the rest of its row.
+    last = panels - 1
+    axes.append(fig.add_subplot(grid[last // columns, last % columns:]))
+    draw_evaluation_curves(axes[0], curves, baseline, "success_rate")
+    for ax, (label, sweep_rows) in zip(axes[1:], sweeps.values()):
+        draw_sweep(ax, sweep_rows, label)
+    errors_ax = axes[-1]
+    for run in errors:
+        series = run.e_q[0, : run.lengths[0] + 1]
+        errors_ax.semilogy(np.arange(series.size) * run.dt, np.maximum(series, 1e-8), label=run.policy)
+    errors_ax.axhline(tolerances[0], color="k", ls="--", lw=1, label="success tolerance")
+    errors_ax.set(xlabel="t (s)", ylabel="e_q", title=f"e_q(t) from start seed {int(errors[0].seeds[0])}")
+    errors_ax.grid(alpha=0.3, which="both")
+    errors_ax.legend(loc="best", fontsize="small")
+    strip_ax = fig.add_subplot(grid[rows - 1, :])
+    if Path(filmstrip).is_file():
+        strip_ax.imshow(np.asarray(Image.open(filmstrip)))
+    strip_ax.set_axis_off()
+    strip_ax.set_title("the same start, frames at the same times (one row per policy)")
+    fig.savefig(path)

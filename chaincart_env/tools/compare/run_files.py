@@ -1,0 +1,104 @@
+"""The files that make a trained run re-evaluable: ``model.zip`` (SB3) or
+``rllib_checkpoint/`` (RLlib, written by its trainer), ``config.json`` (the env
+config's keywords) and ``run.json`` (trainer, algorithm, budget, seeds, evaluation
+settings, hyperparameters, timings)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.config import ChainCartConfig
+
+__all__ = [
+    "BEST_MODEL_FILE", "CONFIG_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "MODEL_FILE", "RUN_FILE", "SavedRun",
+    "load_run", "read_evaluations", "save_run",
+]  # fmt: skip
+
+MODEL_FILE = "model.zip"
+CONFIG_FILE = "config.json"
+RUN_FILE = "run.json"
+
+
+@dataclass(frozen=True)
+class SavedRun:
+    #: An SB3 model, or an RLlibPolicy for runs of ``--trainer rllib``.
+    model: Any
+    config: ChainCartConfig
+    info: dict[str, Any]
+    directory: Path
+
+
+def _rllib(info: dict[str, Any]) -> bool:
+    return info.get("trainer") == "rllib"
+
+
+def save_run(directory: Path, model: Any, config: ChainCartConfig, info: dict[str, Any]) -> None:
+    """Writes the run's files (an RLlib run's checkpoint is already there)."""
+    directory = Path(directory)
+    if not _rllib(info):
+        model.save(directory / MODEL_FILE)
+    (directory / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2) + "\n")
+    (directory / RUN_FILE).write_text(json.dumps(info, indent=2, default=repr) + "\n")
+
+
+def _json(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise InvalidInputError(f"{path} does not exist: expected the {path.name} that compare writes beside the model")
+    data = json.loads(path.read_text())
+    if not isinstance(data, dict):
+        raise InvalidInputError(f"{path} holds {type(data).__name__}: expected a JSON object")
+    return data
+
+
+def load_run(path: Path) -> SavedRun:
+    """A run directory written by ``compare``, or the ``model.zip`` (SB3) or
+    ``rllib_checkpoint`` (RLlib) inside one."""
+    from chaincart_env.tools.compare.rllib_training import CHECKPOINT_DIR
+
+    path = Path(path)
+    if path.is_dir() and path.name == CHECKPOINT_DIR:
+        path = path.parent
+    if path.is_dir() and (path / CHECKPOINT_DIR).is_dir():
+        from chaincart_env.tools.compare.rllib_training import RLlibPolicy
+
+        directory = path
+        info = _json(directory / RUN_FILE)
+        model: Any = RLlibPolicy.load(directory / CHECKPOINT_DIR)
+    else:
+        if path.is_dir():
+            directory, model_path = path, path / MODEL_FILE
+        elif path.suffix == ".zip":
+            directory, model_path = path.parent, path
+        else:
+            raise InvalidInputError(
+                f"model {str(path)!r}: expected a run directory, a .zip model file or an {CHECKPOINT_DIR} that exists"
+            )
+        if not model_path.is_file():
+            raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
+        info = _json(directory / RUN_FILE)
+        from chaincart_env.tools.compare.training import algorithm_class
+
+        model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
+    config = ChainCartConfig(**_json(directory / CONFIG_FILE))
+    return SavedRun(model=model, config=config, info=info, directory=directory)
+
+
+#: The training-time evaluation log and the best model it keeps (see
+#: :mod:`chaincart_env.tools.compare.periodic_eval`).
+EVALUATIONS_FILE = "evaluations.csv"
+BEST_MODEL_FILE = "best_model.zip"
+#: Columns of ``evaluations.csv``.
+EVALUATION_COLUMNS = (
+    "timesteps", "wall_time_s", "episodes", "success_rate", "ci_low", "ci_high", "return_mean", "return_std",
+)
+
+
+def read_evaluations(path: Path) -> list[dict[str, float]]:
+    """The rows of an ``evaluations.csv`` as numbers."""
+    with Path(path).open(newline="") as file:
+        return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(file)]

@@ -1,0 +1,207 @@
+"""Evaluation of a study: every trained agent (the final and the best-by-evaluation
+model of each training seed) and the LQR baseline, on the main evaluation starts and
+over every sweep axis, with the tables, pictures, ``report.md`` and ``summary.png``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional, Sequence
+
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, evaluate_policies, evaluation_seeds
+from chaincart_env.tools.compare.filmstrip import write_filmstrip
+from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
+from chaincart_env.tools.compare.report import SUMMARY_FIGURE, write_report, write_summary_figure
+from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, EVALUATIONS_FILE, load_run, read_evaluations
+from chaincart_env.tools.compare.statistics import aggregate_over_seeds
+from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, run_sweep, summarize_sweep
+from chaincart_env.tools.compare.tables import write_csv, write_markdown
+from chaincart_env.config import ChainCartConfig
+
+__all__ = [
+    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TrainedPolicy", "describe", "evaluate_study", "lqr_baseline",
+    "policy_label", "seed_directory", "trained_policies",
+]  # fmt: skip
+
+#: What the evaluation of a study writes.
+EVALUATION_FILES = (
+    "comparison.csv", "comparison.md", "episodes.csv", "seeds.csv", "errors.png", "filmstrip.png",
+    "sweeps.csv", "sweep_summary.csv", "evaluation_curve.png", "report.md", SUMMARY_FIGURE,
+)
+#: Columns of ``seeds.csv``: each trained policy's numbers aggregated over training seeds.
+AGGREGATE_COLUMNS = (
+    "policy", "seeds", "success_mean", "success_ci_low", "success_ci_high", "return_mean", "return_ci_low",
+    "return_ci_high",
+)
+
+
+def seed_directory(out: Path, seed: int) -> Path:
+    """Where training seed ``seed`` of a study keeps its agent and logs."""
+    return Path(out) / f"seed-{seed}"
+
+
+def policy_label(algo: str, trainer: str = "sb3") -> str:
+    """The trained policy's name in tables and plots: ``PPO``, or ``PPO (RLlib)``."""
+    return algo.upper() + (" (RLlib)" if trainer == "rllib" else "")
+
+
+def describe(config: ChainCartConfig) -> str:
+    """One line saying what the scene is."""
+    return (
+        f"scene {config.scene}: {config.n_links} link(s), {'planar' if config.planar else 'spatial'}, "
+        f"target {config.target_signs}, start {config.start!r} +- {config.start_noise}, dt {config.dt} s, "
+        f"max_force {config.max_force} N, {config.max_episode_steps} steps"
+    )
+
+
+def lqr_baseline(config: ChainCartConfig, oracle: bool = False) -> Any:
+    """The LQR baseline of ``config`` (``LQRPolicy.from_env``, designed on the nominal
+    model; ``oracle=True``: per episode on the true parameters of the batch it is
+    evaluated on); a scene it cannot serve (e.g. no force) is an InvalidInputError
+    naming it."""
+    from chaincart_env.env import ChainCartEnv
+    from chaincart_env.lqr import LQRPolicy
+
+    try:
+        return LQRPolicy.from_env(ChainCartEnv(config), oracle=oracle)
+    except ValueError as error:
+        raise InvalidInputError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
+
+
+def _has_parameter_gap(config: ChainCartConfig, sweeps: dict[str, Sequence[float]]) -> bool:
+    return config.has_param_gap or any(v > 0 for v in sweeps.get("mismatch", ()))
+
+
+@dataclass(frozen=True)
+class TrainedPolicy:
+    """One trained agent of a study: its label (shared by its seeds), seed and policy."""
+
+    label: str
+    seed: int
+    policy: Any
+
+    @property
+    def name(self) -> str:
+        return f"{self.label} (seed {self.seed})"
+
+
+def trained_policies(out: Path, seeds: Sequence[int]) -> list[TrainedPolicy]:
+    """The final model of each seed, then each seed's best model by training-time
+    evaluation (where one was kept)."""
+    finals, bests = [], []
+    for seed in seeds:
+        run = load_run(seed_directory(out, seed))
+        label = policy_label(str(run.info["algo"]), str(run.info.get("trainer", "sb3")))
+        finals.append(TrainedPolicy(label, seed, run.model))
+        best = seed_directory(out, seed) / BEST_MODEL_FILE
+        if best.is_file():
+            from chaincart_env.tools.compare.training import algorithm_class
+
+            bests.append(TrainedPolicy(f"{label} best", seed, algorithm_class(str(run.info["algo"])).load(best, device="cpu")))
+    return finals + bests
+
+
+def _aggregate_rows(summaries: Sequence[dict[str, Any]], trained: Sequence[TrainedPolicy]) -> list[dict[str, Any]]:
+    by_name = {s["policy"]: s for s in summaries}
+    rows = []
+    for label in dict.fromkeys(t.label for t in trained):
+        mine = [by_name[t.name] for t in trained if t.label == label]
+        success = aggregate_over_seeds([s["success_rate"] for s in mine])
+        returns = aggregate_over_seeds([s["return_mean"] for s in mine])
+        rows.append(dict(
+            policy=label, seeds=success.seeds, success_mean=success.mean, success_ci_low=success.ci_low,
+            success_ci_high=success.ci_high, return_mean=returns.mean, return_ci_low=returns.ci_low,
+            return_ci_high=returns.ci_high,
+        ))
+    return rows
+
+
+def _sweep(
+    trained: Sequence[TrainedPolicy], baselines: Sequence[tuple[str, Any]], config: ChainCartConfig, axis: str,
+    values: Sequence[float], seeds: Sequence[int],
+) -> list[dict[str, Any]]:
+    named = [(t.name, t.policy) for t in trained] + list(baselines)
+    rows = run_sweep(named, config, axis, values, seeds)
+    owner = {t.name: t for t in trained}
+    for row in rows:
+        if row["policy"] in owner:
+            row["seed"], row["policy"] = owner[row["policy"]].seed, owner[row["policy"]].label
+    return rows
+
+
+def evaluate_study(
+    out: Path,
+    config: ChainCartConfig,
+    *,
+    seeds: Sequence[int],
+    eval_seed: int,
+    eval_episodes: int,
+    sweeps: dict[str, Sequence[float]],
+    into: Optional[Path] = None,
+    training_notes: Sequence[str] = (),
+) -> list[dict[str, Any]]:
+    """Evaluates the study in ``out`` (its seeds' agents and the LQR baseline) and writes
+    :data:`EVALUATION_FILES` into ``into`` (default ``out``); returns the summaries of
+    the main comparison (one per policy and seed, then the LQR, then the oracle LQR
+    where the true system can differ from the model)."""
+    into = Path(out) if into is None else Path(into)
+    into.mkdir(parents=True, exist_ok=True)
+    starts = evaluation_seeds(eval_seed, eval_episodes)
+    trained, baseline = trained_policies(out, seeds), lqr_baseline(config)
+    oracle = [("LQR oracle", lqr_baseline(config, oracle=True))] if _has_parameter_gap(config, sweeps) else []
+    baselines = [("LQR", baseline)] + oracle
+    policies = [(t.name, t.policy) for t in trained] + baselines
+    runs, episodes, summaries = evaluate_policies(policies, config, starts)
+    write_csv(into / "comparison.csv", summaries, METRIC_COLUMNS)
+    write_csv(into / "episodes.csv", episodes, EPISODE_COLUMNS)
+    aggregates = _aggregate_rows(summaries, trained)
+    write_csv(into / "seeds.csv", aggregates, AGGREGATE_COLUMNS)
+    tol_q, tol_w = config.success_tolerances
+    notes = [
+        describe(config),
+        f"{eval_episodes} evaluation episodes, seeds {starts[0]}..{starts[-1]}, deterministic actions; "
+        "mean ± std over episodes.",
+        f"Success: the episode reaches the time limit with e_q <= {tol_q} and e_w <= {tol_w}. Time to settle: the "
+        "first time after which e_q and e_w stay within these tolerances to the end (successful episodes only).",
+    ]
+    print(write_markdown(into / "comparison.md", f"{trained[0].label} vs LQR", summaries, notes))
+    first_and_lqr = [runs[0], runs[len(trained)]]
+    plot_errors(into / "errors.png", first_and_lqr, config.success_tolerances)
+    write_filmstrip(into / "filmstrip.png", first_and_lqr, config)
+
+    sweep_rows, summaries_by_axis = [], {}
+    for axis, values in sweeps.items():
+        rows = _sweep(trained, baselines, config, axis, values, starts)
+        sweep_rows.extend(rows)
+        summary = summarize_sweep(rows)
+        summaries_by_axis[axis] = (SWEEP_AXES[axis].label, summary)
+        plot_sweep(into / f"sweep_{axis}.png", summary, SWEEP_AXES[axis].label)
+    write_csv(into / "sweeps.csv", sweep_rows, ("seed",) + SWEEP_COLUMNS)
+    write_csv(into / "sweep_summary.csv", [r for _, rows in summaries_by_axis.values() for r in rows],
+              SWEEP_SUMMARY_COLUMNS)
+
+    curves = {
+        str(seed): read_evaluations(seed_directory(out, seed) / EVALUATIONS_FILE)
+        for seed in seeds if (seed_directory(out, seed) / EVALUATIONS_FILE).is_file()
+    }
+    lqr_summary = summaries[len(trained)]
+    plot_evaluation_curves(into / "evaluation_curve.png", curves, lqr_summary)
+    write_summary_figure(into / SUMMARY_FIGURE, curves=curves, baseline=lqr_summary, sweeps=summaries_by_axis,
+                         errors=first_and_lqr, tolerances=config.success_tolerances, filmstrip=into / "filmstrip.png")
+    seed_lines = [
+        f"{row['policy']} over {row['seeds']} training seed(s): success {row['success_mean']:.2f}"
+        + (f" [{row['success_ci_low']:.2f}, {row['success_ci_high']:.2f}]" if row["seeds"] > 1 else "")
+        + f", return {row['return_mean']:.1f}"
+        + (f" [{row['return_ci_low']:.1f}, {row['return_ci_high']:.1f}]" if row["seeds"] > 1 else "")
+        + " (mean over seeds, 95% percentile bootstrap interval over seeds)." for row in aggregates
+    ]
+    write_report(
+        into, title=f"{trained[0].label} vs the paper's LQR", setup=notes + seed_lines, comparison=summaries,
+        sweeps=summaries_by_axis, training=training_notes,
+        pictures=[(SUMMARY_FIGURE, "summary"), ("evaluation_curve.png", "deterministic evaluation during training"),
+                  *[(f"sweep_{axis}.png", f"success vs {SWEEP_AXES[axis].label}") for axis in sweeps],
+                  ("errors.png", "e_q(t) and e_w(t) from the first start"),
+                  ("filmstrip.png", "the first start, one row per policy")],
+    )
+    return summaries

@@ -1,0 +1,184 @@
+"""Training an SB3 agent on the native ``ChainCartVecEnv``, with a CSV log of every
+training episode (return, length, success, how it ended) and a progress bar."""
+
+from __future__ import annotations
+
+import csv
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping, Optional, Sequence, TextIO
+
+from stable_baselines3 import PPO, SAC, TD3
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.vec_env import VecMonitor
+
+from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.sb3 import ChainCartVecEnv
+
+__all__ = [
+    "ALGORITHMS",
+    "steps_trained",
+    "TRAINING_EPISODE_COLUMNS",
+    "EpisodeCsvLogger",
+    "TrainingResult",
+    "algorithm_class",
+    "train",
+]
+
+#: The stable-baselines3 algorithms the main job offers.
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
+
+
+def algorithm_class(name: str) -> type[BaseAlgorithm]:
+    """The SB3 class of ``name`` (``ppo``, ``sac`` or ``td3``, any case)."""
+    try:
+        return ALGORITHMS[name.lower()]
+    except (KeyError, AttributeError):
+        raise InvalidInputError(f"unknown algorithm {name!r}: expected one of {sorted(ALGORITHMS)}") from None
+
+
+class EpisodeCsvLogger(BaseCallback):
+    """Writes one CSV row per finished training episode (read from ``VecMonitor``'s
+    ``episode`` info and the env's episode-end keys)."""
+
+    def __init__(self, path: Path, append: bool = False) -> None:
+        super().__init__()
+        self.path = Path(path)
+        self.append = append and self.path.is_file()
+        self.episodes = 0
+        self._file: Optional[TextIO] = None
+        self._writer: Any = None
+        self._start = 0.0
+
+    def _on_training_start(self) -> None:
+        self._start = time.perf_counter()
+        if self.append:  # a resumed run: continue the episode count and the clock
+            with self.path.open(newline="") as file:
+                rows = list(csv.DictReader(file))
+            self.episodes = len(rows)
+            self._start -= float(rows[-1]["wall_time_s"]) if rows else 0.0
+            self._file = self.path.open("a", newline="")
+            self._writer = csv.writer(self._file)
+            return
+        self._file = self.path.open("w", newline="")
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(TRAINING_EPISODE_COLUMNS)
+
+    def _on_step(self) -> bool:
+        for info in self.locals["infos"]:
+            episode = info.get("episode")
+            if episode is None:
+                continue
+            self.episodes += 1
+            self._writer.writerow([
+                self.num_timesteps,
+                f"{time.perf_counter() - self._start:.3f}",
+                self.episodes,
+                repr(float(episode["r"])),
+                int(episode["l"]),
+                int(bool(info.get("is_success", False))),
+                int(bool(info.get("out_of_track", False))),
+                int(bool(info.get("numerical_failure", False))),
+            ])
+        return True
+
+    def _on_rollout_end(self) -> None:
+        if self._file is not None:
+            self._file.flush()
+
+    def _on_training_end(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+@dataclass(frozen=True)
+class TrainingResult:
+    model: BaseAlgorithm
+    wall_time_s: float
+    episodes: int
+    hyperparameters: dict[str, Any]
+    #: The deterministic evaluations' best and last rows (``PeriodicEvaluation.summary``).
+    evaluations: dict[str, Any]
+    #: Timesteps at which this call started (0, or the checkpoint it resumed from).
+    resumed_from: int
+
+
+#: Files of a training directory.
+EPISODES_FILE = "training_episodes.csv"
+
+
+def _new_agent(algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any]) -> BaseAlgorithm:
+    venv = VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed))
+    try:
+        return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
+    except TypeError as error:  # an unknown or ill-typed keyword
+        raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
+
+
+def steps_trained(model: BaseAlgorithm, timesteps: int) -> tuple[int, str]:
+    """The env steps ``model.learn(total_timesteps=timesteps)`` takes (SB3 collects
+    whole rollouts: ``n_steps`` per env for on-policy algorithms, ``train_freq`` steps
+    per env for off-policy ones) and the unit it rounds to, in words."""
+    n_envs = model.n_envs
+    if isinstance(model, OnPolicyAlgorithm):  # PPO, A2C (off-policy ones have n_steps too: n-step returns)
+        unit, words = int(model.n_steps) * n_envs, f"rollouts of n_steps x num_envs = {model.n_steps} x {n_envs}"
+    else:
+        freq = getattr(model, "train_freq", None)
+        if freq is None or getattr(freq.unit, "value", "step") != "step":
+            return timesteps, "whole episodes"  # not known in advance
+        unit, words = int(freq.frequency) * n_envs, f"collections of train_freq x num_envs = {freq.frequency} x {n_envs}"
+    return -(-timesteps // unit) * unit, f"whole {words} = {unit} steps"
+
+
+def train(
+    config: ChainCartConfig,
+    *,
+    algo: str = "ppo",
+    timesteps: int,
+    seed: int = 0,
+    num_envs: int = 8,
+    directory: Path,
+    eval_seeds: Sequence[int],
+    eval_every: int,
+    checkpoint_every: int,
+    progress_bar: bool = True,
+    hyperparameters: Optional[Mapping[str, Any]] = None,
+    resume: bool = False,
+) -> TrainingResult:
+    """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
+    (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
+    training episode in ``training_episodes.csv``, the deterministic policy evaluated
+    on ``eval_seeds`` every ``eval_every`` steps (``evaluations.csv``,
+    ``best_model.zip``), a checkpoint every ``checkpoint_every`` steps. With
+    ``resume=True`` and a checkpoint in ``directory``, training continues from it (and
+    ends as the uninterrupted run would)."""
+    from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
+    from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
+
+    cls = algorithm_class(algo)
+    if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
+        raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
+    kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    resuming = resume and (directory / CHECKPOINT_DIR).is_dir()
+    model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs)
+    resumed_from = int(model.num_timesteps)
+    planned, unit = steps_trained(model, timesteps)
+    if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise
+        print(f"{algo.upper()} trains in {unit}: {timesteps} timesteps asked, {planned} trained")
+    logger = EpisodeCsvLogger(directory / EPISODES_FILE, append=resuming)
+    evaluation = PeriodicEvaluation(config, eval_seeds, eval_every, directory, resume=resuming)
+    checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
+                               keep=(BEST_MODEL_FILE,))
+    start = time.perf_counter()
+    model.learn(total_timesteps=max(0, planned - resumed_from), callback=[logger, evaluation, checkpoints],
+                progress_bar=progress_bar, reset_num_timesteps=not resuming)
+    return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs, evaluation.summary(),
+                          resumed_from)
