@@ -7,7 +7,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from chaincart_env.tools.bench.suite import SECTION_ORDER, BenchSettings, parse_sections, run_suite
+from chaincart_env.tools.bench.context import BenchSettings
+from chaincart_env.tools.bench.suite import SECTION_ORDER, parse_sections, run_suite
 
 __all__ = ["add_bench_arguments", "run_from_args"]
 

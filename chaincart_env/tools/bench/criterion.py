@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Optional
 
 from chaincart_env.tools.bench.report import fmt_rate, fmt_time
-from chaincart_env.tools.bench.suite import BenchContext
+from chaincart_env.tools.bench.context import BenchContext
 
 __all__ = ["criterion_section", "read_criterion", "criterion_dir"]
 

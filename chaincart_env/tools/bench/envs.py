@@ -24,7 +24,7 @@ import numpy as np
 
 import chaincart_env  # noqa: F401  (registers ChainCart-v0)
 from chaincart_env.tools.bench.report import fmt_rate, fmt_ratio
-from chaincart_env.tools.bench.suite import BenchContext, mujoco_available
+from chaincart_env.tools.bench.context import BenchContext, mujoco_available
 from chaincart_env.tools.bench.timing import rate
 from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
 from chaincart_env.vector import ChainCartVectorEnv

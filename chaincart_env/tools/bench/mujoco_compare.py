@@ -26,7 +26,7 @@ from chaincart_env.tools.bench.mujoco_chain import (
     state_to_mujoco,
 )
 from chaincart_env.tools.bench.report import fmt_rate, fmt_ratio, fmt_sci
-from chaincart_env.tools.bench.suite import BenchContext, mujoco_available
+from chaincart_env.tools.bench.context import BenchContext, mujoco_available
 from chaincart_env.tools.bench.timing import rate
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.model import ChainCart

@@ -16,7 +16,7 @@ import numpy as np
 
 from chaincart_env.tools.bench import fig1
 from chaincart_env.tools.bench.report import fmt_sci, fmt_time
-from chaincart_env.tools.bench.suite import BenchContext
+from chaincart_env.tools.bench.context import BenchContext
 from chaincart_env.tools.bench.timing import rate
 from chaincart_env.config import ChainCartConfig
 

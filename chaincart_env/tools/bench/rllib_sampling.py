@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from chaincart_env.tools.bench.report import fmt_rate
-from chaincart_env.tools.bench.suite import BenchContext
+from chaincart_env.tools.bench.context import BenchContext
 
 __all__ = ["MODES", "SamplingRate", "rllib_section", "measure_sampling", "timed_sample"]
 

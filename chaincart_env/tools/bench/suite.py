@@ -1,5 +1,6 @@
-"""The benchmark suite behind ``python -m chaincart_env bench``: settings, the shared
-context the sections write into, and the section registry.
+"""The benchmark suite behind ``python -m chaincart_env bench``: the section registry
+and the run (the settings and the context the sections write into are in
+:mod:`chaincart_env.tools.bench.context`, which the sections import).
 
 Each section is a function ``section(ctx)`` that measures, appends Markdown to
 ``ctx.report``, saves its PNG plots under ``ctx.settings.out_dir`` and leaves the
@@ -13,64 +14,20 @@ import datetime
 import os
 import platform
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 import gymnasium as gym
 import numpy as np
 
 from chaincart_env import _core
+from chaincart_env.tools.bench.context import BenchContext, BenchSettings, mujoco_available
 from chaincart_env.tools.bench.report import Report
 
-__all__ = ["BenchSettings", "BenchContext", "SECTION_ORDER", "parse_sections", "run_suite", "readme_section", "mujoco_available"]
+__all__ = ["SECTION_ORDER", "parse_sections", "run_suite", "performance_page"]
 
 #: Sections in the order they run (``--sections`` picks a subset).
 SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "rllib", "criterion", "targets")
-
-
-@dataclass(frozen=True)
-class BenchSettings:
-    quick: bool = False
-    sizes: tuple[int, ...] = (1, 16, 256, 4096)
-    links: tuple[int, ...] = (1, 2, 5, 10)
-    out_dir: Optional[Path] = None
-    note: str = ""
-
-    @property
-    def min_time(self) -> float:
-        """Seconds each timed loop runs at least."""
-        return 0.02 if self.quick else 0.25
-
-    @property
-    def repeats(self) -> int:
-        """Timed runs per measurement; the best counts (the machine is shared)."""
-        return 1 if self.quick else 3
-
-
-@dataclass
-class BenchContext:
-    settings: BenchSettings
-    report: Report = field(default_factory=Report)
-    results: dict[str, Any] = field(default_factory=dict)
-    plots: list[Path] = field(default_factory=list)
-
-    def plot_path(self, name: str) -> Optional[Path]:
-        """Where to save plot ``name`` (None when no --out was given)."""
-        if self.settings.out_dir is None:
-            return None
-        self.settings.out_dir.mkdir(parents=True, exist_ok=True)
-        path = self.settings.out_dir / name
-        self.plots.append(path)
-        return path
-
-
-def mujoco_available() -> bool:
-    try:
-        import mujoco  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 def parse_sections(text: str) -> list[str]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Optional
 
 from chaincart_env.tools.bench.report import fmt_rate
-from chaincart_env.tools.bench.suite import BenchContext
+from chaincart_env.tools.bench.context import BenchContext
 
 __all__ = ["targets_section"]
 

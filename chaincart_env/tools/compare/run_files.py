@@ -81,7 +81,7 @@ def load_run(path: Path) -> SavedRun:
         if not model_path.is_file():
             raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
         info = _json(directory / RUN_FILE)
-        from chaincart_env.tools.compare.training import algorithm_class
+        from chaincart_env.tools.compare.algorithms import algorithm_class
 
         model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
     config = ChainCartConfig(**_json(directory / CONFIG_FILE))

@@ -96,7 +96,7 @@ def trained_policies(out: Path, seeds: Sequence[int]) -> list[TrainedPolicy]:
         finals.append(TrainedPolicy(label, seed, run.model))
         best = seed_directory(out, seed) / BEST_MODEL_FILE
         if best.is_file():
-            from chaincart_env.tools.compare.training import algorithm_class
+            from chaincart_env.tools.compare.algorithms import algorithm_class
 
             bests.append(TrainedPolicy(f"{label} best", seed, algorithm_class(str(run.info["algo"])).load(best, device="cpu")))
     return finals + bests

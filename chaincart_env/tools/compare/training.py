@@ -9,37 +9,24 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence, TextIO
 
-from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
+from chaincart_env.tools.compare.algorithms import algorithm_class
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
-    "ALGORITHMS",
     "steps_trained",
     "TRAINING_EPISODE_COLUMNS",
     "EpisodeCsvLogger",
     "TrainingResult",
-    "algorithm_class",
     "train",
 ]
-
-#: The stable-baselines3 algorithms the main job offers.
-ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
-
-
-def algorithm_class(name: str) -> type[BaseAlgorithm]:
-    """The SB3 class of ``name`` (``ppo``, ``sac`` or ``td3``, any case)."""
-    try:
-        return ALGORITHMS[name.lower()]
-    except (KeyError, AttributeError):
-        raise InvalidInputError(f"unknown algorithm {name!r}: expected one of {sorted(ALGORITHMS)}") from None
 
 
 class EpisodeCsvLogger(BaseCallback):
