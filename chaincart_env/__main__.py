@@ -8,6 +8,7 @@ from typing import Optional, Sequence
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Runs the command line with ``argv`` (default: ``sys.argv[1:]``); returns the exit status."""
     parser = argparse.ArgumentParser(prog="python -m chaincart_env", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
 

@@ -86,6 +86,7 @@ class RewardWeights:
     u: float = _REWARD_DEFAULTS["u"]
 
     def as_tuple(self) -> tuple[float, float, float, float, float]:
+        """``(q, w, x, v, u)``, the order the core reads them in."""
         return (self.q, self.w, self.x, self.v, self.u)
 
     @classmethod

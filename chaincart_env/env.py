@@ -55,6 +55,7 @@ def episode_info(events: int, e_q: float, e_w: float) -> dict[str, Any]:
 
 
 def check_seed(seed: Any) -> int:
+    """``seed`` as an int in ``[0, 2**64)``, or a clear error naming it."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise InvalidTypeError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
     if not 0 <= int(seed) < 2**64:
@@ -254,6 +255,9 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     def reset(
         self, *, seed: Optional[int] = None, options: Optional[dict[str, Any]] = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Starts a new episode (Gymnasium's ``reset``): ``seed`` reseeds the env,
+        ``options={"state": y}`` starts from the full state ``y``. Returns the first
+        observation and the info dict."""
         start = start_state_option(options)
         native_seed = None if seed is None else check_seed(seed)
         super().reset(seed=native_seed)
@@ -286,6 +290,8 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
         return self.true_params
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
+        """One control period under ``action`` (Gymnasium's ``step``): ``(obs, reward, terminated,
+        truncated, info)``; after an episode ends, ``reset()`` must come first."""
         if self._needs_reset:
             raise ResetNeeded("ChainCartEnv: call reset() before step() (and after an episode ends)")
         obs, reward, terminated, truncated, events = self._batch.step_one(action)
@@ -318,6 +324,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
         return self._rendering.render([self._batch.states()[0]])
 
     def close(self) -> None:
+        """Closes the human-mode window, if one is open."""
         self._rendering.close()
 
     def _rebuild_batch(self) -> Any:

@@ -204,6 +204,8 @@ class OracleLQRPolicy(LQRPolicy):
         return np.stack([self._gain(p) for p in _true_param_rows(self._env)])
 
     def forces(self, observation: np.ndarray) -> np.ndarray:
+        """The feedback forces for ``observation`` (one state or a batch), each env with
+        the gain designed on its current true parameters (:meth:`gains`)."""
         obs = np.asarray(observation, dtype=np.float64)
         batch = np.atleast_2d(obs)
         gains = self.gains()

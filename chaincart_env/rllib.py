@@ -167,6 +167,8 @@ class RunnerStartSeeds(VectorWrapper):
     def reset(
         self, *, seed: Optional[Union[int, Sequence[Optional[int]]]] = None, options: Optional[dict[str, Any]] = None
     ) -> tuple[Any, dict[str, Any]]:
+        """Resets the wrapped vector env; an integer ``seed`` becomes this runner's
+        :func:`runner_start_seeds` (kept in ``start_seeds``), anything else passes through."""
         if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             seeds = runner_start_seeds(seed, self.num_envs)
             self.start_seeds = seeds

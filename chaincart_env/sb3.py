@@ -170,11 +170,14 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         return self.config.dt
 
     def seed(self, seed: Optional[int] = None) -> Sequence[Optional[int]]:
+        """Seeds of the next ``reset`` (SB3's ``seed``): env i gets ``seed + i``."""
         if seed is not None:
             check_seed(seed)
         return super().seed(seed)
 
     def reset(self) -> VecEnvObs:
+        """Resets every env (SB3's ``reset``) with the seeds and options set since the last reset;
+        returns the observations."""
         seeds: list[Optional[int]] = [None if s is None else check_seed(s) for s in self._seeds]
         starts = [start_state_option(options or None) for options in self._options]
         if not self._seeded and all(s is None for s in seeds):
@@ -199,9 +202,12 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         return obs
 
     def step_async(self, actions: np.ndarray) -> None:
+        """Keeps ``actions`` for the next ``step_wait`` (SB3's ``step_async``)."""
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
+        """Steps every env with the actions of ``step_async`` in one native call (SB3's
+        ``step_wait``): observations, rewards, dones and infos, ended envs reset."""
         if self._actions is None:
             raise InvalidInputError("step_wait() without step_async(actions): expected actions first")
         if not self._seeded:
@@ -254,9 +260,11 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         return out
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        """Attribute ``attr_name`` of each env in ``indices`` (SB3's ``get_attr``)."""
         return [getattr(self._views[i], attr_name) for i in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        """Sets attribute ``attr_name`` of the envs in ``indices`` (SB3's ``set_attr``)."""
         targets = self._indices(indices)
         per_env = isinstance(getattr(_EnvView, attr_name, None), property) or not hasattr(self, attr_name)
         if per_env:
@@ -273,11 +281,14 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     def env_method(
         self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
     ) -> list[Any]:
+        """Calls method ``method_name`` of each env in ``indices`` (SB3's ``env_method``)."""
         return [
             getattr(self._views[i], method_name)(*method_args, **method_kwargs) for i in self._indices(indices)
         ]
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
+        """False for every env: the envs of the native batch are never wrapped (SB3's
+        ``env_is_wrapped``)."""
         return [False for _ in self._indices(indices)]
 
     def get_images(self) -> Sequence[Optional[np.ndarray]]:
@@ -294,6 +305,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         return self._rendering.render(self._batch.states()[: self._rendering.shown])
 
     def close(self) -> None:
+        """Closes the human-mode window, if one is open."""
         self._rendering.close()
 
     def _rebuild_batch(self) -> Any:

@@ -54,6 +54,7 @@ class JsonSpec:
 
     @property
     def spec(self) -> Optional[EnvSpec]:
+        """The env's ``EnvSpec`` (its keyword arguments kept as plain values)."""
         return self._spec
 
     @spec.setter

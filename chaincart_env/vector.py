@@ -345,6 +345,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         return tuple(self._rendering.frames(self._batch.states()))
 
     def close_extras(self, **kwargs: Any) -> None:
+        """Closes the human-mode window, if one is open (Gymnasium's ``close_extras``)."""
         rendering = getattr(self, "_rendering", None)  # None: the constructor failed
         if rendering is not None:
             rendering.close()

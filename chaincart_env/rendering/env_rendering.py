@@ -119,6 +119,8 @@ class EnvRendering:
         return tile_frames(frames) if self.tiled else frames[0]
 
     def render(self, states: Sequence[np.ndarray] | np.ndarray) -> Optional[np.ndarray]:
+        """What ``render()`` returns for ``states``: the frame (or tiled frames), ``None``
+        without a render mode or in human mode (which shows it in the window)."""
         if self.mode is None:
             return None
         image = self.image(states)
@@ -128,5 +130,6 @@ class EnvRendering:
         return image
 
     def close(self) -> None:
+        """Closes the human-mode window, if one is open."""
         if self.window is not None:
             self.window.close()

@@ -126,6 +126,7 @@ class HumanWindow:
 
     @property
     def is_open(self) -> bool:
+        """Whether the window is still open (the user may have closed it)."""
         return self._figure is not None and _pyplot().fignum_exists(self._figure.number)
 
     def show(self, frame: np.ndarray) -> None:
@@ -167,6 +168,7 @@ class HumanWindow:
         return True
 
     def close(self) -> None:
+        """Closes the window (a no-op when none is open)."""
         if self._figure is not None:
             _pyplot().close(self._figure)
         self._figure = self._image = None

@@ -56,6 +56,7 @@ class Animation:
     height: int
 
     def summary(self) -> str:
+        """One line saying what was written: file, frames, size, frame rate, steps."""
         return (
             f"wrote {self.path}: {self.frames} frames of {self.width}x{self.height} at {self.fps:g} fps "
             f"({self.frames / self.fps:.2f} s), {self.steps} steps ({self.steps_per_frame} per frame), "

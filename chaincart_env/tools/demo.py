@@ -34,6 +34,8 @@ def _policy(name: str, env: ChainCartEnv, seed: int) -> Callable[[np.ndarray], n
 def run_demo(
     scene: Optional[str] = None, policy: str = "lqr", seed: int = 0, max_steps: Optional[int] = None
 ) -> int:
+    """Rolls out one seeded episode of ``scene`` with ``policy`` (``lqr``, ``zero`` or ``random``)
+    and prints a summary; returns the exit status."""
     config = ChainCartConfig(scene=scene or DEFAULT_SCENE)
     env = gym.make("ChainCart-v0", config=config, max_episode_steps=config.max_episode_steps)
     base = env.unwrapped

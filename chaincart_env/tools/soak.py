@@ -31,6 +31,9 @@ def resident_set_size() -> int:
 
 @dataclass
 class SoakReport:
+    """What a soak run measured: env-steps, wall time, resident memory at start and end, episodes
+    ended and numerical failures."""
+
     env_steps: int
     seconds: float
     rss_start: int
@@ -40,9 +43,11 @@ class SoakReport:
 
     @property
     def rss_growth(self) -> int:
+        """Resident memory growth over the run, bytes."""
         return self.rss_end - self.rss_start
 
     def markdown(self) -> str:
+        """The report as a one-row Markdown table."""
         mib = 1024 * 1024
         return (
             "| env-steps | wall time (s) | env-steps/s | RSS at start (MiB) | RSS at end (MiB) | growth (MiB) "
@@ -92,6 +97,7 @@ def soak(steps: int, num_envs: int = 1024, seed: int = 0, warmup: int = 1000, **
 
 
 def main(steps: int, num_envs: int, seed: int, scene: Optional[str]) -> int:
+    """Runs the ``soak`` command: prints the report; returns 0."""
     config = {} if scene is None else {"scene": scene}
     report = soak(steps, num_envs, seed, **config)
     print(report.markdown())

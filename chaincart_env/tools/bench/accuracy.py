@@ -65,6 +65,8 @@ def _plot(ctx: BenchContext, points: Sequence[AccuracyPoint]) -> None:
 
 
 def accuracy_section(ctx: BenchContext) -> None:
+    """The speed-vs-accuracy section: error at 1 s and energy drift against wall time for every
+    integrator and step size (and MuJoCo's when installed), with the Pareto plot."""
     ctx.report.heading("Speed vs accuracy (paper's Fig. 1 start, u = 0)")
     steps = fig1.QUICK_STEP_SIZES if ctx.settings.quick else fig1.STEP_SIZES
     engines = [("chaincart", m) for m in CHAINCART_INTEGRATORS]

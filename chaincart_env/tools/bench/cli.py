@@ -24,6 +24,7 @@ def _int_list(name: str, text: str) -> tuple[int, ...]:
 
 
 def add_bench_arguments(bench: argparse.ArgumentParser) -> None:
+    """Adds the options of the ``bench`` command to its parser."""
     bench.add_argument("--quick", action="store_true", help="short timings and fewer points (a smoke run, noisy numbers)")
     bench.add_argument("--sections", default="all",
                        help=f"comma-separated subset of {','.join(SECTION_ORDER)} (default: all)")  # fmt: skip
@@ -37,6 +38,7 @@ def add_bench_arguments(bench: argparse.ArgumentParser) -> None:
 
 
 def run_from_args(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """Runs the ``bench`` command with parsed ``args``; returns the exit status."""
     try:
         sections = parse_sections(args.sections)
     except ValueError as exc:

@@ -56,6 +56,8 @@ def _table(results: dict[str, dict[str, float]], group: str) -> list[list[str]]:
 
 
 def criterion_section(ctx: BenchContext) -> None:
+    """The section of the Rust core's criterion results, read from the last ``cargo bench`` run (a
+    note when there is none)."""
     ctx.report.heading("Rust core: criterion benchmarks (`cargo bench --bench dynamics`)")
     results = read_criterion()
     if not results:

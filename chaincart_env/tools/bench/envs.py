@@ -292,6 +292,8 @@ def _planar_link_table(ctx: BenchContext, rng: np.random.Generator) -> None:
 
 
 def throughput_section(ctx: BenchContext) -> None:
+    """The throughput section: single and vector envs against CartPole (and MuJoCo's pendulums when
+    installed), the raw model, and env-steps/s by batch size."""
     rng = np.random.default_rng(0)
     _single_env_table(ctx, rng)
     _raw_model_table(ctx)

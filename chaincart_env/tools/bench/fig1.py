@@ -50,6 +50,10 @@ CHUNK = 100_000
 
 @dataclass(frozen=True)
 class AccuracyPoint:
+    """One engine, integrator and step size of the speed-vs-accuracy comparison: error at 1 s (m),
+    energy drift over 10 s, wall time per simulated second (``None`` where the run failed, with
+    why)."""
+
     engine: str  # "chaincart" or "mujoco"
     integrator: str
     dt: float
@@ -60,6 +64,7 @@ class AccuracyPoint:
 
     @property
     def label(self) -> str:
+        """``"<engine> <integrator>"``, the point's series in tables and plots."""
         return f"{self.engine} {self.integrator}"
 
 
@@ -69,6 +74,7 @@ def paper_model() -> ChainCart:
 
 
 def fig1_state() -> np.ndarray:
+    """The paper's Fig. 1 initial condition (spatial, 5 links)."""
     return _core.paper_initial_condition(FIG1)
 
 
@@ -82,6 +88,7 @@ def mass_positions(states: np.ndarray, lengths: np.ndarray) -> np.ndarray:
 
 
 def position_error(state: np.ndarray, ref_positions: np.ndarray, lengths: np.ndarray) -> float:
+    """The largest distance (m) of a link mass of ``state`` from its reference position."""
     return float(np.max(np.linalg.norm(mass_positions(state, lengths) - ref_positions, axis=-1)))
 
 
@@ -114,17 +121,23 @@ def energy_drift(model: ChainCart, states: np.ndarray) -> float:
 
 
 def sample_every(dt: float) -> int:
+    """Steps of size ``dt`` between energy samples (one per :data:`ENERGY_SAMPLE_PERIOD`)."""
     return max(1, int(round(ENERGY_SAMPLE_PERIOD / dt)))
 
 
 @dataclass(frozen=True)
 class Reference:
+    """The reference at 1 s from the Fig. 1 start: the link masses' positions (rk4 at 2 us) and two
+    estimates of their own error."""
+
     positions: np.ndarray  # (5, 3) link masses at t = 1 s
     self_error: float  # vs rk4 at twice the step
     adaptive_difference: float  # vs the adaptive method at a 1e-4 s control period
 
 
 def reference(model: ChainCart) -> Reference:
+    """The :class:`Reference` of ``model``: rk4 at 2 us, its error estimated against rk4 at 4 us and
+    against the adaptive method."""
     lengths = np.array(model.link_lengths)
     fine, _ = run_chaincart(model, "rk4", 2e-6, 1.0)
     coarse, _ = run_chaincart(model, "rk4", 4e-6, 1.0)
@@ -139,6 +152,8 @@ def reference(model: ChainCart) -> Reference:
 
 
 def chaincart_point(model: ChainCart, ref: Reference, integrator: str, dt: float, min_time: float, repeats: int) -> AccuracyPoint:
+    """chaincart's :class:`AccuracyPoint` for ``integrator`` at step ``dt`` (timing: best of
+    ``repeats`` runs of at least ``min_time`` s)."""
     lengths = np.array(model.link_lengths)
     try:
         final, _ = run_chaincart(model, integrator, dt, 1.0)
@@ -158,4 +173,5 @@ def chaincart_point(model: ChainCart, ref: Reference, integrator: str, dt: float
 
 
 def is_finite(x: Optional[float]) -> bool:
+    """Whether ``x`` is a finite number (``None`` is not)."""
     return x is not None and math.isfinite(x)

@@ -40,6 +40,7 @@ CHAINCART_INTEGRATORS = tuple(_core.INTEGRATORS)
 
 
 def mujoco_model(chain: ChainCart, dt: float, integrator: str) -> Any:
+    """A MuJoCo model of ``chain`` (point-mass links) stepping by ``dt`` with ``integrator``."""
     import mujoco
 
     xml = build_mjcf(chain.cart_mass, chain.link_masses, chain.link_lengths, chain.gravity, dt, integrator)
@@ -128,6 +129,8 @@ def _mujoco_wall_per_sim_s(chain: ChainCart, integrator: str, dt: float, min_tim
 
 
 def mujoco_point(chain: ChainCart, ref: fig1.Reference, integrator: str, dt: float, min_time: float, repeats: int) -> AccuracyPoint:
+    """MuJoCo's :class:`AccuracyPoint` for ``integrator`` at step ``dt``, against the same reference
+    as chaincart's."""
     lengths = np.array(chain.link_lengths)
     try:
         final, _ = run_mujoco(chain, integrator, dt, 1.0)
@@ -145,6 +148,7 @@ def mujoco_point(chain: ChainCart, ref: fig1.Reference, integrator: str, dt: flo
 
 
 def fig1_reference(ctx: BenchContext) -> fig1.Reference:
+    """The Fig. 1 reference, computed once per run and kept in ``ctx.results``."""
     if "fig1_reference" not in ctx.results:
         ctx.results["fig1_reference"] = fig1.reference(fig1.paper_model())
     return ctx.results["fig1_reference"]  # type: ignore[no-any-return]
@@ -228,6 +232,8 @@ def _batched_table(ctx: BenchContext) -> None:
 
 
 def mujoco_section(ctx: BenchContext) -> None:
+    """The MuJoCo section: the same chain in MuJoCo, its agreement with chaincart and the step rates
+    side by side (a note when MuJoCo is missing)."""
     ctx.report.heading("The same physics in MuJoCo (paper's 5-link chain, Fig. 1 start)")
     if not mujoco_available():
         ctx.report.paragraph(MISSING_NOTE)

@@ -36,6 +36,8 @@ def _cell(value: Any) -> str:
 
 
 def render_section(ctx: BenchContext) -> None:
+    """The render section: frames per second of the software renderer by frame size and view, then
+    the env-level render benchmark."""
     ctx.report.heading("Render frames per second")
     state = _core.paper_initial_condition("paper-fig3")
     lengths = [0.1] * 5

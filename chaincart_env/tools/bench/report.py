@@ -38,6 +38,7 @@ def fmt_ratio(a: Optional[float], b: Optional[float]) -> str:
 
 
 def fmt_sci(x: Optional[float]) -> str:
+    """``x`` in scientific notation with two digits, ``n/a`` when missing or not finite."""
     if x is None or not math.isfinite(x):
         return "n/a"
     return f"{x:.1e}"
@@ -67,13 +68,17 @@ class Report:
             print("\n".join(new), flush=True)
 
     def heading(self, text: str, depth: int = 0) -> None:
+        """Appends a heading ``depth`` levels below the report's own."""
         self._emit(["#" * (self.heading_level + depth) + " " + text, ""])
 
     def paragraph(self, text: str) -> None:
+        """Appends a paragraph."""
         self._emit([text, ""])
 
     def table(self, header: Sequence[str], rows: Sequence[Sequence[str]], numeric_from: int = 1) -> None:
+        """Appends a Markdown table (columns from ``numeric_from`` on right-aligned)."""
         self._emit(markdown_table(header, rows, numeric_from) + [""])
 
     def text(self) -> str:
+        """The whole report as Markdown."""
         return "\n".join(self.lines).rstrip() + "\n"

@@ -29,6 +29,7 @@ MISSING_NOTE = "Skipped: Ray RLlib is not installed (`pip install chaincart-env[
 
 
 def rllib_available() -> bool:
+    """Whether Ray RLlib (the ``rllib`` extra) can be imported."""
     try:
         import ray.rllib  # noqa: F401
     except ImportError:
@@ -63,6 +64,9 @@ def timed_sample(env_runner: Any, timesteps: int) -> tuple[int, float, float]:
 
 @dataclass(frozen=True)
 class SamplingRate:
+    """RLlib's sampling rate in one setting: env-steps/s overall and per runner, and the share of
+    the runners' time spent in the env."""
+
     mode: str
     runners: int
     envs_per_runner: int
@@ -102,6 +106,8 @@ def measure_sampling(
 
 
 def rllib_section(ctx: BenchContext) -> None:
+    """The RLlib section: sampling rates with the native vector env and with Gymnasium's
+    ``SyncVectorEnv`` (a note when RLlib is missing)."""
     ctx.report.heading("RLlib sampling: native vector env vs SyncVectorEnv")
     if not rllib_available():
         ctx.report.paragraph(MISSING_NOTE)

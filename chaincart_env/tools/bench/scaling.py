@@ -82,6 +82,8 @@ def _plot(ctx: BenchContext, data: dict[str, dict[int, float]], fits: dict[str, 
 
 
 def scaling_section(ctx: BenchContext) -> None:
+    """The scaling section: time of the O(n) and dense accelerations and of an rk4 step against the
+    number of links, with the fitted slopes."""
     ctx.report.heading("Scaling with the number of links")
     quick = ctx.settings.quick
     data = measure(128 if quick else 256, 0.01 if quick else 0.1)

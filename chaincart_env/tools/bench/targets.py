@@ -82,6 +82,7 @@ def _vector_speed_targets(ctx: BenchContext) -> list[list[str]]:
 
 
 def targets_section(ctx: BenchContext) -> None:
+    """The targets section: each speed goal, what was measured, and the verdict."""
     ctx.report.heading("Speed targets")
     rows = _core_targets(ctx) + _package_targets(ctx)
     ctx.report.table(["target", "goal", "measured", "verdict"], rows, 4)

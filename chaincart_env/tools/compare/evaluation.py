@@ -40,7 +40,8 @@ class Policy(Protocol):
 
     def predict(
         self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = False
-    ) -> tuple[np.ndarray, Any]: ...
+    ) -> tuple[np.ndarray, Any]:
+        """The actions for ``observation`` (SB3's ``predict``): ``(actions, state)``."""
 
 
 def evaluation_seeds(first_seed: int, episodes: int) -> list[int]:
@@ -75,6 +76,7 @@ class Rollouts:
 
     @property
     def episodes(self) -> int:
+        """Number of episodes."""
         return int(self.seeds.shape[0])
 
     def final_errors(self) -> tuple[np.ndarray, np.ndarray]:

@@ -55,4 +55,5 @@ def filmstrip(runs: Sequence[Rollouts], config: ChainCartConfig, frames: int = 8
 
 
 def write_filmstrip(path: Path, runs: Sequence[Rollouts], config: ChainCartConfig, frames: int = 8) -> None:
+    """Writes :func:`filmstrip` of ``runs`` to ``path`` (PNG)."""
     Image.fromarray(filmstrip(runs, config, frames)).save(path)

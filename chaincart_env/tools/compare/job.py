@@ -56,6 +56,8 @@ class StudySettings(dict):  # type: ignore[type-arg]
 
     @classmethod
     def checked(cls, **settings: Any) -> "StudySettings":
+        """The settings, each checked (seeds, trainer, sweep axes, counts), or an error naming the
+        bad one."""
         seeds = settings["seeds"]
         if not seeds or len(set(seeds)) != len(seeds) or any(
             isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds

@@ -68,6 +68,8 @@ class RLlibPolicy:
     def predict(
         self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = False
     ) -> tuple[np.ndarray, None]:
+        """The module's actions for ``observation`` (its mean when ``deterministic``), like SB3's
+        ``predict``."""
         import torch
         from ray.rllib.core.columns import Columns
         from ray.rllib.utils.spaces.space_utils import unsquash_action
@@ -142,6 +144,9 @@ def ray_cluster(address: Optional[str], cpus_needed: int) -> Iterator[str]:
 
 @dataclass(frozen=True)
 class RLlibTrainingResult:
+    """What an RLlib training run returns: the policy, wall time, episodes, hyperparameters,
+    timesteps and iterations."""
+
     model: RLlibPolicy
     wall_time_s: float
     episodes: int

@@ -27,6 +27,9 @@ RUN_FILE = "run.json"
 @dataclass(frozen=True)
 class SavedRun:
     #: An SB3 model, or an RLlibPolicy for runs of ``--trainer rllib``.
+    """A run directory written by ``compare``: its model, config, ``run.json`` info and where it
+    is."""
+
     model: Any
     config: ChainCartConfig
     info: dict[str, Any]

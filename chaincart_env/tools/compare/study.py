@@ -83,6 +83,7 @@ class TrainedPolicy:
 
     @property
     def name(self) -> str:
+        """``"<label> (seed <seed>)"``, the policy's row in the tables."""
         return f"{self.label} (seed {self.seed})"
 
 

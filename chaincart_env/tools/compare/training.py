@@ -86,6 +86,9 @@ class EpisodeCsvLogger(BaseCallback):
 
 @dataclass(frozen=True)
 class TrainingResult:
+    """What a training run returns: the model, wall time, episodes, hyperparameters, evaluations and
+    where it resumed from."""
+
     model: BaseAlgorithm
     wall_time_s: float
     episodes: int

@@ -37,7 +37,8 @@ class Predictor(Protocol):
 
     def predict(
         self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
-    ) -> tuple[np.ndarray, Any]: ...
+    ) -> tuple[np.ndarray, Any]:
+        """The action for ``observation`` (SB3's ``predict``): ``(action, state)``."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,7 @@ class Trajectory:
 
     @property
     def target(self) -> tuple[int, ...]:
+        """The target equilibrium's signs."""
         return self.config.target_signs
 
 
