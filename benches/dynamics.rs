@@ -19,13 +19,13 @@
 //!   the same chain, period and substeps), for n = 5 spatial and one planar link. The
 //!   env rows minus the physics rows are the task layer's cost.
 
-use chaincart::batch::Batch;
-use chaincart::batch::{Guard, Precision, StepStatus};
+use chaincart::batch::ChainBatch;
 use chaincart::dense::dense_derivative;
 use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs};
 use chaincart::geometry::planar_to_spatial;
-use chaincart::geometry::Geometry;
-use chaincart::lanes::{Kernel, LaneParams, LaneStepper, StepPlan};
+use chaincart::integrate::{Guard, StepStatus};
+use chaincart::lanes::Precision;
+use chaincart::lanes::{Kernel, LaneParams, LaneScene, LaneStepper, StepPlan};
 use chaincart::{Chain, Planar, Spatial};
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -158,7 +158,7 @@ fn batch(c: &mut Criterion) {
     for num_envs in [1usize, 64, 4096] {
         let chain = chain(5);
         let y0 = moving_state(&chain);
-        let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
+        let mut batch = ChainBatch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
         let states = repeated(&y0, num_envs);
         let forces = vec![0.0; 2 * num_envs];
         group.throughput(Throughput::Elements(num_envs as u64));
@@ -174,7 +174,7 @@ fn batch(c: &mut Criterion) {
 }
 
 /// Benchmarks one `EnvBatch::step` of `b` under fixed actions as `id`.
-fn bench_env_step<G: Geometry>(
+fn bench_env_step<G: LaneScene>(
     group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     id: BenchmarkId,
     b: &mut EnvBatch<G>,
@@ -201,7 +201,7 @@ fn bench_env_step<G: Geometry>(
 }
 
 /// The benchmark chain of `n` links: the default scene's (1 kg cart, 0.1 kg, 0.5 m).
-fn env_chain<G: Geometry>(n: usize) -> Chain<G> {
+fn env_chain<G: LaneScene>(n: usize) -> Chain<G> {
     Chain::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap())
 }
 
@@ -261,7 +261,7 @@ fn env_lanes_scene<G: chaincart::lanes::LaneScene>(
     ] {
         let task = env_task(n, "off");
         let mut batch =
-            Batch::new(env_chain::<G>(n), num_envs, task.dt, task.step_options).unwrap();
+            ChainBatch::new(env_chain::<G>(n), num_envs, task.dt, task.step_options).unwrap();
         batch.set_precision(precision).unwrap();
         let forces = vec![0.1; num_envs * batch.chain().force_dim()];
         group.throughput(Throughput::Elements(num_envs as u64));
@@ -299,7 +299,7 @@ fn batch_kernels(c: &mut Criterion) {
         for num_envs in [1usize, 4096] {
             let chain = chain(5);
             let y0 = moving_state(&chain);
-            let mut batch = Batch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
+            let mut batch = ChainBatch::new(chain, num_envs, 1e-3, StepOptions::default()).unwrap();
             batch.set_kernel(kernel).unwrap();
             batch.set_precision(precision).unwrap();
             let states = repeated(&y0, num_envs);

@@ -48,6 +48,7 @@ __all__ = [
     "TARGET_NAMES",
     "START_NAMES",
     "REWARD_WEIGHTS",
+    "ResolvedConfig",
     "resolve_config",
 ]
 
@@ -87,10 +88,10 @@ START_NAMES: tuple[str, ...]
 #: Default reward weights by name (q, w, x, v, u).
 REWARD_WEIGHTS: dict[str, float]
 
-def resolve_config(config: dict[str, Any]) -> dict[str, Any]:
-    """Every key's value in canonical form for ``config`` (a dict of keys, any subset;
-    ``scene`` names the scene whose values fill the rest; ``None`` values are unset),
-    after checking them all; raises :class:`InvalidInputError` naming a bad value."""
+def resolve_config(config: dict[str, Any]) -> ResolvedConfig:
+    """``config`` (a dict of keys, any subset; ``scene`` names the scene whose values
+    fill the rest; ``None`` values are unset) resolved and checked once, the task
+    against the model; raises :class:`InvalidInputError` naming a bad value."""
 #: Most links a chain may have.
 MAX_LINKS: int
 #: Most float64 numbers in one batch state array or one simulated trajectory.
@@ -223,17 +224,37 @@ class ChainCart:
     def __reduce__(self) -> tuple[Any, ...]: ...
 
 @final
+class ResolvedConfig:
+    """A configuration resolved, converted and checked once (:func:`resolve_config`):
+    the model, the task on it and every key's value in canonical form. Env batches are
+    built from it."""
+
+    def values(self) -> dict[str, Any]:
+        """Every configuration key's value, in canonical form, as a new dict."""
+    @property
+    def model(self) -> ChainCart:
+        """The model of the configuration's physical parameters."""
+    @property
+    def state_dim(self) -> int:
+        """Length of the observed state: ``2 + 3n`` planar, ``4 + 6n`` spatial."""
+    @property
+    def force_dim(self) -> int:
+        """Length of an action: 1 planar, 2 spatial."""
+    def __reduce__(self) -> tuple[Any, ...]: ...
+
+@final
 class EnvBatch:
     """``num_envs`` envs of one RL task, stepped in Rust (see
-    ``chaincart_env.ChainCartEnv`` for the task). ``config`` is a dict of configuration
-    keys (any subset of :data:`CONFIG_KEYS`; ``scene`` names the scene whose values fill
-    the rest, ``None`` values are unset), resolved as :func:`resolve_config` does. Env
-    i's RNG is seeded ``seed + i``.
+    ``chaincart_env.ChainCartEnv`` for the task). ``config`` is a
+    :class:`ResolvedConfig`, or a dict of configuration keys (any subset of
+    :data:`CONFIG_KEYS`; ``scene`` names the scene whose values fill the rest, ``None``
+    values are unset) resolved as :func:`resolve_config` does. Env i's RNG is seeded
+    ``seed + i``.
     """
 
     def __new__(
         cls,
-        config: dict[str, Any],
+        config: Union[ResolvedConfig, dict[str, Any]],
         num_envs: int = 1,
         *,
         autoreset_mode: str = "next_step",

@@ -5,9 +5,12 @@ core; this module reads them from ``_core``. A :class:`ChainCartConfig` is resol
 one call into the core (``_core.resolve_config``): the scene (``scene=``, default
 :data:`DEFAULT_SCENE`) fills every keyword not given, each value is brought into
 canonical form (scalars stay scalars, sequences become tuples, names stay names) and
-checked; a bad value raises :class:`~chaincart_env.errors.InvalidInputError` (a
-``ValueError``) or :class:`~chaincart_env.errors.InvalidTypeError` (a ``TypeError``)
-naming the value and what was expected.
+checked, the task against the model; a bad value raises
+:class:`~chaincart_env.errors.InvalidInputError` (a ``ValueError``) or
+:class:`~chaincart_env.errors.InvalidTypeError` (a ``TypeError``) naming the value and
+what was expected. The core hands back one native object (``_core.ResolvedConfig``)
+holding the model and the task; envs build their batches from it, so the
+configuration crosses into Rust once.
 """
 from __future__ import annotations
 
@@ -95,7 +98,7 @@ class RewardWeights:
         default), or a sequence of five numbers (checked by the core)."""
         if isinstance(value, RewardWeights):
             return value
-        return cls(*_core.resolve_config({"reward_weights": value})["reward_weights"])
+        return cls(*_core.resolve_config({"reward_weights": value}).values()["reward_weights"])
 
 
 def _with_weights(values: dict[str, Any]) -> dict[str, Any]:
@@ -164,21 +167,24 @@ class ChainCartConfig:
     obs_noise: Optional[Floats] = _UNSET
     action_delay: int = _UNSET
     force_rate_limit: Optional[float] = _UNSET
-    _model: ChainCart = field(default=_UNSET, init=False, repr=False, compare=False)
+    _resolved: _core.ResolvedConfig = field(default=_UNSET, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         given = {f.name: _plain(f.name, getattr(self, f.name)) for f in fields(self) if f.init}
-        # One call: the core fills unset keywords from the scene, checks every value and
-        # returns each in canonical form.
-        for name, value in _with_weights(_core.resolve_config(given)).items():
+        # One call: the core fills unset keywords from the scene, checks every value (the
+        # task against the model) and returns the model, the task and each value in
+        # canonical form.
+        resolved = _core.resolve_config(given)
+        for name, value in _with_weights(resolved.values()).items():
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "_model", self.make_model())
+        object.__setattr__(self, "_resolved", resolved)
 
     # -- derived values -------------------------------------------------------------
 
     def make_model(self) -> ChainCart:
-        """A fresh :class:`ChainCart` with this config's physical parameters."""
-        return ChainCart(self.n_links, self.cart_mass, self.link_masses, self.link_lengths, self.gravity, self.planar)
+        """The :class:`ChainCart` with this config's physical parameters (immutable, so
+        the config and its envs share one)."""
+        return self._resolved.model
 
     @property
     def target_signs(self) -> tuple[int, ...]:
@@ -190,26 +196,27 @@ class ChainCartConfig:
     @property
     def state_dim(self) -> int:
         """Length of the observed state: ``2 + 3n`` planar, ``4 + 6n`` spatial."""
-        return self._model.state_dim
+        return self._resolved.state_dim
 
     @property
     def state_layout(self) -> dict[str, tuple[int, int]]:
         """``(start, stop)`` of each block of the observed state (``x``, ``xdot``, ``q``,
         ``w``), as the core lays it out."""
-        return self._model.state_layout
+        return self._resolved.model.state_layout
 
     @property
     def force_dim(self) -> int:
         """Length of an action: 1 planar, 2 spatial."""
-        return self._model.force_dim
+        return self._resolved.force_dim
 
     def core_config(self) -> dict[str, Any]:
-        """Every keyword as the core's ``EnvBatch`` and ``resolve_config`` take them."""
+        """Every keyword as the core's ``resolve_config`` takes them."""
         return {**self.to_dict(), "reward_weights": self.reward_weights.as_tuple()}
 
     def make_batch(self, num_envs: int, autoreset_mode: str, seed: int = 0) -> _core.EnvBatch:
-        """A native batch of ``num_envs`` envs of this task."""
-        return _core.EnvBatch(self.core_config(), num_envs, autoreset_mode=autoreset_mode, seed=seed)
+        """A native batch of ``num_envs`` envs of this task, built from the resolved
+        configuration (nothing is resolved again)."""
+        return _core.EnvBatch(self._resolved, num_envs, autoreset_mode=autoreset_mode, seed=seed)
 
     def replace(self, **changes: Any) -> "ChainCartConfig":
         """A copy with some keywords changed (the others keep their resolved values)."""

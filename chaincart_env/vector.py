@@ -65,16 +65,15 @@ def episode_infos(batch: _core.EnvBatch) -> tuple[np.ndarray, dict[str, Any]]:
     return ended, info
 
 
-def _scene_length_kept(config: Any, kwargs: dict[str, Any]) -> dict[str, Any]:
+def _scene_length_kept(kwargs: dict[str, Any]) -> dict[str, Any]:
     """``gymnasium.make_vec`` passes the registered episode length (the default
     scene's) as ``max_episode_steps`` unless it is given one; that default must not cut
     a chosen scene's (or config's) own length. So a ``max_episode_steps`` equal to the
-    registered length is dropped when the rest of the configuration has another one."""
+    registered length is dropped: where the rest of the configuration has another
+    length that one stays, and where it has the registered one nothing changes."""
     if kwargs.get("max_episode_steps") != REGISTERED_EPISODE_STEPS:
         return kwargs
-    rest = {k: v for k, v in kwargs.items() if k != "max_episode_steps"}
-    own = ChainCartConfig.coerce(config, **rest).max_episode_steps
-    return rest if own != REGISTERED_EPISODE_STEPS else kwargs
+    return {k: v for k, v in kwargs.items() if k != "max_episode_steps"}
 
 
 class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
@@ -143,7 +142,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         **kwargs: Any,
     ) -> None:
         self.num_envs = check_num_envs(num_envs)
-        self.config = ChainCartConfig.coerce(config, **_scene_length_kept(config, kwargs))
+        self.config = ChainCartConfig.coerce(config, **_scene_length_kept(kwargs))
         self.model: ChainCart = self.config.make_model()
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
         # First: the core refuses a num_envs too large to allocate before anything is.

@@ -7,8 +7,8 @@
 //! method at tolerance 1e-13; largest energy error over 10 s and 1000 s relative to
 //! the largest kinetic energy seen; wall time per simulated second (from the 1 s run).
 
-use chaincart::batch::{Guard, GuardedStepper, StepStatus};
 use chaincart::geometry::{Layout, Vector};
+use chaincart::integrate::{Guard, GuardedStepper, StepStatus};
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
 use nalgebra::{Vector2, Vector3};
 use std::time::Instant;

@@ -2,12 +2,11 @@
 //! (the Python bindings, command-line tools) call. Every method validates its
 //! inputs and returns errors; nothing here panics on bad input.
 
-use crate::batch::{Batch, Guard, GuardedStepper, StepStatus};
 use crate::error::{
     check_finite, check_len, check_positive, ChainError, IntegrationFailure, Result,
 };
 use crate::geometry::{planar_to_spatial, spatial_to_planar, Planar, Spatial, Vector};
-use crate::integrate::StepOptions;
+use crate::integrate::{Guard, GuardedStepper, StepOptions, StepStatus};
 use crate::invariants::{Energy, Residuals};
 use crate::model::Chain;
 use crate::params::ChainParams;
@@ -206,22 +205,4 @@ fn step_failure(status: StepStatus, k: usize, opts: &StepOptions, dt: f64) -> Ch
             dt,
         },
     )
-}
-
-/// A batch in either scene.
-pub enum AnyBatch {
-    /// A batch of spatial chains.
-    Spatial(Batch<Spatial>),
-    /// A batch of planar chains.
-    Planar(Batch<Planar>),
-}
-
-impl AnyBatch {
-    /// A batch of `num_envs` copies of `chain` at its base state, stepping by `dt` with `opts`.
-    pub fn new(chain: AnyChain, num_envs: usize, dt: f64, opts: StepOptions) -> Result<Self> {
-        Ok(match chain {
-            AnyChain::Spatial(c) => AnyBatch::Spatial(Batch::new(c, num_envs, dt, opts)?),
-            AnyChain::Planar(c) => AnyBatch::Planar(Batch::new(c, num_envs, dt, opts)?),
-        })
-    }
 }

@@ -4,8 +4,6 @@
 //! a planar scene runs the same code on smaller vectors and computes nothing the
 //! scene does not use.
 
-use crate::lanes::{ChunkLanes, ChunkSpec};
-use crate::model::Chain;
 use nalgebra::{Vector2, Vector3};
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
@@ -131,11 +129,6 @@ pub trait Geometry: Copy + Debug + Send + Sync + Default + 'static {
     fn dexpinv(theta: Self::Spin, k: Self::Spin) -> Self::Spin;
     /// `w` minus its component along the unit vector q (identity where spins are always tangent).
     fn tangent(w: Self::Spin, q: Self::Link) -> Self::Spin;
-    /// The lane path of a chunk of envs of `chain` ([`crate::lanes::chunk_lanes`]), for
-    /// code generic over the scene; `None` for a scene without a lane kernel.
-    fn chunk_lanes(_chain: &Chain<Self>, _spec: ChunkSpec) -> Option<Box<dyn ChunkLanes>> {
-        None
-    }
 }
 
 /// The paper's scene: links on S^2, cart in the horizontal plane.
@@ -203,9 +196,6 @@ impl Geometry for Spatial {
     fn tangent(w: Vector3<f64>, q: Vector3<f64>) -> Vector3<f64> {
         w - q * w.dot(q)
     }
-    fn chunk_lanes(chain: &Chain<Self>, spec: ChunkSpec) -> Option<Box<dyn ChunkLanes>> {
-        Some(crate::lanes::chunk_lanes(chain, spec))
-    }
 }
 
 impl Geometry for Planar {
@@ -252,9 +242,6 @@ impl Geometry for Planar {
     #[inline(always)]
     fn tangent(w: f64, _q: Vector2<f64>) -> f64 {
         w
-    }
-    fn chunk_lanes(chain: &Chain<Self>, spec: ChunkSpec) -> Option<Box<dyn ChunkLanes>> {
-        Some(crate::lanes::chunk_lanes(chain, spec))
     }
 }
 

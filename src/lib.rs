@@ -3,17 +3,22 @@
 //! Pure Rust physics and batch engine; the Python bindings live in `src/python/`
 //! behind the `python` feature.
 //!
+//! The modules form a ladder: each uses only those below it (ARCHITECTURE.md; the
+//! `architecture` test checks it).
+//!
+//! * [`error`], [`limits`], [`tridiagonal`]: errors, the largest sizes accepted, a solver.
 //! * [`params`]: validated physical parameters.
 //! * [`geometry`]: the spatial scene and its planar special case.
-//! * [`model`]: exact O(n) accelerations; [`dense`]: the paper's O(n^3) form (oracle).
-//! * [`integrate`]: rk4, rkmk4, variational, lie_euler, adaptive.
-//! * [`invariants`]: energy, momentum, constraint residuals, the paper's errors.
-//! * [`batch`]: struct-of-arrays batches stepped in parallel; [`lanes`]: their rk4 step
-//!   with one env per SIMD lane.
-//! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati, LQR.
-//! * [`render`]: software rendering of chain states into RGB frames.
-//! * [`limits`]: the largest sizes accepted; [`scaling`]: timing against the number of links.
-//! * [`env`](mod@env): the RL task (target, start, reward, termination, autoreset) over a batch.
+//! * [`model`]: exact O(n) accelerations; [`dense`]: the paper's O(n^3) form (oracle);
+//!   [`invariants`]: energy, momentum, constraint residuals, the paper's errors.
+//! * [`integrate`]: rk4, rkmk4, variational, lie_euler, adaptive, and the failure guard.
+//! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati,
+//!   LQR; [`lanes`]: the rk4 step with one env per SIMD lane; [`render`]: RGB frames;
+//!   [`scaling`]: timing against the number of links; [`any`]: a chain in either scene,
+//!   chosen at run time.
+//! * [`batch`]: the engine every batch steps with, and [`batch::ChainBatch`] (physics only).
+//! * [`env`](mod@env): the RL task (target, start, reward, termination, autoreset) on the
+//!   engine.
 
 #![warn(missing_docs)]
 

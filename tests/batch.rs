@@ -3,7 +3,8 @@
 
 mod common;
 
-use chaincart::batch::{StepStatus, CHUNK};
+use chaincart::batch::CHUNK;
+use chaincart::integrate::StepStatus;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
 use common::batches::{forces, random_batch};
 use nalgebra::Vector2;

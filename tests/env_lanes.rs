@@ -8,13 +8,14 @@
 
 mod common;
 
-use chaincart::batch::{Precision, MIN_LANE_ENVS};
+use chaincart::batch::MIN_LANE_ENVS;
 use chaincart::env::{
     event, AutoresetMode, Distribution, EnvBatch, PaperFigure, ParamRandomization, Real, Start,
     StepOutputs, TaskConfig,
 };
-use chaincart::geometry::Geometry;
 use chaincart::lanes::Kernel;
+use chaincart::lanes::LaneScene;
+use chaincart::lanes::Precision;
 use chaincart::{Chain, ChainParams, Method, Planar, Spatial, StepOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -66,7 +67,7 @@ fn task(n: usize, reality: bool) -> TaskConfig {
 }
 
 /// A scene whose states can be given wild spins.
-trait Spin: Geometry {
+trait Spin: LaneScene {
     /// `y` with every link spinning at `rate` rad/s about an axis normal to it.
     fn spun_up(chain: &Chain<Self>, y: &[f64], rate: f64) -> Vec<f64>;
 }
@@ -93,7 +94,7 @@ impl Spin for Spatial {
     }
 }
 
-fn chain<G: Geometry>(n: usize) -> Chain<G> {
+fn chain<G: LaneScene>(n: usize) -> Chain<G> {
     Chain::new(ChainParams::uniform(n, 1.0, 0.1, 0.3, 9.81).unwrap())
 }
 
@@ -116,7 +117,7 @@ impl<T: Real + Default> Outputs<T> {
     }
 
     /// One step of `b` under `actions` into these buffers.
-    fn step<G: Geometry>(&mut self, b: &mut EnvBatch<G>, actions: &[f64]) {
+    fn step<G: LaneScene>(&mut self, b: &mut EnvBatch<G>, actions: &[f64]) {
         let out = StepOutputs {
             obs: &mut self.obs,
             rewards: &mut self.rewards,
@@ -556,7 +557,7 @@ fn paper_task(figure: PaperFigure, dt: f64) -> (Chain<Spatial>, TaskConfig) {
 /// Steps the same batch in f64 and f32 for `steps` steps under `action(step, j)`;
 /// returns the largest difference of the mass positions (m) at `compare_at` steps
 /// and the number of guard failures of each precision over all `steps`.
-fn f32_against_f64<G: Geometry>(
+fn f32_against_f64<G: LaneScene>(
     chain: &Chain<G>,
     task: &TaskConfig,
     num_envs: usize,

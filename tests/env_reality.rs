@@ -1,13 +1,15 @@
 //! The reality gap of the task layer: per-env parameters drawn at reset, fixed
 //! mismatch, observation noise, control delay and force-rate limit.
 
-use chaincart::batch::{Guard, GuardedStepper, CHUNK};
+use chaincart::batch::CHUNK;
 use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, Param, ParamRandomization, ParamValues, Randomization,
     RealityGap, StepOutputs, TaskConfig,
 };
 use chaincart::error::InputError;
 use chaincart::geometry::{Geometry, Vector};
+use chaincart::integrate::{Guard, GuardedStepper};
+use chaincart::lanes::LaneScene;
 use chaincart::{Chain, ChainError, ChainParams, Method, Planar, Spatial, StepOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -48,7 +50,7 @@ fn randomization() -> Randomization {
     }
 }
 
-fn batch<G: Geometry>(
+fn batch<G: LaneScene>(
     t: TaskConfig,
     num_envs: usize,
     seed: u64,
@@ -67,7 +69,7 @@ struct Out {
 }
 
 impl Out {
-    fn new<G: Geometry>(b: &EnvBatch<G>) -> Self {
+    fn new<G: LaneScene>(b: &EnvBatch<G>) -> Self {
         let n = b.num_envs();
         Self {
             obs: vec![0.0; n * b.state_dim()],
@@ -76,7 +78,7 @@ impl Out {
             truncated: vec![false; n],
         }
     }
-    fn step<G: Geometry>(&mut self, b: &mut EnvBatch<G>, actions: &[f64]) {
+    fn step<G: LaneScene>(&mut self, b: &mut EnvBatch<G>, actions: &[f64]) {
         b.step(
             actions,
             StepOutputs {
@@ -97,7 +99,7 @@ fn actions(step: usize, num_envs: usize, f: usize, env0: usize) -> Vec<f64> {
 }
 
 /// Per step: every env's observation, reward and parameters.
-fn history<G: Geometry>(b: &mut EnvBatch<G>, steps: usize, env0: usize) -> Vec<Vec<f64>> {
+fn history<G: LaneScene>(b: &mut EnvBatch<G>, steps: usize, env0: usize) -> Vec<Vec<f64>> {
     let mut out = Out::new(b);
     let mut h = Vec::new();
     for s in 0..steps {

@@ -7,7 +7,7 @@
 //! with `CHAINCART_RECORD_TRAJECTORIES=1`; it holds one line per (case, step, env).
 
 use chaincart::env::{AutoresetMode, EnvBatch, Start, StepOutputs, TaskConfig};
-use chaincart::geometry::Geometry;
+use chaincart::lanes::LaneScene;
 use chaincart::{Chain, ChainParams, Method, Planar, Spatial, StepOptions};
 use std::fmt::Write as _;
 
@@ -77,7 +77,7 @@ fn action(step: usize, env: usize, axis: usize) -> f64 {
     1.6 * phase.sin()
 }
 
-fn record<G: Geometry>(case: &Case, out: &mut String) {
+fn record<G: LaneScene>(case: &Case, out: &mut String) {
     let params = ChainParams::new(0.8, &[0.15, 0.1], &[0.4, 0.3], 9.81).unwrap();
     let chain = Chain::<G>::new(params);
     let mut b = EnvBatch::new(chain, task(case), N_ENVS, 11, case.mode, false).unwrap();

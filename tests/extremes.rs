@@ -7,8 +7,10 @@
 
 mod common;
 
-use chaincart::batch::{Batch, Guard, GuardedStepper, Precision, StepStatus};
+use chaincart::batch::ChainBatch;
+use chaincart::integrate::{Guard, GuardedStepper, StepStatus};
 use chaincart::lanes::Kernel;
+use chaincart::lanes::Precision;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
 use common::*;
 use nalgebra::Vector2;
@@ -39,7 +41,7 @@ impl Stepping {
 /// One guarded control step of a single state, by either kind of stepping.
 enum Runner {
     Scalar(GuardedStepper<chaincart::Spatial>, StepOptions),
-    Lanes(Batch<chaincart::Spatial>),
+    Lanes(ChainBatch<chaincart::Spatial>),
 }
 
 impl Runner {
@@ -53,7 +55,7 @@ impl Runner {
                 },
             ),
             Stepping::LanesF32 => {
-                let mut b = Batch::new(chain.clone(), 1, dt, StepOptions::default()).unwrap();
+                let mut b = ChainBatch::new(chain.clone(), 1, dt, StepOptions::default()).unwrap();
                 b.set_kernel(Some(Kernel::detect())).unwrap();
                 b.set_precision(Precision::F32).unwrap();
                 Runner::Lanes(b)

@@ -4,8 +4,9 @@
 
 mod common;
 
-use chaincart::batch::{Guard, GuardedStepper, Precision, StepStatus};
 use chaincart::geometry::{Geometry, Vector};
+use chaincart::integrate::{Guard, GuardedStepper, StepStatus};
+use chaincart::lanes::Precision;
 use chaincart::lanes::{Kernel, LaneGeometry, LaneParams, LaneReal, LaneStepper, StepPlan};
 use chaincart::{Chain, ChainParams, Method, Planar, Spatial, StepOptions};
 use common::{random_params, random_planar_state, random_spatial_state, rng};
@@ -369,7 +370,7 @@ fn a_chunk_with_a_chain_per_env_steps_each_env_as_its_own_chain() {
         &vec![true; num_envs],
         plan,
         &mut status,
-        None,
+        None::<&mut chaincart::lanes::NoHook>,
     );
     let d = chain.state_dim();
     let opts = StepOptions::new(Method::Rk4, 2).unwrap();
@@ -645,9 +646,9 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
     precision: Precision,
     kernel: Kernel,
 ) {
+    use chaincart::env::measure::{measure, MeasureInto, MeasureTask, Measures};
     use chaincart::env::RewardWeights;
-    use chaincart::lanes::measure::{measure, room, MeasureInto, MeasureTask, Measures};
-    use chaincart::lanes::{chunk_lanes, ChunkSpec};
+    use chaincart::lanes::{chunk_lanes, room, ChunkSpec};
     let num_envs = 29;
     let mut rng = rng(40 + n as u64);
     let chain = Chain::<G>::new(random_params(&mut rng, n, 10.0, 10.0));
@@ -657,7 +658,7 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
         kernel,
         precision,
     };
-    let mut lanes = chunk_lanes(&chain, spec);
+    let mut lanes = chunk_lanes::<G, MeasureInto>(&chain, spec);
     let mut states: Vec<f64> = (0..num_envs)
         .flat_map(|_| G::random_state(&mut rng, n, 3.0))
         .collect();
@@ -682,14 +683,13 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
         u: 0.7,
     };
     let a2: Vec<f64> = (0..room(num_envs)).map(|k| (k % 5) as f64 * 0.4).collect();
-    let mut out = Measures::new(num_envs);
-    let into = MeasureInto {
+    let mut into = MeasureInto {
         task: MeasureTask {
-            target: &target,
-            weights: &weights,
-            a2: &a2,
+            target: target.clone(),
+            weights,
+            a2: a2.clone(),
         },
-        out: &mut out,
+        out: Measures::new(num_envs),
     };
     let stepped: Vec<bool> = (0..num_envs).map(|k| k != 4).collect();
     lanes.step(
@@ -698,8 +698,9 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
         &stepped,
         plan,
         &mut status,
-        Some(into),
+        Some(&mut into),
     );
+    let out = into.out;
     let d = chain.state_dim();
     let what = format!("{} n = {n}, {precision:?}, {kernel:?}", G::NAME);
     let (mut checked, mut graded) = (0, 0);
@@ -710,7 +711,7 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
         let y = &states[k * d..(k + 1) * d];
         let scalar = measure(chain.layout(), y, &target, &weights, a2[k]);
         let lane = out.get(k);
-        let fields = |m: &chaincart::lanes::measure::StateMeasure| {
+        let fields = |m: &chaincart::env::measure::StateMeasure| {
             bits(&[m.q2, m.w2, m.e_q, m.e_w, m.x2, m.v2, m.reward])
         };
         assert_eq!(fields(&lane), fields(&scalar), "env {k}, {what}");

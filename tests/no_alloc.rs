@@ -3,7 +3,9 @@
 
 mod common;
 
-use chaincart::batch::{Guard, GuardedStepper, Precision, CHUNK};
+use chaincart::batch::CHUNK;
+use chaincart::integrate::{Guard, GuardedStepper};
+use chaincart::lanes::Precision;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions};
 use common::batches::{forces, random_batch};
 use nalgebra::Vector2;

@@ -1,153 +1,31 @@
-//! N envs of one task, stepped together: physics, reward, termination, success and
-//! autoreset in one pass over each fixed chunk of envs, chunks in parallel.
+//! N envs of one task, stepped together on the batch [`Engine`]: physics, reward,
+//! termination, success and autoreset in one pass over each fixed chunk of envs,
+//! chunks in parallel.
 //!
 //! Each env owns a ChaCha8 stream (seeded `seed + i` for env i), its step count and
 //! its "episode ended" flag, so env i of a batch seeded with `seed` behaves exactly as
-//! a batch of one seeded with `seed + i`, and the chunking (fixed, [`CHUNK`] envs)
+//! a batch of one seeded with `seed + i`, and the engine's chunking (fixed, [`CHUNK`] envs)
 //! makes results independent of the thread count. Nothing is allocated in
 //! [`EnvBatch::step`] or [`EnvBatch::reset`].
 //!
-//! With rk4, batches of [`MIN_LANE_ENVS`] or more envs step their physics through the
+//! With rk4, batches of [`crate::batch::MIN_LANE_ENVS`] or more envs step their physics through the
 //! lane kernel of [`crate::lanes`] (one env per SIMD lane, each env with its own
 //! parameters when they are randomised), which gives every env the same bits as the
 //! env-by-env path; [`EnvBatch::set_precision`] trades that for f32 lanes.
 
-use super::config::{check_precision, AutoresetMode, TaskConfig};
+use super::config::{AutoresetMode, Start, TaskConfig};
+use super::measure::MeasureInto;
+use super::outputs::{event, Real, StepOutputs, DIAGNOSTICS};
 use super::reality::{EnvParams, NOISE_STREAM, PARAM_STREAM};
 use super::start::base_state;
-use super::step::{
-    reset_env, run_range, sense, write_obs, Ctx, EnvData, OutRange, Slot, Widths, Worker,
-};
-use crate::any::AnyChain;
-use crate::batch::{Precision, CHUNK, MIN_LANE_ENVS};
+use super::step::{reset_env, run_chunk, sense, write_obs, Ctx, EnvData, Pass, Slot, Widths};
+use crate::batch::{Engine, Shared, StateHome, CHUNK};
 use crate::error::{InputError, Result};
-use crate::geometry::{Geometry, Planar, Spatial};
-use crate::integrate::Method;
-use crate::lanes::{ChunkSpec, Kernel};
+use crate::lanes::{Kernel, LaneScene, Precision};
 use crate::model::Chain;
 use crate::params::ChainParams;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-
-/// Smallest guard `unit_length_tolerance` an env batch accepts in f32: after the
-/// projection, `| |q_i| - 1 |` computed in f32 is a few f32 rounding errors (a few
-/// 1e-7), so a tighter tolerance would fail good steps.
-pub const F32_MIN_UNIT_LENGTH_TOLERANCE: f64 = 5e-7;
-
-/// Bits of [`EnvBatch::events`], one byte per env, set by the last step or reset.
-pub mod event {
-    /// The episode ended on this step (terminated or truncated).
-    pub const ENDED: u8 = 1;
-    /// Ended at the time limit, not terminated, with `e_q`, `e_w` within tolerance.
-    pub const SUCCESS: u8 = 2;
-    /// Terminated because `max |x_k| > track_limit`.
-    pub const OUT_OF_TRACK: u8 = 4;
-    /// Terminated because the integration failed; the env kept its last good state.
-    pub const NUMERICAL_FAILURE: u8 = 8;
-    /// Next-step autoreset: this call reset the env instead of stepping it.
-    pub const RESET: u8 = 16;
-}
-
-/// Diagnostics per env, in this order, when enabled: total, kinetic and potential
-/// energy, largest `| |q_i| - 1 |`, largest `|w_i . q_i|` (the length of the columns of
-/// [`EnvBatch::diagnostics`]).
-pub const DIAGNOSTICS: [&str; 5] = [
-    "energy",
-    "kinetic_energy",
-    "potential_energy",
-    "residual_unit_length",
-    "residual_tangency",
-];
-
-/// The episode-end info of one step, one entry per env: false / zero where the
-/// episode did not end.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct EpisodeEnds {
-    /// The episode ended (terminated or truncated).
-    pub ended: Vec<bool>,
-    /// It ended at the time limit within the success tolerances.
-    pub success: Vec<bool>,
-    /// It was terminated by a failed integration step.
-    pub numerical_failure: Vec<bool>,
-    /// It was terminated by the cart leaving the track.
-    pub out_of_track: Vec<bool>,
-    /// `e_q` of the state it ended in.
-    pub e_q: Vec<f64>,
-    /// `e_w` of the state it ended in.
-    pub e_w: Vec<f64>,
-}
-
-impl EpisodeEnds {
-    /// From a step's [`event`] bits and interleaved `(e_q, e_w)` errors. Reads the
-    /// errors of the envs that ended only: right after a step the arrays sit in the
-    /// caches of the threads that wrote them, and a few dozen ended envs are much
-    /// cheaper to fetch than every env's errors.
-    pub fn from_events(events: &[u8], errors: &[f64]) -> Self {
-        let n = events.len();
-        let mut ends = Self {
-            ended: vec![false; n],
-            success: vec![false; n],
-            numerical_failure: vec![false; n],
-            out_of_track: vec![false; n],
-            e_q: vec![0.0; n],
-            e_w: vec![0.0; n],
-        };
-        for (k, &bits) in events.iter().enumerate() {
-            if bits & event::ENDED == 0 {
-                continue;
-            }
-            ends.ended[k] = true;
-            ends.success[k] = bits & event::SUCCESS != 0;
-            ends.numerical_failure[k] = bits & event::NUMERICAL_FAILURE != 0;
-            ends.out_of_track[k] = bits & event::OUT_OF_TRACK != 0;
-            ends.e_q[k] = errors[2 * k];
-            ends.e_w[k] = errors[2 * k + 1];
-        }
-        ends
-    }
-}
-
-/// Element type of caller-provided observation and action buffers.
-pub trait Real: Copy + Send + Sync + 'static {
-    /// The number closest to `v`.
-    fn from_f64(v: f64) -> Self;
-    /// The number as f64.
-    fn to_f64(self) -> f64;
-}
-impl Real for f32 {
-    /// Rounds to nearest, saturating at `+-f32::MAX`: a finite state gives a finite
-    /// observation.
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        v.clamp(-(f32::MAX as f64), f32::MAX as f64) as f32
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-}
-impl Real for f64 {
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        v
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self
-    }
-}
-
-/// Per-step outputs written into caller-provided buffers, env-major.
-pub struct StepOutputs<'a, T: Real> {
-    /// `num_envs * state_dim` observations (the state, cast to `T`).
-    pub obs: &'a mut [T],
-    /// One reward per env.
-    pub rewards: &'a mut [f64],
-    /// Per env: the episode terminated (off track or failed).
-    pub terminated: &'a mut [bool],
-    /// Per env: the episode reached its time limit.
-    pub truncated: &'a mut [bool],
-}
 
 /// A saved copy of everything that evolves (states, RNG streams, step counts, ended
 /// flags), enough to continue a batch identically after [`EnvBatch::restore`].
@@ -202,12 +80,12 @@ fn rng_from_bytes(b: &[u8; RNG_BYTES]) -> ChaCha8Rng {
 }
 
 /// N envs of one task on one chain.
-pub struct EnvBatch<G: Geometry> {
+pub struct EnvBatch<G: LaneScene> {
     /// The nominal model (what the task reports and a controller designer knows).
     chain: Chain<G>,
-    /// The true system all envs share (the nominal one unless mismatched); with
+    /// Steps the true system all envs share (the nominal one unless mismatched); with
     /// randomisation, the centre each env's parameters are drawn around.
-    true_chain: Chain<G>,
+    engine: Engine<G, MeasureInto>,
     task: TaskConfig,
     base: Vec<f64>,
     mode: AutoresetMode,
@@ -215,7 +93,6 @@ pub struct EnvBatch<G: Geometry> {
     num_envs: usize,
     widths: Widths,
     data: EnvData,
-    workers: Vec<Worker<G>>,
     events: Vec<u8>,
     /// `(e_q, e_w)` per env after the last step (before any same-step reset).
     errors: Vec<f64>,
@@ -231,8 +108,8 @@ pub struct EnvBatch<G: Geometry> {
 macro_rules! ctx {
     ($b:expr) => {
         Ctx {
-            chain: &$b.true_chain,
-            truth: $b.true_chain.params(),
+            chain: $b.engine.chain(),
+            truth: $b.engine.chain().params(),
             task: &$b.task,
             base: &$b.base,
             mode: $b.mode,
@@ -259,7 +136,7 @@ fn seed_env(data: &mut EnvData, k: usize, seed: u64) {
     }
 }
 
-impl<G: Geometry> EnvBatch<G> {
+impl<G: LaneScene> EnvBatch<G> {
     /// `num_envs` envs, env i seeded with `seed + i` (wrapping) and reset once.
     pub fn new(
         chain: Chain<G>,
@@ -269,28 +146,33 @@ impl<G: Geometry> EnvBatch<G> {
         mode: AutoresetMode,
         diagnostics: bool,
     ) -> Result<Self> {
-        if num_envs == 0 {
-            return Err(InputError::InvalidParameter {
-                name: "num_envs",
-                value: 0.0,
-                expected: "an integer >= 1",
-            }
-            .into());
-        }
-        crate::limits::check_rows("num_envs", num_envs, chain.state_dim())?;
-        task.validate(chain.n_links())?;
-        task.reality.validate(chain.n_links(), chain.state_dim())?;
-        let true_chain = Chain::new(task.reality.true_params(chain.params())?);
-        let base = base_state(&chain, &task)?;
+        let (true_chain, base) = check_task(&chain, &task)?;
         let d = chain.state_dim();
         let widths = Widths::new(&chain, &task.reality);
+        let shared = Shared {
+            chain: true_chain,
+            dt: task.dt,
+            opts: task.step_options,
+            guard: task.guard,
+        };
+        let hook = MeasureInto::new(&task.target, task.reward, CHUNK);
+        let per_env = widths.param_scalars == 1;
+        let engine = Engine::new(
+            shared,
+            num_envs,
+            StateHome::Rows,
+            per_env,
+            task.precision,
+            hook,
+        )?;
+        let true_params = engine.chain().params();
         let unseeded = ChaCha8Rng::seed_from_u64(0);
         let mut data = EnvData {
             states: vec![0.0; num_envs * d],
             slots: vec![Slot::default(); num_envs],
             start_rngs: vec![unseeded.clone(); num_envs],
-            params: if widths.param_scalars == 1 {
-                EnvParams::filled(true_chain.params(), num_envs)
+            params: if per_env {
+                EnvParams::filled(true_params, num_envs)
             } else {
                 EnvParams::empty(chain.n_links())
             },
@@ -303,9 +185,6 @@ impl<G: Geometry> EnvBatch<G> {
         for k in 0..num_envs {
             seed_env(&mut data, k, seed.wrapping_add(k as u64));
         }
-        let workers = (0..num_envs.div_ceil(CHUNK))
-            .map(|_| Worker::new(&true_chain))
-            .collect();
         let mut batch = Self {
             task,
             base,
@@ -314,25 +193,16 @@ impl<G: Geometry> EnvBatch<G> {
             num_envs,
             widths,
             data,
-            workers,
             events: vec![0; num_envs],
             errors: vec![0.0; 2 * num_envs],
             finals: vec![0.0; num_envs * d],
             diag: vec![0.0; DIAGNOSTICS.len() * num_envs],
             chain,
-            true_chain,
+            engine,
             lane_params_stale: true,
         };
         for env in 0..num_envs {
             batch.reset_one(env);
-        }
-        if batch.task.precision == Precision::F32 {
-            // Checked with the task; f32 steps on the lanes at any batch size.
-            batch.lanes_or_error(Kernel::detect(), Precision::F32)?;
-        } else if batch.task.step_options.method == Method::Rk4 && num_envs >= MIN_LANE_ENVS {
-            // The default where the scene has a lane kernel (a scene without one
-            // keeps stepping env by env).
-            let _ = batch.use_lanes(Some(Kernel::detect()), Precision::F64);
         }
         Ok(batch)
     }
@@ -389,7 +259,7 @@ impl<G: Geometry> EnvBatch<G> {
     /// The true parameters shared by the envs before randomisation: the nominal ones
     /// with the task's parameter replacement and mismatch applied.
     pub fn true_params(&self) -> &ChainParams {
-        self.true_chain.params()
+        self.engine.chain().params()
     }
     /// Env `env`'s current true parameters (its own draw when randomised).
     pub fn env_params(&self, env: usize) -> Result<ChainParams> {
@@ -397,7 +267,7 @@ impl<G: Geometry> EnvBatch<G> {
         if self.widths.param_scalars == 1 {
             self.data.params.get(env)
         } else {
-            Ok(self.true_chain.params().clone())
+            Ok(self.true_params().clone())
         }
     }
     /// The per-env parameter arrays (struct of arrays over the envs) when parameters
@@ -426,92 +296,34 @@ impl<G: Geometry> EnvBatch<G> {
 
     /// The lane kernel stepping the physics, or `None` when envs step one by one.
     pub fn kernel(&self) -> Option<Kernel> {
-        self.workers[0].lanes().map(|l| l.kernel())
+        self.engine.kernel()
     }
 
     /// Number type of the physics (f64 unless [`EnvBatch::set_precision`] chose f32).
     pub fn precision(&self) -> Precision {
-        self.workers[0]
-            .lanes()
-            .map_or(Precision::F64, |l| l.precision())
+        self.engine.precision()
     }
 
-    /// Chooses the lane kernel (`None`: env by env). Both give the same bits in f64;
-    /// this exists to compare them. Errors if the CPU lacks the kernel or the
-    /// integrator is not rk4. Keeps the precision.
+    /// Chooses the lane kernel (`None`: env by env, in f64); see [`Engine::set_kernel`].
     pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
-        let Some(kernel) = kernel else {
-            self.use_lanes(None, Precision::F64);
-            self.task.precision = Precision::F64;
-            return Ok(());
-        };
-        kernel.checked()?;
-        self.check_rk4("kernel", kernel as u8 as f64)?;
-        self.lanes_or_error(kernel, self.precision())
+        self.engine.set_kernel(kernel)?;
+        self.lanes_rebuilt();
+        Ok(())
     }
 
-    /// Steps the physics in f64 (the default) or f32. f32 runs on the lane kernel
-    /// (16 envs per group; chosen here if the batch stepped env by env, even below
-    /// [`MIN_LANE_ENVS`] envs) and needs rk4; it gives up bit-identity with the f64
-    /// path for speed, within the accuracy documented in `docs/simd.md`.
+    /// Steps the physics in f64 (the default) or f32 (see [`Engine::set_precision`]).
     /// Observations keep their own dtype.
     pub fn set_precision(&mut self, precision: Precision) -> Result<()> {
-        let kernel = self.kernel();
-        if kernel.is_none() && precision == Precision::F64 {
-            return Ok(());
-        }
-        check_precision(precision, self.task.step_options.method, &self.task.guard)?;
-        self.lanes_or_error(kernel.unwrap_or_else(Kernel::detect), precision)?;
-        self.task.precision = precision;
+        self.engine.set_precision(precision)?;
+        self.lanes_rebuilt();
         Ok(())
     }
 
-    /// An error naming `name = value` unless the integrator is rk4.
-    fn check_rk4(&self, name: &'static str, value: f64) -> Result<()> {
-        if self.task.step_options.method == Method::Rk4 {
-            return Ok(());
-        }
-        Err(InputError::InvalidParameter {
-            name,
-            value,
-            expected: "the f64 env-by-env path unless the integrator is rk4 (the only one with a lane kernel)",
-        }
-        .into())
-    }
-
-    /// [`EnvBatch::use_lanes`], or an error if the scene has no lane kernel.
-    fn lanes_or_error(&mut self, kernel: Kernel, precision: Precision) -> Result<()> {
-        let used = self.use_lanes(Some(kernel), precision);
-        kernel.available_or("None: this scene has no lane kernel", used)?;
-        Ok(())
-    }
-
-    /// Gives every chunk's worker the lane path of `kernel` in `precision` (`None`:
-    /// env by env). Returns false, changing nothing, if the scene has no lane kernel.
-    fn use_lanes(&mut self, kernel: Option<Kernel>, precision: Precision) -> bool {
-        let per_env = self.widths.param_scalars == 1;
-        let num_envs = self.num_envs;
-        for (i, worker) in self.workers.iter_mut().enumerate() {
-            let chunk = CHUNK.min(num_envs - i * CHUNK);
-            let lanes = match kernel {
-                None => None,
-                Some(kernel) => {
-                    let spec = ChunkSpec {
-                        num_envs: chunk,
-                        per_env,
-                        kernel,
-                        precision,
-                    };
-                    match G::chunk_lanes(&self.true_chain, spec) {
-                        Some(lanes) => Some(lanes),
-                        None => return false,
-                    }
-                }
-            };
-            worker.set_lanes(lanes, chunk);
-        }
+    /// The lanes may be new: the task's precision says what they run in, and per-env
+    /// parameters are loaded into them before the next step.
+    fn lanes_rebuilt(&mut self) {
+        self.task.precision = self.engine.precision();
         self.lane_params_stale = true;
-        true
     }
 
     /// Writes every env's current observation (its state cast to `T`, or its last
@@ -545,7 +357,7 @@ impl<G: Geometry> EnvBatch<G> {
     pub fn set_state(&mut self, env: usize, state: &[f64]) -> Result<()> {
         self.check_env(env)?;
         let mut task = self.task.clone();
-        task.start = super::config::Start::State(state.to_vec());
+        task.start = Start::State(state.to_vec());
         let y = base_state(&self.chain, &task)?;
         let w = self.widths;
         let reality = &self.task.reality;
@@ -638,19 +450,32 @@ impl<G: Geometry> EnvBatch<G> {
         check_size("rewards", out.rewards.len(), n)?;
         check_size("terminated", out.terminated.len(), n)?;
         check_size("truncated", out.truncated.len(), n)?;
-        let ctx = ctx!(self);
-        let outputs = OutRange {
+        let pass = Pass::new(
+            self.data.view(),
             actions,
-            obs: out.obs,
-            rewards: out.rewards,
-            terminated: out.terminated,
-            truncated: out.truncated,
-            events: &mut self.events,
-            errors: &mut self.errors,
-            finals: &mut self.finals,
-            diag: &mut self.diag,
-        };
-        run_range(&ctx, self.data.view(), outputs, &mut self.workers);
+            out,
+            &mut self.events,
+            &mut self.errors,
+            &mut self.finals,
+            &mut self.diag,
+            self.widths,
+        );
+        let (task, base, mode) = (&self.task, &self.base[..], self.mode);
+        let (diagnostics, widths, reload_params) =
+            (self.diagnostics, self.widths, self.lane_params_stale);
+        self.engine.run_chunks(pass, |shared, pass, worker| {
+            let ctx = Ctx {
+                chain: &shared.chain,
+                truth: shared.chain.params(),
+                task,
+                base,
+                mode,
+                diagnostics,
+                widths,
+                reload_params,
+            };
+            run_chunk(&ctx, pass, worker);
+        });
         self.lane_params_stale = false;
         Ok(self
             .events
@@ -739,160 +564,16 @@ fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
     }
 }
 
-/// An env batch in either scene, chosen at run time.
-pub enum AnyEnvBatch {
-    /// Envs of the spatial model.
-    Spatial(EnvBatch<Spatial>),
-    /// Envs of the planar model.
-    Planar(EnvBatch<Planar>),
-}
-
-impl AnyEnvBatch {
-    /// A batch of `num_envs` envs of `chain` with `task`, seeded from `seed` (env i: `seed + i`).
-    pub fn new(
-        chain: AnyChain,
-        task: TaskConfig,
-        num_envs: usize,
-        seed: u64,
-        mode: AutoresetMode,
-        diagnostics: bool,
-    ) -> Result<Self> {
-        Ok(match chain {
-            AnyChain::Spatial(c) => {
-                AnyEnvBatch::Spatial(EnvBatch::new(c, task, num_envs, seed, mode, diagnostics)?)
-            }
-            AnyChain::Planar(c) => {
-                AnyEnvBatch::Planar(EnvBatch::new(c, task, num_envs, seed, mode, diagnostics)?)
-            }
-        })
-    }
-    /// Whether the envs run the planar model.
-    pub fn is_planar(&self) -> bool {
-        matches!(self, AnyEnvBatch::Planar(_))
-    }
-    /// The task.
-    pub fn task(&self) -> &TaskConfig {
-        dispatch!(AnyEnvBatch, self, b => b.task())
-    }
-    /// How ended episodes are reset.
-    pub fn mode(&self) -> AutoresetMode {
-        dispatch!(AnyEnvBatch, self, b => b.mode())
-    }
-    /// Whether every step records energies and residuals.
-    pub fn diagnostics_enabled(&self) -> bool {
-        dispatch!(AnyEnvBatch, self, b => b.diagnostics_enabled())
-    }
-    /// Number of envs.
-    pub fn num_envs(&self) -> usize {
-        dispatch!(AnyEnvBatch, self, b => b.num_envs())
-    }
-    /// Number of links.
-    pub fn n_links(&self) -> usize {
-        dispatch!(AnyEnvBatch, self, b => b.chain().n_links())
-    }
-    /// Length of one env's state.
-    pub fn state_dim(&self) -> usize {
-        dispatch!(AnyEnvBatch, self, b => b.state_dim())
-    }
-    /// Length of one env's force.
-    pub fn force_dim(&self) -> usize {
-        dispatch!(AnyEnvBatch, self, b => b.force_dim())
-    }
-    /// The start state before noise.
-    pub fn base_state(&self) -> &[f64] {
-        dispatch!(AnyEnvBatch, self, b => b.base_state())
-    }
-    /// Every env's state, env-major.
-    pub fn states(&self) -> &[f64] {
-        dispatch!(AnyEnvBatch, self, b => b.states())
-    }
-    /// Steps env `env` has taken in its episode.
-    pub fn step_count(&self, env: usize) -> u64 {
-        dispatch!(AnyEnvBatch, self, b => b.step_count(env))
-    }
-    /// Whether env `env`'s episode has ended.
-    pub fn has_ended(&self, env: usize) -> bool {
-        dispatch!(AnyEnvBatch, self, b => b.has_ended(env))
-    }
-    /// Per env, the event bits of the last step.
-    pub fn events(&self) -> &[u8] {
-        dispatch!(AnyEnvBatch, self, b => b.events())
-    }
-    /// Per env, `(e_q, e_w)` after the last step.
-    pub fn errors(&self) -> &[f64] {
-        dispatch!(AnyEnvBatch, self, b => b.errors())
-    }
-    /// Same-step mode: the last state of each env whose episode just ended.
-    pub fn final_states(&self) -> &[f64] {
-        dispatch!(AnyEnvBatch, self, b => b.final_states())
-    }
-    /// Per env, the diagnostics of the last step (when enabled).
-    pub fn diagnostics(&self) -> &[f64] {
-        dispatch!(AnyEnvBatch, self, b => b.diagnostics())
-    }
-    /// Writes every env's observation into `obs`.
-    pub fn write_obs<T: Real>(&self, obs: &mut [T]) -> Result<()> {
-        dispatch!(AnyEnvBatch, self, b => b.write_obs(obs))
-    }
-    /// Puts env `env` in `state` (checked).
-    pub fn set_state(&mut self, env: usize, state: &[f64]) -> Result<()> {
-        dispatch!(AnyEnvBatch, self, b => b.set_state(env, state))
-    }
-    /// Resets the envs (all, or those in the mask) and writes their observations.
-    pub fn reset<T: Real>(
-        &mut self,
-        seeds: Option<&[Option<u64>]>,
-        mask: Option<&[bool]>,
-        obs: &mut [T],
-    ) -> Result<()> {
-        dispatch!(AnyEnvBatch, self, b => b.reset(seeds, mask, obs))
-    }
-    /// Checks a batch of actions (length, finite) before any env moves.
-    pub fn check_actions<A: Real>(&self, actions: &[A]) -> Result<()> {
-        dispatch!(AnyEnvBatch, self, b => b.check_actions(actions))
-    }
-    /// Steps every env by one control period and writes the outputs.
-    pub fn step<T: Real, A: Real>(
-        &mut self,
-        actions: &[A],
-        out: StepOutputs<'_, T>,
-    ) -> Result<usize> {
-        dispatch!(AnyEnvBatch, self, b => b.step(actions, out))
-    }
-    /// The true parameters shared before randomisation.
-    pub fn true_params(&self) -> &ChainParams {
-        dispatch!(AnyEnvBatch, self, b => b.true_params())
-    }
-    /// Env `env`'s current true parameters.
-    pub fn env_params(&self, env: usize) -> Result<ChainParams> {
-        dispatch!(AnyEnvBatch, self, b => b.env_params(env))
-    }
-    /// Every env's own parameters, when they differ per env.
-    pub fn per_env_params(&self) -> Option<&EnvParams> {
-        dispatch!(AnyEnvBatch, self, b => b.per_env_params())
-    }
-    /// A copy of everything that evolves.
-    pub fn snapshot(&self) -> Snapshot {
-        dispatch!(AnyEnvBatch, self, b => b.snapshot())
-    }
-    /// Continues from a snapshot of this batch.
-    pub fn restore(&mut self, snap: &Snapshot) -> Result<()> {
-        dispatch!(AnyEnvBatch, self, b => b.restore(snap))
-    }
-    /// The lane kernel stepping the physics, or `None` when envs step one by one.
-    pub fn kernel(&self) -> Option<Kernel> {
-        dispatch!(AnyEnvBatch, self, b => b.kernel())
-    }
-    /// Number type of the physics.
-    pub fn precision(&self) -> Precision {
-        dispatch!(AnyEnvBatch, self, b => b.precision())
-    }
-    /// Chooses the lane kernel (`None`: env by env).
-    pub fn set_kernel(&mut self, kernel: Option<Kernel>) -> Result<()> {
-        dispatch!(AnyEnvBatch, self, b => b.set_kernel(kernel))
-    }
-    /// Steps the physics in f64 or f32 (rk4 only for f32).
-    pub fn set_precision(&mut self, precision: Precision) -> Result<()> {
-        dispatch!(AnyEnvBatch, self, b => b.set_precision(precision))
-    }
+/// Checks `task` against `chain` without building a batch (every check of the task a
+/// batch makes: the task's fields and precision, the reality gap, the start state) and
+/// returns the true system the envs step and the state episodes start from before noise.
+pub fn check_task<G: LaneScene>(
+    chain: &Chain<G>,
+    task: &TaskConfig,
+) -> Result<(Chain<G>, Vec<f64>)> {
+    task.validate(chain.n_links())?;
+    task.reality.validate(chain.n_links(), chain.state_dim())?;
+    let true_chain = Chain::new(task.reality.true_params(chain.params())?);
+    let base = base_state(chain, task)?;
+    Ok((true_chain, base))
 }

@@ -1,15 +1,16 @@
 //! The task: which equilibrium to reach, where episodes start, how they are scored
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
-use super::batch::F32_MIN_UNIT_LENGTH_TOLERANCE;
 use super::keys::{
-    DEFAULT_MAX_EPISODE_STEPS, DEFAULT_START_NOISE, DEFAULT_TRACK_LIMIT, START_NAMES, TARGET_NAMES,
+    DEFAULT_MAX_EPISODE_STEPS, DEFAULT_REWARD_WEIGHTS, DEFAULT_START_NOISE,
+    DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT, START_NAMES, TARGET_NAMES,
 };
 use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
-use crate::batch::{Guard, Precision};
+use crate::batch::check_precision;
 use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
-use crate::integrate::{Method, StepOptions};
+use crate::integrate::{Guard, StepOptions};
+use crate::lanes::Precision;
 
 /// The paper's numerical examples (Sec. V). Figs. 1 and 2 share the initial
 /// condition IC1; Fig. 3 has its own. All three are defined for n = 5 links.
@@ -155,11 +156,11 @@ impl Default for RewardWeights {
 impl RewardWeights {
     /// The default weights (see [`Default`]).
     pub const DEFAULT: Self = Self {
-        q: 1.0,
-        w: 0.1,
-        x: 0.1,
-        v: 0.1,
-        u: 0.01,
+        q: DEFAULT_REWARD_WEIGHTS[0],
+        w: DEFAULT_REWARD_WEIGHTS[1],
+        x: DEFAULT_REWARD_WEIGHTS[2],
+        v: DEFAULT_REWARD_WEIGHTS[3],
+        u: DEFAULT_REWARD_WEIGHTS[4],
     };
     /// `[q, w, x, v, u]`.
     pub const fn as_array(&self) -> [f64; 5] {
@@ -209,7 +210,10 @@ impl Default for SuccessTolerances {
 
 impl SuccessTolerances {
     /// The default tolerances (see [`Default`]).
-    pub const DEFAULT: Self = Self { e_q: 0.1, e_w: 0.5 };
+    pub const DEFAULT: Self = Self {
+        e_q: DEFAULT_SUCCESS_TOLERANCES[0],
+        e_w: DEFAULT_SUCCESS_TOLERANCES[1],
+    };
     /// `[e_q, e_w]`.
     pub const fn as_array(&self) -> [f64; 2] {
         [self.e_q, self.e_w]
@@ -365,35 +369,6 @@ impl TaskConfig {
         check_positive("success_tolerances.e_w", self.success.e_w)?;
         check_precision(self.precision, self.step_options.method, &self.guard)
     }
-}
-
-/// Checks that `precision` can step with `method` under `guard`: f32 needs rk4 (the
-/// only integrator with an f32 lane kernel) and a unit-length tolerance of at least
-/// [`F32_MIN_UNIT_LENGTH_TOLERANCE`].
-pub fn check_precision(precision: Precision, method: Method, guard: &Guard) -> Result<()> {
-    if precision == Precision::F64 {
-        return Ok(());
-    }
-    if method != Method::Rk4 {
-        return Err(InputError::Incompatible {
-            name: "precision",
-            value: precision.name(),
-            expected: format!(
-                "\"f64\" with integrator {:?} (only \"rk4\" has an f32 kernel)",
-                method.name()
-            ),
-        }
-        .into());
-    }
-    if guard.unit_length_tolerance < F32_MIN_UNIT_LENGTH_TOLERANCE {
-        return Err(InputError::InvalidParameter {
-            name: "guard unit_length_tolerance",
-            value: guard.unit_length_tolerance,
-            expected: "at least 5e-7 in f32 (its round-off alone reaches a few 1e-7 and would fail good steps), or precision f64",
-        }
-        .into());
-    }
-    Ok(())
 }
 
 fn check_non_negative(name: &'static str, value: f64) -> Result<()> {

@@ -2,18 +2,18 @@
 //! values it accepts, its default and its help text. The Python configuration
 //! (`ChainCartConfig`), its documentation table, the env docstring and the command
 //! line's option help are all read or generated from [`CONFIG_KEYS`]; the scenes
-//! ([`super::scenes`]) are named sets of values on top of these defaults.
+//! (`scenes`) are named sets of values on top of these defaults. The task's types
+//! (`config`) take their defaults from here.
 //!
 //! The defaults are the default scene's values (the planar double inverted pendulum):
 //! a scene that sets nothing is the default scene. Ranges are checked where the core
 //! builds the parameters and the task ([`crate::params::ChainParams::new`],
-//! [`super::TaskConfig::validate`], [`super::RealityGap::validate`]); each key's
+//! `TaskConfig::validate`, `RealityGap::validate`); each key's
 //! [`ConfigKey::expected`] says in words what those checks accept (a test holds the
 //! two together).
 
-use super::config::{RewardWeights, SuccessTolerances};
-use crate::batch::Precision;
 use crate::integrate::Method;
+use crate::lanes::Precision;
 use crate::params::STANDARD_GRAVITY;
 use std::sync::LazyLock;
 
@@ -105,7 +105,7 @@ pub const START_NAMES: [&str; 8] = {
 /// Names of the observation dtypes.
 pub const OBS_DTYPE_NAMES: [&str; 2] = ["float32", "float64"];
 
-/// Names of the reward weights, in the order of [`RewardWeights::as_array`].
+/// Names of the reward weights, in the order of `RewardWeights::as_array`.
 pub const REWARD_WEIGHT_NAMES: [&str; 5] = ["q", "w", "x", "v", "u"];
 
 /// Names of the success tolerances.
@@ -118,8 +118,15 @@ pub const DEFAULT_TRACK_LIMIT: f64 = 2.4;
 /// Default episode length, steps (also [`super::TaskConfig::new`]'s).
 pub const DEFAULT_MAX_EPISODE_STEPS: i64 = 500;
 
-const DEFAULT_REWARD_WEIGHTS: [f64; 5] = RewardWeights::DEFAULT.as_array();
-const DEFAULT_SUCCESS_TOLERANCES: [f64; 2] = SuccessTolerances::DEFAULT.as_array();
+/// Default reward weights `[q, w, x, v, u]` (see `RewardWeights`): a tilt of 0.3 rad
+/// costs 9% of the reward, a hanging link (|q - s e3|^2 = 4) leaves 2%, and the cart,
+/// the rates and the force only shape the reward near the target.
+pub const DEFAULT_REWARD_WEIGHTS: [f64; 5] = [1.0, 0.1, 0.1, 0.1, 0.01];
+/// Default success tolerances `[e_q, e_w]`: about 6 degrees of tilt and 0.5 rad/s in total.
+pub const DEFAULT_SUCCESS_TOLERANCES: [f64; 2] = [0.1, 0.5];
+
+/// The scene used when none is named: the planar double inverted pendulum.
+pub const DEFAULT_SCENE: &str = "inverted-2";
 
 /// Every configuration key, in the order of `ChainCartConfig`'s fields. Adding a key
 /// is one entry here (plus where its value is used).
@@ -246,7 +253,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
     ConfigKey {
         name: "scene",
         kind: KeyKind::Scene,
-        default: KeyValue::Name(super::scenes::DEFAULT_SCENE),
+        default: KeyValue::Name(DEFAULT_SCENE),
         expected: "a scene name",
         help: "named scene whose values fill every keyword not given",
     },

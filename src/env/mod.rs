@@ -1,6 +1,13 @@
 //! The reinforcement-learning task layer, pure Rust: a target equilibrium, a start
-//! distribution, reward, termination, success and autoreset for a batch of envs.
-//! The Python envs (`chaincart_env`) are thin front ends over [`EnvBatch`].
+//! distribution, reward, termination, success and autoreset for a batch of envs,
+//! on top of the batch engine ([`crate::batch::Engine`]). The Python envs
+//! (`chaincart_env`) are thin front ends over [`EnvBatch`].
+//!
+//! * [`keys`], [`scenes`]: the one table of configuration keys and the named scenes.
+//! * [`config`], [`reality`], [`start`]: the task's types, the reality gap, start states.
+//! * [`measure`]: what the task reads of a state (reward, errors), also in the lanes.
+//! * [`batch`], `step`, [`outputs`]: the env batch, one step of a chunk of envs, what a
+//!   step hands back.
 //!
 //! **Action.** Normalised force `a` (2 numbers spatial, 1 planar), clipped to
 //! `[-1, 1]` per axis, times [`TaskConfig::max_force`]; held for one control period
@@ -32,20 +39,19 @@
 pub mod batch;
 pub mod config;
 pub mod keys;
+pub mod measure;
+pub mod outputs;
 pub mod reality;
 pub mod scenes;
 pub mod start;
 mod step;
 
-pub use batch::{
-    event, AnyEnvBatch, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS,
-    F32_MIN_UNIT_LENGTH_TOLERANCE,
-};
+pub use batch::{check_task, EnvBatch, Snapshot, RNG_BYTES};
 pub use config::{
-    check_precision, target_signs, AutoresetMode, PaperFigure, RewardWeights, Start,
-    SuccessTolerances, TaskConfig,
+    target_signs, AutoresetMode, PaperFigure, RewardWeights, Start, SuccessTolerances, TaskConfig,
 };
 pub use keys::{config_key, ConfigKey, KeyKind, KeyValue, CONFIG_KEYS};
+pub use outputs::{event, EpisodeEnds, Real, StepOutputs, DIAGNOSTICS};
 pub use reality::{
     Distribution, EnvParams, Param, ParamRandomization, ParamValues, Randomization, RealityGap,
 };

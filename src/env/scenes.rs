@@ -1,6 +1,7 @@
 //! The named scenes: each a set of values on top of the key defaults of
 //! [`super::keys::CONFIG_KEYS`] (which are the default scene's), applied in order.
 
+pub use super::keys::DEFAULT_SCENE;
 use super::keys::{config_key, KeyValue};
 use crate::error::{InputError, Result};
 use crate::params::{PAPER_CART_MASS, PAPER_LINKS, PAPER_LINK_LENGTH, PAPER_LINK_MASS};
@@ -16,9 +17,6 @@ pub struct Scene {
     /// Groups of `(key, value)` on top of the defaults; a later value wins.
     pub values: &'static [&'static [(&'static str, KeyValue)]],
 }
-
-/// The scene used when none is named: the planar double inverted pendulum.
-pub const DEFAULT_SCENE: &str = "inverted-2";
 
 /// The single planar inverted pendulum, a CartPole-sized one: a point mass of 0.1 kg at
 /// 0.5 m on a 1 kg cart, unstable at about 4.6 1/s.

@@ -1,22 +1,23 @@
 //! One control period of a range of envs: named per-env views of the batch's arrays,
 //! the reset of one env and the step of one env (actuation, physics, scoring,
-//! sensing). The batch splits its envs into fixed chunks of [`CHUNK`] envs, each with
-//! its own [`Worker`]; chunks run in parallel, and no env reads another's data, so the
-//! split never changes a result.
+//! sensing). The engine splits the envs into fixed chunks of
+//! [`crate::batch::CHUNK`] envs, each with its own [`Worker`]; chunks run in parallel,
+//! and no env reads another's data, so the split never changes a result.
 //!
 //! With a lane kernel (rk4) a chunk runs in three phases instead of env by env:
 //! every env's autoreset or actuation, then one lane step of the envs that step, then
 //! every stepped env's scoring, same-step reset and observation. Envs are independent,
 //! so the phase order gives each env exactly the bits of the env-by-env order.
 
-use super::batch::{event, Real, DIAGNOSTICS};
 use super::config::{AutoresetMode, TaskConfig};
+use super::measure::{measure, MeasureInto, StateMeasure};
+use super::outputs::{event, Real, DIAGNOSTICS};
 use super::reality::{EnvParams, ParamRow, RealityGap};
 use super::start::perturb;
-use crate::batch::{GuardedStepper, StepStatus, CHUNK};
+use crate::batch::{ChunkLanePath, EnvRange, Worker};
 use crate::geometry::{Geometry, Vector};
-use crate::lanes::measure::{measure, room, MeasureInto, MeasureTask, Measures, StateMeasure};
-use crate::lanes::{ChunkLanes, StepPlan, LANES_F32};
+use crate::integrate::StepStatus;
+use crate::lanes::StepPlan;
 use crate::model::Chain;
 use crate::params::ChainParams;
 use rand::Rng;
@@ -331,60 +332,6 @@ pub(super) struct EnvOut<'a, T: Real, A: Real> {
     diag: &'a mut [f64],
 }
 
-/// Scratch of one chunk: the integrator, a chain that per-env parameters are
-/// loaded into and, when a lane kernel steps the chunk, its lane path and buffers.
-pub(super) struct Worker<G: Geometry> {
-    stepper: GuardedStepper<G>,
-    chain: Chain<G>,
-    lanes: Option<LaneScratch>,
-}
-
-// A lane path steps whole groups of lanes: chunks must not split one.
-const _: () = assert!(CHUNK.is_multiple_of(LANES_F32));
-
-/// The lane path of one chunk and what its phases hand each other, sized for the
-/// chunk once (nothing is allocated in a step).
-pub(super) struct LaneScratch {
-    lanes: Box<dyn ChunkLanes>,
-    /// Per env, the force `actuate` asked for.
-    forces: Vec<f64>,
-    /// Per env, the squared applied action (for the reward).
-    a2: Vec<f64>,
-    /// Per env, whether it steps (false: it was autoreset instead).
-    stepped: Vec<bool>,
-    status: Vec<StepStatus>,
-    /// Per env, what the task reads of the state its step reached.
-    measures: Measures,
-}
-
-impl<G: Geometry> Worker<G> {
-    pub fn new(chain: &Chain<G>) -> Self {
-        Self {
-            stepper: GuardedStepper::new(chain),
-            chain: chain.clone(),
-            lanes: None,
-        }
-    }
-
-    /// Steps the worker's `num_envs` envs with `lanes` from now on (`None`: env by env).
-    pub fn set_lanes(&mut self, lanes: Option<Box<dyn ChunkLanes>>, num_envs: usize) {
-        self.lanes = lanes.map(|lanes| LaneScratch {
-            lanes,
-            forces: vec![0.0; num_envs * G::Cart::DIM],
-            // Lane groups read the padding past the last env too.
-            a2: vec![0.0; room(num_envs)],
-            stepped: vec![false; num_envs],
-            status: vec![StepStatus::Ok; num_envs],
-            measures: Measures::new(num_envs),
-        });
-    }
-
-    /// The worker's lane path, if a lane kernel steps its chunk.
-    pub fn lanes(&self) -> Option<&dyn ChunkLanes> {
-        self.lanes.as_ref().map(|l| &*l.lanes)
-    }
-}
-
 /// Everything a step reads (shared by all chunks).
 pub(super) struct Ctx<'a, G: Geometry> {
     /// The true system shared by all envs when parameters are not per env.
@@ -401,44 +348,74 @@ pub(super) struct Ctx<'a, G: Geometry> {
     pub reload_params: bool,
 }
 
-/// Steps every env of the range, splitting it at chunk boundaries and running the
-/// halves in parallel; a range of one chunk runs on this thread.
-pub(super) fn run_range<G: Geometry, T: Real, A: Real>(
-    ctx: &Ctx<'_, G>,
-    data: DataRange<'_>,
-    out: OutRange<'_, T, A>,
-    workers: &mut [Worker<G>],
-) {
-    let len = data.len();
-    if len <= CHUNK {
-        run_chunk(ctx, data, out, &mut workers[0]);
-        return;
+/// One step's per-env data and outputs, split by the engine at chunk boundaries.
+pub(super) struct Pass<'a, T: Real, A: Real> {
+    data: DataRange<'a>,
+    out: OutRange<'a, T, A>,
+    widths: Widths,
+}
+
+impl<'a, T: Real, A: Real> Pass<'a, T, A> {
+    /// The pass over every env of a batch.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        data: DataRange<'a>,
+        actions: &'a [A],
+        out: super::outputs::StepOutputs<'a, T>,
+        events: &'a mut [u8],
+        errors: &'a mut [f64],
+        finals: &'a mut [f64],
+        diag: &'a mut [f64],
+        widths: Widths,
+    ) -> Self {
+        let out = OutRange {
+            actions,
+            obs: out.obs,
+            rewards: out.rewards,
+            terminated: out.terminated,
+            truncated: out.truncated,
+            events,
+            errors,
+            finals,
+            diag,
+        };
+        Self { data, out, widths }
     }
-    let chunks = len.div_ceil(CHUNK);
-    let mid = chunks / 2 * CHUNK;
-    let (data_a, data_b) = data.split_at(mid, &ctx.widths);
-    let (out_a, out_b) = out.split_at(mid, &ctx.widths);
-    let (workers_a, workers_b) = workers.split_at_mut(chunks / 2);
-    let first = || run_range(ctx, data_a, out_a, workers_a);
-    let second = || run_range(ctx, data_b, out_b, workers_b);
-    if rayon::current_num_threads() > 1 {
-        rayon::join(first, second);
-    } else {
-        // A one-thread pool gains nothing from `join`, and handing the work to its
-        // thread (waking it on every step) costs more than stepping a chunk here.
-        first();
-        second();
+}
+
+impl<T: Real, A: Real> EnvRange for Pass<'_, T, A> {
+    fn num_envs(&self) -> usize {
+        self.data.len()
+    }
+    fn split_at(self, at: usize) -> (Self, Self) {
+        let w = self.widths;
+        let (data_a, data_b) = self.data.split_at(at, &w);
+        let (out_a, out_b) = self.out.split_at(at, &w);
+        (
+            Self {
+                data: data_a,
+                out: out_a,
+                widths: w,
+            },
+            Self {
+                data: data_b,
+                out: out_b,
+                widths: w,
+            },
+        )
     }
 }
 
 /// Steps the envs of one chunk on this thread: env by env, or in phases around one
 /// lane step when the worker has a lane path.
-fn run_chunk<G: Geometry, T: Real, A: Real>(
+pub(super) fn run_chunk<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
-    mut data: DataRange<'_>,
-    mut out: OutRange<'_, T, A>,
-    worker: &mut Worker<G>,
+    pass: Pass<'_, T, A>,
+    worker: &mut Worker<G, MeasureInto>,
 ) {
+    let Pass {
+        mut data, mut out, ..
+    } = pass;
     if worker.lanes.is_some() {
         run_chunk_lanes(ctx, data, out, worker);
         return;
@@ -464,7 +441,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
     mut data: DataRange<'_>,
     mut out: OutRange<'_, T, A>,
-    worker: &mut Worker<G>,
+    worker: &mut Worker<G, MeasureInto>,
 ) {
     let Worker {
         chain: scratch,
@@ -478,7 +455,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
     let (num_envs, f) = (data.len(), w.force);
     if ctx.reload_params {
         for k in 0..num_envs {
-            load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
+            load_lane_params(scratch, l, k, &data.env(k, w).params);
         }
     }
     for k in 0..num_envs {
@@ -487,32 +464,17 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         l.stepped[k] = !e.slot.ended;
         if e.slot.ended {
             autoreset_step(ctx, scratch, e, o);
-            load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
+            load_lane_params(scratch, l, k, &data.env(k, w).params);
             continue;
         }
-        l.a2[k] = actuate(task, &mut e, o.action, &mut l.forces[k * f..(k + 1) * f]);
+        l.hook.task.a2[k] = actuate(task, &mut e, o.action, &mut l.forces[k * f..(k + 1) * f]);
     }
     let plan = StepPlan {
         dt: task.dt,
         substeps: task.step_options.substeps,
         guard: &task.guard,
     };
-    let measures = MeasureInto {
-        task: MeasureTask {
-            target: &task.target,
-            weights: &task.reward,
-            a2: &l.a2,
-        },
-        out: &mut l.measures,
-    };
-    l.lanes.step(
-        &mut data.states[..num_envs * w.state],
-        &l.forces[..num_envs * f],
-        &l.stepped[..num_envs],
-        plan,
-        &mut l.status[..num_envs],
-        Some(measures),
-    );
+    l.step(&mut data.states[..num_envs * w.state], num_envs, f, plan);
     let noisy = w.noisy > 0;
     for k in 0..num_envs {
         if !l.stepped[k] {
@@ -528,9 +490,15 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         let status = l.status[k];
         // A failed env kept its old state, which its lane did not measure.
         let m = if status.is_failure() {
-            measure(ctx.chain.layout(), e.y, &task.target, &task.reward, l.a2[k])
+            measure(
+                ctx.chain.layout(),
+                e.y,
+                &task.target,
+                &task.reward,
+                l.hook.task.a2[k],
+            )
         } else {
-            l.measures.get(k)
+            l.hook.out.get(k)
         };
         let mut o = out.env(k, w);
         let reset = finish_step(ctx, chain, &mut e, &mut o, status, &m);
@@ -538,7 +506,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
             emit_obs(&task.reality, &mut e, o.obs);
         }
         if reset {
-            load_lane_params(scratch, &mut *l.lanes, k, &data.env(k, w).params);
+            load_lane_params(scratch, l, k, &data.env(k, w).params);
         }
     }
     if !noisy {
@@ -554,7 +522,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
 /// scratch chain exactly as the per-env path computes them.
 fn load_lane_params<G: Geometry>(
     scratch: &mut Chain<G>,
-    lanes: &mut dyn ChunkLanes,
+    lanes: &mut ChunkLanePath<MeasureInto>,
     k: usize,
     params: &Option<ParamRow<'_>>,
 ) {
@@ -751,7 +719,7 @@ fn score<G: Geometry>(
 /// One control period of one env (or its next-step autoreset).
 fn step_env<G: Geometry, T: Real, A: Real>(
     ctx: &Ctx<'_, G>,
-    worker: &mut Worker<G>,
+    worker: &mut Worker<G, MeasureInto>,
     mut e: EnvMut<'_>,
     o: EnvOut<'_, T, A>,
 ) {

@@ -1,10 +1,10 @@
 //! Tests of the task layer that need whole batches.
 
 use super::*;
-use crate::any::AnyChain;
 use crate::batch::CHUNK;
-use crate::geometry::{Geometry, Planar, Spatial};
+use crate::geometry::{Planar, Spatial};
 use crate::integrate::{Method, StepOptions};
+use crate::lanes::LaneScene;
 use crate::model::Chain;
 use crate::params::ChainParams;
 use rand::{Rng, SeedableRng};
@@ -58,7 +58,7 @@ struct Record {
     final_state: Option<Vec<f64>>,
 }
 
-fn record<G: Geometry>(b: &EnvBatch<G>, out: &Out<f64>, env: usize) -> Record {
+fn record<G: LaneScene>(b: &EnvBatch<G>, out: &Out<f64>, env: usize) -> Record {
     let d = b.state_dim();
     let ended = b.events()[env] & event::ENDED != 0;
     Record {
@@ -81,7 +81,7 @@ fn actions(rng: &mut ChaCha8Rng, n: usize, f: usize) -> Vec<f64> {
 }
 
 /// Runs `steps` steps of a batch; returns per-step records of every env.
-fn run<G: Geometry>(
+fn run<G: LaneScene>(
     b: &mut EnvBatch<G>,
     steps: usize,
     seed: u64,
@@ -103,7 +103,7 @@ fn run<G: Geometry>(
     history
 }
 
-fn env_i_matches_a_single_env<G: Geometry>(mode: AutoresetMode) {
+fn env_i_matches_a_single_env<G: LaneScene>(mode: AutoresetMode) {
     let num_envs = 2 * CHUNK + 5; // several chunks, so the parallel path runs
     let mut t = task(2);
     t.start_noise = 0.3; // large enough that some episodes leave the track
@@ -546,8 +546,8 @@ fn snapshots_continue_identically() {
 fn observations_are_the_states_in_the_requested_precision() {
     let mut t = task(2);
     t.start_noise = 0.2;
-    let mut b = AnyEnvBatch::new(
-        AnyChain::new(params(2), false),
+    let mut b = EnvBatch::new(
+        Chain::<Spatial>::new(params(2)),
         t,
         3,
         0,

@@ -8,13 +8,18 @@
 //! | `lie_euler`   | 1     | `|q_i| = 1`, tangency                   | 1 evaluation + 1 exp     |
 //! | `adaptive`    | 5(4)  | error per step below a tolerance        | 7 evaluations per step   |
 //!
-//! All are O(n) per step and allocate nothing: buffers live in a [`Stepper`].
+//! All are O(n) per step and allocate nothing: buffers live in a [`Stepper`]. A
+//! [`GuardedStepper`] judges each control step by the [`Guard`] and undoes a failed one.
 
 mod adaptive;
+mod guard;
 mod lie_euler;
 mod rk4;
 mod rkmk4;
 mod variational;
+
+pub(crate) use guard::{swept_per_step, swept_surely_within};
+pub use guard::{Guard, GuardedStepper, StepStatus, MAX_TURN_PER_STEP};
 
 use crate::error::{check_positive, ChainError, InputError, Result};
 use crate::geometry::Geometry;

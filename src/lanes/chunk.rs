@@ -1,25 +1,26 @@
 //! The lane path of one chunk of envs behind a small trait object ([`ChunkLanes`]),
-//! so that code generic over any geometry (the env batch) can step a chunk whose
-//! concrete scene is known only where the chunk is built ([`chunk_lanes`], reached
-//! through [`crate::geometry::Geometry::chunk_lanes`]): one shared chain broadcast
-//! into every lane, or one chain per env loaded lane by lane.
+//! so that the batch engine holds one type whatever lane width and number type the
+//! chunk runs in ([`chunk_lanes`] chooses them): one shared chain broadcast into every
+//! lane, or one chain per env loaded lane by lane. The work done on each group right
+//! after its step (`H`, see [`AfterStep`]) is compiled into the kernel.
 
 use super::dispatch::Kernel;
-use super::measure::MeasureInto;
+use super::hook::{AfterStep, LaneHook};
 use super::params::LaneParams;
-use super::simd::LaneReal;
+use super::simd::{LaneReal, Precision};
 use super::stepper::{LaneStepper, StepPlan};
 use super::vector::LaneGeometry;
 use super::{LaneScene, LANES, LANES_F32};
-use crate::batch::{Precision, StepStatus};
 use crate::error::{InputError, Result};
+use crate::integrate::StepStatus;
 use crate::model::Chain;
 use crate::params::ChainParams;
 
-/// The lane kernel for one chunk, seen from scene-generic code.
-pub trait ChunkLanes: Send + Sync {
-    /// Steps the envs with `stepped[k]` (see [`LaneStepper::step`]) and, if asked,
-    /// measures their new states as they go ([`LaneStepper::step_measured`]).
+/// The lane kernel for one chunk, whatever its lane width and number type; `H` is
+/// the work done on each group right after its step.
+pub trait ChunkLanes<H>: Send + Sync {
+    /// Steps the envs with `stepped[k]` (see [`LaneStepper::step`]) and, if given, runs
+    /// `after` on each stepped group ([`LaneStepper::step_with`]).
     fn step(
         &mut self,
         states: &mut [f64],
@@ -27,7 +28,7 @@ pub trait ChunkLanes: Send + Sync {
         stepped: &[bool],
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
-        measure: Option<MeasureInto<'_>>,
+        after: Option<&mut H>,
     );
 
     /// Gives env `k` of the chunk the chain `params` (same number of links). Only a
@@ -84,6 +85,21 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneChunk<G, L, T> {
         debug_assert_eq!(spec.precision, T::PRECISION);
         Self::filled(chain, spec.num_envs, spec.per_env, spec.kernel)
     }
+
+    /// Gives env `k` of the chunk the chain `params` (same number of links). Only a
+    /// chunk built with one chain per env has lanes of its own; for a shared chain
+    /// this is an error naming `k`.
+    pub fn set_env_params(&mut self, k: usize, params: &ChainParams) -> Result<()> {
+        match self.params.get_mut(k / L) {
+            Some(group) if self.per_env => group.set_lane(k % L, params),
+            _ => Err(InputError::InvalidParameter {
+                name: "env index in the chunk",
+                value: k as f64,
+                expected: "an env of a chunk built with one chain per env",
+            }
+            .into()),
+        }
+    }
 }
 
 impl<G: LaneGeometry<LANES>> LaneChunk<G> {
@@ -104,8 +120,11 @@ impl<G: LaneGeometry<LANES>> LaneChunk<G> {
     }
 }
 
-impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal> ChunkLanes
-    for LaneChunk<G, L, T>
+impl<G, const L: usize, T, H> ChunkLanes<H> for LaneChunk<G, L, T>
+where
+    G: LaneGeometry<L, T>,
+    T: LaneReal,
+    H: AfterStep<G, L, T>,
 {
     fn step(
         &mut self,
@@ -114,28 +133,18 @@ impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal> C
         stepped: &[bool],
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
-        measure: Option<MeasureInto<'_>>,
+        after: Option<&mut H>,
     ) {
         let stepped = Some(stepped);
         let (kernel, params, stepper) = (self.kernel, &self.params[..], &mut self.stepper);
-        match measure {
+        match after {
             None => stepper.step(kernel, params, states, forces, stepped, plan, status),
-            Some(m) => {
-                stepper.step_measured(kernel, params, states, forces, stepped, plan, status, m)
-            }
+            Some(h) => stepper.step_with(kernel, params, states, forces, stepped, plan, status, h),
         }
     }
 
     fn set_env_params(&mut self, k: usize, params: &ChainParams) -> Result<()> {
-        match self.params.get_mut(k / L) {
-            Some(group) if self.per_env => group.set_lane(k % L, params),
-            _ => Err(InputError::InvalidParameter {
-                name: "env index in the chunk",
-                value: k as f64,
-                expected: "an env of a chunk built with one chain per env",
-            }
-            .into()),
-        }
+        LaneChunk::set_env_params(self, k, params)
     }
 
     fn kernel(&self) -> Kernel {
@@ -153,9 +162,12 @@ impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal> C
 /// links the wider group was slower, and four widths were no better than two).
 pub const MAX_LINKS_IN_DOUBLE_GROUPS: usize = 1;
 
-/// The lane path of a chunk of envs of `chain` as `spec` says, boxed for
-/// scene-generic code.
-pub fn chunk_lanes<G: LaneScene>(chain: &Chain<G>, spec: ChunkSpec) -> Box<dyn ChunkLanes> {
+/// The lane path of a chunk of envs of `chain` as `spec` says, boxed, with `H` run on
+/// each group after its step.
+pub fn chunk_lanes<G: LaneScene, H: LaneHook<G>>(
+    chain: &Chain<G>,
+    spec: ChunkSpec,
+) -> Box<dyn ChunkLanes<H>> {
     let wide = chain.n_links() <= MAX_LINKS_IN_DOUBLE_GROUPS;
     match (spec.precision, wide) {
         (Precision::F64, false) => Box::new(LaneChunk::<G, LANES, f64>::for_spec(chain, spec)),

@@ -4,14 +4,15 @@
 //! * [`simd`]: `L` numbers per value, plain arrays that LLVM vectorises.
 //! * [`vector`]: lane vectors and the spatial/planar scene operations on them.
 //! * [`params`]: chain parameters per lane (a shared chain is a broadcast).
-//! * [`exp`]: `exp` written once for scalar and lane code (the reward).
-//! * [`measure`]: what the RL task reads of a stepped state, measured in the lanes.
+//! * [`exp`]: `exp` written once for scalar and lane code (the task's reward).
+//! * `hook`: [`AfterStep`], work a layer above does on each group right after its step
+//!   (how the task measures states in the lanes without the lanes knowing the task).
 //! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
 //! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
 //! * [`stepper`]: stepping envs in lane groups, from env-major rows or in place.
 //! * [`resident`]: states kept in lane groups between steps (no transposes).
 //! * `transpose`: moving env rows into lanes and back (8 x 8 blocks on AVX-512).
-//! * [`chunk`]: the lane path of one chunk of envs for scene-generic code (the env batch).
+//! * [`chunk`]: the lane path of one chunk of envs behind a trait object (the batch engine).
 //!
 //! Each lane computes exactly what the scalar code computes for its env (no fused
 //! multiply-adds, same operation order), so results do not depend on the lane width,
@@ -20,7 +21,7 @@
 pub mod chunk;
 pub mod dispatch;
 pub mod exp;
-pub mod measure;
+mod hook;
 pub mod params;
 pub mod resident;
 pub mod rk4;
@@ -31,9 +32,10 @@ pub mod vector;
 
 pub use chunk::{chunk_lanes, ChunkLanes, ChunkSpec, LaneChunk};
 pub use dispatch::Kernel;
+pub use hook::{room, AfterStep, LaneHook, NoHook};
 pub use params::LaneParams;
 pub use resident::LaneStates;
-pub use simd::LaneReal;
+pub use simd::{LaneReal, Precision};
 pub use stepper::{LaneStepper, StepPlan};
 pub use vector::LaneGeometry;
 

@@ -1,7 +1,7 @@
 //! The guarded RK4 control step on lanes: tension-form derivative, classical RK4,
 //! projection onto the constraints and the failure guard, each a transcription of
 //! the scalar code ([`crate::model::Chain::derivative`], the rk4 integrator,
-//! [`crate::model::Chain::project`], [`crate::batch::GuardedStepper`]) with the same
+//! [`crate::model::Chain::project`], [`crate::integrate::GuardedStepper`]) with the same
 //! operations in the same order. Everything here is `#[inline(always)]`: it is
 //! compiled into each dispatched kernel in [`super::dispatch`].
 
@@ -12,8 +12,8 @@
 use super::params::LaneParams;
 use super::simd::{flat, flat_mut, is_dense, LaneReal, Lanes};
 use super::vector::{LaneGeometry, LaneVector};
-use crate::batch::{swept_per_step, swept_surely_within, Guard, StepStatus};
 use crate::geometry::Layout;
+use crate::integrate::{swept_per_step, swept_surely_within, Guard, StepStatus};
 
 /// The per-link rows of the tension system of one derivative evaluation.
 #[derive(Debug, Clone)]

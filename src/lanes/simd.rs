@@ -11,8 +11,46 @@
 // dispatched kernels.
 #![allow(clippy::needless_range_loop)]
 
+use crate::error::{InputError, Result};
 use std::fmt::Debug;
 use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// Number type of the lane physics: f64, or f32 with twice the lanes per register.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Precision {
+    /// f64: every env bit-identical to the per-env path.
+    #[default]
+    F64,
+    /// f32 (twice the lanes): faster, within the accuracy documented in `docs/simd.md`.
+    F32,
+}
+
+impl Precision {
+    /// The names of the precisions, as the configuration writes them.
+    pub const NAMES: [&'static str; 2] = ["f64", "f32"];
+
+    /// The name of this precision (`"f64"` or `"f32"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F64 => "f64",
+            Precision::F32 => "f32",
+        }
+    }
+
+    /// The precision with this name, or an error listing the names.
+    pub fn from_name(name: &str) -> Result<Self> {
+        match name {
+            "f64" => Ok(Precision::F64),
+            "f32" => Ok(Precision::F32),
+            _ => Err(InputError::UnknownName {
+                kind: "precision",
+                name: name.to_string(),
+                expected: &Precision::NAMES,
+            }
+            .into()),
+        }
+    }
+}
 
 /// The number type of a lane: f64, or f32 for twice the lanes per register.
 pub trait LaneReal:
@@ -33,8 +71,8 @@ pub trait LaneReal:
     const ZERO: Self;
     /// One.
     const ONE: Self;
-    /// The batch precision this type stands for.
-    const PRECISION: crate::batch::Precision;
+    /// The precision this type stands for.
+    const PRECISION: Precision;
     /// Nearest value (the identity for f64).
     fn from_f64(v: f64) -> Self;
     /// Exact.
@@ -54,7 +92,7 @@ macro_rules! lane_real {
         impl LaneReal for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
-            const PRECISION: crate::batch::Precision = crate::batch::Precision::$precision;
+            const PRECISION: Precision = Precision::$precision;
             #[inline(always)]
             fn from_f64(v: f64) -> Self {
                 v as $t

@@ -9,14 +9,13 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::dispatch::{run_on, Kernel, LaneWork};
-use super::measure::{AfterStep, MeasureInto, NoMeasure};
+use super::hook::{AfterStep, NoHook};
 use super::params::LaneParams;
 use super::rk4::{guarded_rk4, roll_back, LaneWorkspace, StepSpec};
 use super::simd::{LaneReal, Lanes};
 use super::transpose::RowMover;
 use super::vector::{LaneGeometry, LaneVector};
-use super::LANES;
-use crate::batch::{Guard, StepStatus};
+use crate::integrate::{Guard, StepStatus};
 
 /// How a control period is stepped: period, integrator substeps, failure guard.
 #[derive(Debug, Clone, Copy)]
@@ -123,7 +122,7 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
             plan,
             status,
         };
-        self.step_rows(kernel, states, groups, NoMeasure);
+        self.step_rows(kernel, states, groups, NoHook);
     }
 
     /// Steps the rows of `states` group by group, running `after` on each stepped group.
@@ -182,13 +181,11 @@ impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
     }
 }
 
-impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal>
-    LaneStepper<G, L, T>
-{
-    /// [`LaneStepper::step`], measuring each stepped env's new state as it goes (see
-    /// [`MeasureInto`]; the measures of failed envs are garbage).
+impl<G: LaneGeometry<L, T>, const L: usize, T: LaneReal> LaneStepper<G, L, T> {
+    /// [`LaneStepper::step`], running `after` on each stepped group right after its
+    /// step (see [`AfterStep`]; lanes of failed envs hold garbage then).
     #[allow(clippy::too_many_arguments)]
-    pub fn step_measured(
+    pub fn step_with<A: AfterStep<G, L, T>>(
         &mut self,
         kernel: Kernel,
         params: &[LaneParams<L, T>],
@@ -197,7 +194,7 @@ impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal>
         stepped: Option<&[bool]>,
         plan: StepPlan<'_>,
         status: &mut [StepStatus],
-        measure: MeasureInto<'_>,
+        after: A,
     ) {
         let groups = Groups {
             params,
@@ -206,7 +203,7 @@ impl<G: LaneGeometry<L, T> + LaneGeometry<LANES>, const L: usize, T: LaneReal>
             plan,
             status,
         };
-        self.step_rows(kernel, states, groups, measure);
+        self.step_rows(kernel, states, groups, after);
     }
 }
 

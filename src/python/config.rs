@@ -1,35 +1,83 @@
 //! The configuration from Python: the core's key table and scenes as Python values
 //! (`_core.CONFIG_KEYS`, `_core.SCENES`, ...) and the one conversion of a dict of
-//! keys into the core's chain and task. Every check is the core's (or reads its
-//! accepted form from the key table); Python only brings values into plain types.
+//! keys into the core's chain and task, checked once and handed back as one native
+//! object ([`ResolvedConfig`]) that the envs' batches are built from. Every check is
+//! the core's (or reads its accepted form from the key table); Python only brings
+//! values into plain types.
 
 use super::convert::{error, signs, type_error};
 use super::model::ChainCart;
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::any::AnyChain;
-use crate::batch::Precision;
 use crate::env::keys::{config_key, KEY_NAMES};
 use crate::env::{
-    AnyEnvBatch, AutoresetMode, ConfigKey, KeyKind, KeyValue, RewardWeights, Scene, Start,
-    SuccessTolerances, TaskConfig, CONFIG_KEYS, SCENES,
+    check_task, ConfigKey, KeyKind, KeyValue, RewardWeights, Scene, Start, SuccessTolerances,
+    TaskConfig, CONFIG_KEYS, SCENES,
 };
 use crate::error::{quoted, InputError};
 use crate::integrate::{Method, StepOptions};
+use crate::lanes::Precision;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyMapping, PyString, PyTuple};
 
-/// A config resolved and converted: what an `EnvBatch` is built from.
-pub struct Resolved {
-    /// The model.
-    pub chain: AnyChain,
+/// A configuration resolved, converted and checked once: the model, the task on it and
+/// every key's value in canonical form. Envs build their batches from it.
+#[pyclass(frozen, module = "chaincart_env._core", name = "ResolvedConfig")]
+pub struct ResolvedConfig {
+    /// The model (immutable, shared with whoever asks for it).
+    pub model: Py<ChainCart>,
     /// The task on it.
     pub task: TaskConfig,
     /// Observations as float64 (else float32).
     pub obs_f64: bool,
     /// Energies and residuals recorded every step.
     pub diagnostics: bool,
-    /// Every key's value in canonical form (building from it gives the same batch).
+    /// Every key's value in canonical form (resolving it again gives the same config).
     pub canonical: Py<PyDict>,
+}
+
+impl ResolvedConfig {
+    /// The model's chain.
+    pub fn chain(&self) -> &AnyChain {
+        &self.model.get().chain
+    }
+}
+
+#[pymethods]
+impl ResolvedConfig {
+    /// Every configuration key's value, in canonical form, as a new dict.
+    fn values<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.canonical.bind(py).copy()
+    }
+    /// The model of the configuration's physical parameters (a `ChainCart`).
+    #[getter]
+    fn model(&self, py: Python<'_>) -> Py<ChainCart> {
+        self.model.clone_ref(py)
+    }
+    /// Length of the observed state: `2 + 3n` planar, `4 + 6n` spatial.
+    #[getter]
+    fn state_dim(&self) -> usize {
+        self.chain().state_dim()
+    }
+    /// Length of an action: 1 planar, 2 spatial.
+    #[getter]
+    fn force_dim(&self) -> usize {
+        self.chain().force_dim()
+    }
+    /// Pickled as its canonical values, resolved again when loaded.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let resolve = py
+            .import("chaincart_env._core")?
+            .getattr("resolve_config")?;
+        let args = PyTuple::new(py, [self.canonical.bind(py).copy()?])?;
+        PyTuple::new(py, [resolve, args.into_any()])
+    }
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!(
+            "ResolvedConfig({})",
+            self.canonical.bind(py).repr()?
+        ))
+    }
 }
 
 /// A table value as a Python value.
@@ -372,17 +420,16 @@ fn get<'py>(values: &Bound<'py, PyDict>, name: &str) -> Bound<'py, PyAny> {
 }
 
 /// The model of canonical values.
-fn model(values: &Bound<'_, PyDict>) -> PyResult<AnyChain> {
+fn model(values: &Bound<'_, PyDict>) -> PyResult<ChainCart> {
     let extract_f64 = |name: &str| get(values, name).extract::<f64>();
-    let model = ChainCart::from_params(
+    ChainCart::from_params(
         get(values, "n_links").extract()?,
         extract_f64("cart_mass")?,
         &get(values, "link_masses"),
         &get(values, "link_lengths"),
         extract_f64("gravity")?,
         get(values, "planar").extract()?,
-    )?;
-    Ok(model.chain)
+    )
 }
 
 /// Where episodes start: a name, a sign tuple (length `n`) or a full state.
@@ -443,16 +490,19 @@ fn key(name: &str) -> &'static ConfigKey {
 }
 
 /// Resolves a dict of keys (any subset, `scene` among them) into the model, the task
-/// and the canonical values. The task is not yet checked: building a batch checks it.
-pub fn resolve(config: &Bound<'_, PyDict>) -> PyResult<Resolved> {
+/// and the canonical values, and checks the task on the model (every check a batch
+/// makes, without building one).
+pub fn resolve(config: &Bound<'_, PyDict>) -> PyResult<ResolvedConfig> {
+    let py = config.py();
     let values = merged(config)?;
-    let chain = model(&values)?;
-    let task = task(&values, &chain)?;
-    write_task_keys(values.py(), &task.reality, &values)?;
-    Ok(Resolved {
+    let model = model(&values)?;
+    let task = task(&values, &model.chain)?;
+    dispatch!(AnyChain, &model.chain, c => check_task(c, &task).map(|_| ()))?;
+    write_task_keys(py, &task.reality, &values)?;
+    Ok(ResolvedConfig {
         obs_f64: get(&values, "obs_dtype").extract::<String>()? == "float64",
         diagnostics: get(&values, "diagnostics").extract()?,
-        chain,
+        model: Py::new(py, model)?,
         task,
         canonical: values.unbind(),
     })
@@ -460,21 +510,9 @@ pub fn resolve(config: &Bound<'_, PyDict>) -> PyResult<Resolved> {
 
 /// Resolves and checks a configuration: `config` is a dict of keys (any subset;
 /// `scene` names the scene whose values fill the rest, `None` values are unset).
-/// Returns every key's value in canonical form, or raises naming the bad value.
+/// Returns the resolved configuration (its `values()` are every key's value in
+/// canonical form), or raises naming the bad value.
 #[pyfunction]
-pub fn resolve_config<'py>(
-    py: Python<'py>,
-    config: &Bound<'py, PyDict>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let resolved = resolve(config)?;
-    // One env is enough: building a batch runs every check of the task on this chain.
-    AnyEnvBatch::new(
-        resolved.chain,
-        resolved.task,
-        1,
-        0,
-        AutoresetMode::default(),
-        false,
-    )?;
-    Ok(resolved.canonical.into_bound(py))
+pub fn resolve_config(config: &Bound<'_, PyDict>) -> PyResult<ResolvedConfig> {
+    resolve(config)
 }

@@ -1,18 +1,21 @@
-//! `EnvBatch`: the native env batch behind the Python envs. Each call converts, calls
-//! [`AnyEnvBatch`] and hands back fresh NumPy arrays that the core wrote into
+//! `EnvBatch`: the native env batch behind the Python envs, built from a
+//! `ResolvedConfig`. Each call converts, calls the core's [`EnvBatch`] of the
+//! configuration's scene and hands back fresh NumPy arrays that the core wrote into
 //! directly. Batch steps and resets release the GIL; `step_one` (a single env, about
 //! a microsecond) keeps it, since releasing and re-taking it would cost a sizeable
 //! part of the step.
 
-use super::config::resolve;
+use super::config::{resolve, ResolvedConfig};
 use super::convert::{check_shape, error, ActionSlice, Actions, Floats};
 use super::reality::{param_arrays, params_dict};
-use crate::batch::Precision;
-use crate::env::batch::RNG_BYTES;
+use crate::any::AnyChain;
 use crate::env::EnvParams;
 use crate::env::{
-    AnyEnvBatch, AutoresetMode, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS,
+    AutoresetMode, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS, RNG_BYTES,
 };
+use crate::geometry::{Planar, Spatial};
+use crate::lanes::{LaneScene, Precision};
+use crate::model::Chain;
 use numpy::{
     Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyUntypedArrayMethods,
@@ -20,12 +23,51 @@ use numpy::{
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 
+/// The env batch of the configuration's scene.
+enum SceneEnvBatch {
+    Spatial(EnvBatch<Spatial>),
+    Planar(EnvBatch<Planar>),
+}
+
+/// Runs `$body` with `$b` bound to the env batch inside `$batch` (a `SceneEnvBatch`).
+macro_rules! scene {
+    ($batch:expr, $b:ident => $body:expr) => {
+        dispatch!(SceneEnvBatch, $batch, $b => $body)
+    };
+}
+
+/// `num_envs` envs of `resolved`'s task on `chain` (its model in one scene).
+fn env_batch<G: LaneScene>(
+    chain: &Chain<G>,
+    resolved: &ResolvedConfig,
+    num_envs: usize,
+    seed: u64,
+    mode: AutoresetMode,
+) -> crate::error::Result<EnvBatch<G>> {
+    let task = resolved.task.clone();
+    EnvBatch::new(
+        chain.clone(),
+        task,
+        num_envs,
+        seed,
+        mode,
+        resolved.diagnostics,
+    )
+}
+
+/// The native env batch (Python name `EnvBatch`); its shape and mode never change.
 #[pyclass(module = "chaincart_env._core", name = "EnvBatch")]
-pub struct EnvBatch {
-    batch: AnyEnvBatch,
+pub struct PyEnvBatch {
+    batch: SceneEnvBatch,
+    num_envs: usize,
+    state_dim: usize,
+    force_dim: usize,
+    n_links: usize,
+    planar: bool,
+    mode: AutoresetMode,
     obs_f64: bool,
     /// The resolved configuration it was built from.
-    config: Py<PyDict>,
+    config: Py<ResolvedConfig>,
 }
 
 fn new_array<'py, T: Element>(py: Python<'py>, shape: &[usize]) -> Bound<'py, PyArrayDyn<T>> {
@@ -42,9 +84,9 @@ type StepArrays<'py, T> = (
 );
 
 /// Runs one batch step writing into fresh arrays of shape `obs_shape` / `(n,)`.
-fn step_into<'py, T: Element + Real>(
+fn step_into<'py, G: LaneScene, T: Element + Real>(
     py: Python<'py>,
-    batch: &mut AnyEnvBatch,
+    batch: &mut EnvBatch<G>,
     actions: &Actions<'py>,
     obs_shape: &[usize],
 ) -> PyResult<StepArrays<'py, T>> {
@@ -77,9 +119,9 @@ fn step_into<'py, T: Element + Real>(
 }
 
 /// One step of a batch of one, returning `(obs, reward, terminated, truncated, events)`.
-fn step_one_into<'py, T: Element + Real>(
+fn step_one_into<'py, G: LaneScene, T: Element + Real>(
     py: Python<'py>,
-    batch: &mut AnyEnvBatch,
+    batch: &mut EnvBatch<G>,
     action: &Actions<'py>,
     obs_shape: &[usize],
 ) -> PyResult<Bound<'py, PyTuple>> {
@@ -108,9 +150,9 @@ fn step_one_into<'py, T: Element + Real>(
         .into_pyobject(py)
 }
 
-fn reset_into<'py, T: Element + Real>(
+fn reset_into<'py, G: LaneScene, T: Element + Real>(
     py: Python<'py>,
-    batch: &mut AnyEnvBatch,
+    batch: &mut EnvBatch<G>,
     seeds: Option<&[Option<u64>]>,
     mask: Option<&[bool]>,
     obs_shape: &[usize],
@@ -124,70 +166,83 @@ fn reset_into<'py, T: Element + Real>(
     Ok(obs)
 }
 
-impl EnvBatch {
+impl PyEnvBatch {
     fn obs_shape(&self, single: bool) -> Vec<usize> {
         if single {
-            vec![self.batch.state_dim()]
+            vec![self.state_dim]
         } else {
-            vec![self.batch.num_envs(), self.batch.state_dim()]
+            vec![self.num_envs, self.state_dim]
         }
     }
     fn check_single(&self) -> PyResult<()> {
-        if self.batch.num_envs() == 1 {
+        if self.num_envs == 1 {
             Ok(())
         } else {
             Err(error(format!(
                 "step_one/reset_one need num_envs = 1, this batch has {}",
-                self.batch.num_envs()
+                self.num_envs
             )))
         }
     }
 }
 
 #[pymethods]
-impl EnvBatch {
-    /// A batch of `num_envs` envs of `config`, a dict of configuration keys (any
-    /// subset; `scene` names the scene whose values fill the rest).
+impl PyEnvBatch {
+    /// A batch of `num_envs` envs of `config`: a `ResolvedConfig`, or a dict of
+    /// configuration keys (any subset; `scene` names the scene whose values fill the
+    /// rest), resolved here.
     #[new]
     #[pyo3(signature = (config, num_envs=1, *, autoreset_mode="next_step", seed=0))]
     fn new(
-        config: &Bound<'_, PyDict>,
+        config: &Bound<'_, PyAny>,
         num_envs: usize,
         autoreset_mode: &str,
         seed: u64,
     ) -> PyResult<Self> {
-        let resolved = resolve(config)?;
+        let py = config.py();
+        let config: Py<ResolvedConfig> = match config.cast::<ResolvedConfig>() {
+            Ok(resolved) => resolved.clone().unbind(),
+            Err(_) => Py::new(py, resolve(config.cast::<PyDict>()?)?)?,
+        };
+        let resolved = config.get();
         let mode = AutoresetMode::from_name(autoreset_mode)?;
-        let batch = AnyEnvBatch::new(
-            resolved.chain,
-            resolved.task,
-            num_envs,
-            seed,
-            mode,
-            resolved.diagnostics,
-        )?;
+        let batch = match resolved.chain() {
+            AnyChain::Spatial(c) => {
+                SceneEnvBatch::Spatial(env_batch(c, resolved, num_envs, seed, mode)?)
+            }
+            AnyChain::Planar(c) => {
+                SceneEnvBatch::Planar(env_batch(c, resolved, num_envs, seed, mode)?)
+            }
+        };
+        let chain = resolved.chain();
         Ok(Self {
             batch,
+            num_envs,
+            state_dim: chain.state_dim(),
+            force_dim: chain.force_dim(),
+            n_links: chain.n_links(),
+            planar: chain.is_planar(),
+            mode,
             obs_f64: resolved.obs_f64,
-            config: resolved.canonical,
+            config,
         })
     }
 
     #[getter]
     fn num_envs(&self) -> usize {
-        self.batch.num_envs()
+        self.num_envs
     }
     #[getter]
     fn state_dim(&self) -> usize {
-        self.batch.state_dim()
+        self.state_dim
     }
     #[getter]
     fn force_dim(&self) -> usize {
-        self.batch.force_dim()
+        self.force_dim
     }
     #[getter]
     fn planar(&self) -> bool {
-        self.batch.is_planar()
+        self.planar
     }
     #[getter]
     fn obs_dtype(&self) -> &'static str {
@@ -199,43 +254,43 @@ impl EnvBatch {
     }
     #[getter]
     fn autoreset_mode(&self) -> &'static str {
-        self.batch.mode().name()
+        self.mode.name()
     }
     #[getter]
     fn diagnostics_enabled(&self) -> bool {
-        self.batch.diagnostics_enabled()
+        scene!(&self.batch, b => b.diagnostics_enabled())
     }
     /// Every configuration key's value, in canonical form, as a new dict.
     #[getter]
     fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        self.config.bind(py).copy()
+        self.config.get().canonical.bind(py).copy()
     }
 
     /// The true parameters the envs share before randomisation (the model's, with
     /// `params` and `mismatch` applied), as a dict.
     fn true_params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        params_dict(py, self.batch.true_params())
+        params_dict(py, scene!(&self.batch, b => b.true_params()))
     }
     /// Env `env`'s current true parameters (its own draw when randomised), as a dict.
     fn env_params<'py>(&self, py: Python<'py>, env: usize) -> PyResult<Bound<'py, PyDict>> {
-        params_dict(py, &self.batch.env_params(env)?)
+        params_dict(py, &scene!(&self.batch, b => b.env_params(env))?)
     }
     /// Every env's current true parameters as a dict of arrays with a leading
     /// `num_envs` axis (`cart_mass`, `gravity`: `(num_envs,)`; `link_masses`,
     /// `link_lengths`: `(num_envs, n_links)`).
     fn param_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        match self.batch.per_env_params() {
+        match scene!(&self.batch, b => b.per_env_params()) {
             Some(p) => param_arrays(py, p),
             None => param_arrays(
                 py,
-                &EnvParams::filled(self.batch.true_params(), self.batch.num_envs()),
+                &EnvParams::filled(scene!(&self.batch, b => b.true_params()), self.num_envs),
             ),
         }
     }
     /// The state episodes start from before noise.
     #[getter]
     fn base_state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_slice(py, self.batch.base_state())
+        PyArray1::from_slice(py, scene!(&self.batch, b => b.base_state()))
     }
 
     /// Starts new episodes (in the envs where `mask` is true, all if `None`), env k
@@ -254,9 +309,11 @@ impl EnvBatch {
         let shape = self.obs_shape(false);
         let seeds = seeds.as_deref();
         Ok(if self.obs_f64 {
-            reset_into::<f64>(py, &mut self.batch, seeds, mask, &shape)?.into_any()
+            scene!(&mut self.batch, b => reset_into::<_, f64>(py, b, seeds, mask, &shape))?
+                .into_any()
         } else {
-            reset_into::<f32>(py, &mut self.batch, seeds, mask, &shape)?.into_any()
+            scene!(&mut self.batch, b => reset_into::<_, f32>(py, b, seeds, mask, &shape))?
+                .into_any()
         })
     }
 
@@ -271,9 +328,11 @@ impl EnvBatch {
         let shape = self.obs_shape(true);
         let seeds = [seed];
         Ok(if self.obs_f64 {
-            reset_into::<f64>(py, &mut self.batch, Some(&seeds), None, &shape)?.into_any()
+            scene!(&mut self.batch, b => reset_into::<_, f64>(py, b, Some(&seeds), None, &shape))?
+                .into_any()
         } else {
-            reset_into::<f32>(py, &mut self.batch, Some(&seeds), None, &shape)?.into_any()
+            scene!(&mut self.batch, b => reset_into::<_, f32>(py, b, Some(&seeds), None, &shape))?
+                .into_any()
         })
     }
 
@@ -285,17 +344,15 @@ impl EnvBatch {
         actions: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let actions = Actions::extract(actions)?;
-        check_shape(
-            "actions",
-            actions.shape(),
-            &[self.batch.num_envs(), self.batch.force_dim()],
-        )?;
+        check_shape("actions", actions.shape(), &[self.num_envs, self.force_dim])?;
         let shape = self.obs_shape(false);
         if self.obs_f64 {
-            let (o, r, te, tr, n) = step_into::<f64>(py, &mut self.batch, &actions, &shape)?;
+            let (o, r, te, tr, n) =
+                scene!(&mut self.batch, b => step_into::<_, f64>(py, b, &actions, &shape))?;
             (o, r, te, tr, n).into_pyobject(py)
         } else {
-            let (o, r, te, tr, n) = step_into::<f32>(py, &mut self.batch, &actions, &shape)?;
+            let (o, r, te, tr, n) =
+                scene!(&mut self.batch, b => step_into::<_, f32>(py, b, &actions, &shape))?;
             (o, r, te, tr, n).into_pyobject(py)
         }
     }
@@ -309,24 +366,27 @@ impl EnvBatch {
     ) -> PyResult<Bound<'py, PyTuple>> {
         self.check_single()?;
         let actions = Actions::extract(action)?;
-        check_shape("action", actions.shape(), &[self.batch.force_dim()])?;
+        check_shape("action", actions.shape(), &[self.force_dim])?;
         let shape = self.obs_shape(true);
         Ok(if self.obs_f64 {
-            step_one_into::<f64>(py, &mut self.batch, &actions, &shape)?
+            scene!(&mut self.batch, b => step_one_into::<_, f64>(py, b, &actions, &shape))?
         } else {
-            step_one_into::<f32>(py, &mut self.batch, &actions, &shape)?
+            scene!(&mut self.batch, b => step_one_into::<_, f32>(py, b, &actions, &shape))?
         })
     }
 
     /// Event bits of the last step or reset, shape `(num_envs,)` (see `EVENT_*`).
     fn events<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u8>> {
-        PyArray1::from_slice(py, self.batch.events())
+        PyArray1::from_slice(py, scene!(&self.batch, b => b.events()))
     }
     /// The episode-end info of the last step as arrays of shape `(num_envs,)`:
     /// `(ended, is_success, numerical_failure, out_of_track, e_q, e_w)`, the last five
     /// false / zero where the episode did not end.
     fn episode_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
-        let ends = EpisodeEnds::from_events(self.batch.events(), self.batch.errors());
+        let ends = EpisodeEnds::from_events(
+            scene!(&self.batch, b => b.events()),
+            scene!(&self.batch, b => b.errors()),
+        );
         (
             PyArray1::from_vec(py, ends.ended),
             PyArray1::from_vec(py, ends.success),
@@ -341,16 +401,18 @@ impl EnvBatch {
     /// `(e_q, e_w)` per env after the last step (before any same-step reset), shape
     /// `(num_envs, 2)`.
     fn errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.batch.num_envs();
-        Ok(PyArray1::from_slice(py, self.batch.errors())
-            .reshape([n, 2])?
-            .into_any())
+        let n = self.num_envs;
+        Ok(
+            PyArray1::from_slice(py, scene!(&self.batch, b => b.errors()))
+                .reshape([n, 2])?
+                .into_any(),
+        )
     }
     /// Same-step mode: observations of the episodes that ended on the last step (rows
     /// of other envs are stale), shape `(num_envs, state_dim)`.
     fn final_observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let shape = self.obs_shape(false);
-        let finals = self.batch.final_states();
+        let finals = scene!(&self.batch, b => b.final_states());
         Ok(if self.obs_f64 {
             PyArray1::from_slice(py, finals).reshape(shape)?.into_any()
         } else {
@@ -361,57 +423,61 @@ impl EnvBatch {
     /// `DIAGNOSTICS` per env of the last step (zeros unless enabled), shape
     /// `(num_envs, 5)`.
     fn diagnostics<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.batch.num_envs();
-        Ok(PyArray1::from_slice(py, self.batch.diagnostics())
-            .reshape([n, DIAGNOSTICS.len()])?
-            .into_any())
+        let n = self.num_envs;
+        Ok(
+            PyArray1::from_slice(py, scene!(&self.batch, b => b.diagnostics()))
+                .reshape([n, DIAGNOSTICS.len()])?
+                .into_any(),
+        )
     }
     /// Every env's current observation (its state, or its last noisy reading when
     /// `obs_noise` is set), shape `(num_envs, state_dim)`.
     fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let shape = self.obs_shape(false);
-        let n = self.batch.num_envs() * self.batch.state_dim();
+        let n = self.num_envs * self.state_dim;
         Ok(if self.obs_f64 {
             let mut v = vec![0.0f64; n];
-            self.batch.write_obs(&mut v)?;
+            scene!(&self.batch, b => b.write_obs(&mut v))?;
             PyArray1::from_vec(py, v).reshape(shape)?.into_any()
         } else {
             let mut v = vec![0.0f32; n];
-            self.batch.write_obs(&mut v)?;
+            scene!(&self.batch, b => b.write_obs(&mut v))?;
             PyArray1::from_vec(py, v).reshape(shape)?.into_any()
         })
     }
     /// A copy of every env's float64 state, shape `(num_envs, state_dim)`.
     fn states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        Ok(PyArray1::from_slice(py, self.batch.states())
-            .reshape(self.obs_shape(false))?
-            .into_any())
+        Ok(
+            PyArray1::from_slice(py, scene!(&self.batch, b => b.states()))
+                .reshape(self.obs_shape(false))?
+                .into_any(),
+        )
     }
     /// Steps taken in each env's current episode.
     fn step_counts<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
-        let v: Vec<u64> = (0..self.batch.num_envs())
-            .map(|k| self.batch.step_count(k))
+        let v: Vec<u64> = (0..self.num_envs)
+            .map(|k| scene!(&self.batch, b => b.step_count(k)))
             .collect();
         PyArray1::from_vec(py, v)
     }
     /// Which envs' episodes have ended without a reset since.
     fn ended<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
-        let v: Vec<bool> = (0..self.batch.num_envs())
-            .map(|k| self.batch.has_ended(k))
+        let v: Vec<bool> = (0..self.num_envs)
+            .map(|k| scene!(&self.batch, b => b.has_ended(k)))
             .collect();
         PyArray1::from_vec(py, v)
     }
     /// Overwrites env `env`'s state (checked: length, finite, on the constraint manifold).
     fn set_state(&mut self, env: usize, state: Floats<'_>) -> PyResult<()> {
-        let y = super::convert::vector("state", &state, self.batch.state_dim())?;
-        Ok(self.batch.set_state(env, &y)?)
+        let y = super::convert::vector("state", &state, self.state_dim)?;
+        Ok(scene!(&mut self.batch, b => b.set_state(env, &y))?)
     }
 
     /// Everything that evolves (states, RNG streams, step counts, ended flags) as a dict
     /// of arrays, for `restore`.
     fn snapshot<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let s = self.batch.snapshot();
-        let n = self.batch.num_envs();
+        let s = scene!(&self.batch, b => b.snapshot());
+        let n = self.num_envs;
         let d = PyDict::new(py);
         d.set_item(
             "states",
@@ -442,7 +508,7 @@ impl EnvBatch {
 
     /// Continues from a `snapshot` of a batch with the same num_envs and state_dim.
     fn restore(&mut self, snapshot: &Bound<'_, PyDict>) -> PyResult<()> {
-        let n = self.batch.num_envs();
+        let n = self.num_envs;
         let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
             snapshot
                 .get_item(key)?
@@ -475,7 +541,7 @@ impl EnvBatch {
         let noise_rng: PyReadonlyArray2<'_, u8> = get("noise_rng")?.extract()?;
         let env_params = get("env_params")?;
         let param = |key: &str| floats(env_params.get_item(key)?);
-        let mut params = EnvParams::empty(self.batch.n_links());
+        let mut params = EnvParams::empty(self.n_links);
         params.cart_mass = param("cart_mass")?;
         params.link_masses = param("link_masses")?;
         params.link_lengths = param("link_lengths")?;
@@ -492,20 +558,16 @@ impl EnvBatch {
             action_queue: floats(get("action_queue")?)?,
             last_force: floats(get("last_force")?)?,
         };
-        Ok(self.batch.restore(&snap)?)
+        Ok(scene!(&mut self.batch, b => b.restore(&snap))?)
     }
 
     fn __repr__(&self) -> String {
         format!(
             "EnvBatch(num_envs={}, state_dim={}, planar={}, autoreset_mode={:?})",
-            self.batch.num_envs(),
-            self.batch.state_dim(),
-            if self.batch.is_planar() {
-                "True"
-            } else {
-                "False"
-            },
-            self.batch.mode().name()
+            self.num_envs,
+            self.state_dim,
+            if self.planar { "True" } else { "False" },
+            self.mode.name()
         )
     }
 
@@ -513,12 +575,12 @@ impl EnvBatch {
     /// env) or `"f32"` (the rk4 lane kernel in single precision: faster, within the
     /// accuracy published in docs/simd.md). Observations keep their dtype.
     fn set_precision(&mut self, precision: &str) -> PyResult<()> {
-        Ok(self.batch.set_precision(Precision::from_name(precision)?)?)
+        Ok(scene!(&mut self.batch, b => b.set_precision(Precision::from_name(precision)?))?)
     }
 
     /// `"f64"` or `"f32"`: the number type of the physics (see `set_precision`).
     #[getter]
     fn precision(&self) -> &'static str {
-        self.batch.precision().name()
+        scene!(&self.batch, b => b.precision()).name()
     }
 }

@@ -49,7 +49,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("IntegrationError", py.get_type::<IntegrationError>())?;
     m.add("AnalysisError", py.get_type::<AnalysisError>())?;
     m.add_class::<model::ChainCart>()?;
-    m.add_class::<env::EnvBatch>()?;
+    m.add_class::<env::PyEnvBatch>()?;
+    m.add_class::<config::ResolvedConfig>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(time_scaling, m)?)?;
     m.add("MAX_LINKS", crate::limits::MAX_LINKS)?;
@@ -72,7 +73,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         crate::env::event::NUMERICAL_FAILURE,
     )?;
     m.add("EVENT_RESET", crate::env::event::RESET)?;
-    m.add("RNG_BYTES", crate::env::batch::RNG_BYTES)?;
+    m.add("RNG_BYTES", crate::env::RNG_BYTES)?;
     m.add("CONFIG_KEYS", config::keys_table(py)?)?;
     m.add("REALITY_KEYS", config::reality_keys_table(py)?)?;
     m.add("SCENES", config::scenes_table(py)?)?;

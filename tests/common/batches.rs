@@ -1,17 +1,17 @@
 //! Batches of the paper's system from random states, and deterministic force patterns.
 
 use super::{random_spatial_state, rng};
-use chaincart::batch::Batch;
+use chaincart::batch::ChainBatch;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions};
 
 pub fn random_batch(
     num_envs: usize,
     method: Method,
     seed: u64,
-) -> (Batch<chaincart::Spatial>, Vec<Vec<f64>>) {
+) -> (ChainBatch<chaincart::Spatial>, Vec<Vec<f64>>) {
     let mut rng = rng(seed);
     let chain = SpatialChain::new(ChainParams::paper());
-    let mut batch = Batch::new(
+    let mut batch = ChainBatch::new(
         chain,
         num_envs,
         2e-3,

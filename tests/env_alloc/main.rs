@@ -1,10 +1,11 @@
 //! The RL task layer's step and reset allocate nothing (its own test binary: the
 //! counting allocator sees every thread, so no other test may run beside it).
 
-use chaincart::batch::{Precision, CHUNK};
+use chaincart::batch::CHUNK;
 use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
 };
+use chaincart::lanes::Precision;
 use chaincart::{ChainParams, SpatialChain, StepOptions};
 #[path = "../common/alloc_counter.rs"]
 mod alloc_counter;

@@ -1,19 +1,20 @@
-//! What the RL task reads of a state (distances to the target equilibrium, the cart's
+//! What the task reads of a state (distances to the target equilibrium, the cart's
 //! offset and speed, and the reward they give with the squared action), computed one
-//! state at a time or for a whole lane group at once right after its step, with the
-//! same operations in the same order, so both give the same bits. Lanes of any width and number type are measured eight at a time in
-//! f64 (f32 lanes widened exactly as they are read), as the scalar code measures the
-//! f64 state.
+//! state at a time or for a whole lane group at once right after its step (the
+//! lanes' [`AfterStep`] hook), with the same operations in the same order, so both
+//! give the same bits. Lanes of any width and number type are measured eight at a
+//! time in f64 (f32 lanes widened exactly as they are read), as the scalar code
+//! measures the f64 state.
 
 // Index loops on purpose: they must inline into the dispatched kernels.
 #![allow(clippy::needless_range_loop)]
 
-use super::exp::exp;
-use super::simd::{LaneReal, Lanes};
-use super::vector::{LaneGeometry, LaneVector};
-use super::{LANES, LANES_F32};
-use crate::env::RewardWeights;
+use super::config::RewardWeights;
 use crate::geometry::{Geometry, Layout, Vector};
+use crate::lanes::exp::exp;
+use crate::lanes::simd::{LaneReal, Lanes};
+use crate::lanes::vector::{LaneGeometry, LaneVector};
+use crate::lanes::{room, AfterStep, LANES};
 
 /// The quantities of one state the task's reward, termination and success read.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -108,12 +109,6 @@ impl Measures {
     }
 }
 
-/// Room for the per-env values of `num_envs` envs that lane groups of any width (up
-/// to two vectors of f32) read or write whole.
-pub fn room(num_envs: usize) -> usize {
-    num_envs.div_ceil(2 * LANES_F32) * 2 * LANES_F32
-}
-
 /// The measures of state `y` for the target signs `s` (one per link), reached by an
 /// action of squared norm `a2`, rewarded with weights `w`.
 #[inline(always)]
@@ -155,7 +150,7 @@ pub fn measure<G: Geometry>(
 pub fn measure_group<G, const L: usize, T: LaneReal>(
     lay: Layout<G>,
     y: &[Lanes<L, T>],
-    task: &MeasureTask<'_>,
+    task: &MeasureTask,
     out: &mut Measures,
     first: usize,
 ) where
@@ -180,11 +175,11 @@ pub fn measure_group<G, const L: usize, T: LaneReal>(
 fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     lay: Layout<G>,
     component: impl Fn(usize) -> Lanes<LANES>,
-    task: &MeasureTask<'_>,
+    task: &MeasureTask,
     out: &mut Measures,
     first: usize,
 ) {
-    let s = task.target;
+    let s = &task.target[..];
     let zero = Lanes::<LANES>::zero();
     let (mut q2, mut w2, mut e_q, mut e_w) = (zero, zero, zero, zero);
     for (i, &si) in s.iter().enumerate() {
@@ -207,48 +202,51 @@ fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     let a2 = &task.a2[first..first + LANES];
     let mut rewards = zero;
     for k in 0..LANES {
-        rewards.0[k] = reward(task.weights, q2.0[k], w2.0[k], x2.0[k], v2.0[k], a2[k]);
+        rewards.0[k] = reward(&task.weights, q2.0[k], w2.0[k], x2.0[k], v2.0[k], a2[k]);
     }
     out.put(first, [&q2, &w2, &e_q, &e_w, &x2, &v2, &x_max, &rewards]);
 }
 
-/// Work done on each lane group right after its step, before it is written back.
-pub(crate) trait AfterStep<G: Geometry, const L: usize, T: LaneReal> {
-    /// Group `y` holds envs `first..first + filled` (lanes that failed hold garbage).
-    fn group(&mut self, lay: Layout<G>, y: &[Lanes<L, T>], first: usize, filled: usize);
-}
-
-/// Nothing after the step.
-pub(crate) struct NoMeasure;
-
-impl<G: Geometry, const L: usize, T: LaneReal> AfterStep<G, L, T> for NoMeasure {
-    #[inline(always)]
-    fn group(&mut self, _: Layout<G>, _: &[Lanes<L, T>], _: usize, _: usize) {}
-}
-
 /// What measuring reads besides the state.
-pub struct MeasureTask<'a> {
+#[derive(Debug, Clone)]
+pub struct MeasureTask {
     /// The target signs, one per link.
-    pub target: &'a [f64],
+    pub target: Vec<f64>,
     /// The reward's weights.
-    pub weights: &'a RewardWeights,
+    pub weights: RewardWeights,
     /// Each env's squared applied action, with [`room`].
-    pub a2: &'a [f64],
+    pub a2: Vec<f64>,
 }
 
-/// Measures every stepped group (see [`super::ChunkLanes::step`]).
-pub struct MeasureInto<'a> {
+/// The task's hook on the lanes: measures every stepped group (see
+/// [`crate::lanes::ChunkLanes::step`]) into `out`.
+#[derive(Debug, Clone)]
+pub struct MeasureInto {
     /// Target, reward weights and actions.
-    pub task: MeasureTask<'a>,
-    /// Room for the measures of every env of the step (those of failed envs are garbage).
-    pub out: &'a mut Measures,
+    pub task: MeasureTask,
+    /// The measures of every env of the step (those of failed envs are garbage).
+    pub out: Measures,
+}
+
+impl MeasureInto {
+    /// Room for `num_envs` envs measured against `target` with `weights` (actions zero).
+    pub fn new(target: &[f64], weights: RewardWeights, num_envs: usize) -> Self {
+        Self {
+            task: MeasureTask {
+                target: target.to_vec(),
+                weights,
+                a2: vec![0.0; room(num_envs)],
+            },
+            out: Measures::new(num_envs),
+        }
+    }
 }
 
 impl<G: LaneGeometry<LANES> + Geometry, const L: usize, T: LaneReal> AfterStep<G, L, T>
-    for MeasureInto<'_>
+    for MeasureInto
 {
     #[inline(always)]
     fn group(&mut self, lay: Layout<G>, y: &[Lanes<L, T>], first: usize, _filled: usize) {
-        measure_group(lay, y, &self.task, self.out, first);
+        measure_group(lay, y, &self.task, &mut self.out, first);
     }
 }

@@ -1,0 +1,21 @@
+//! The batch engine: N envs of one chain stepped together, in parallel, on the lane
+//! kernel or env by env, bit-identical whatever the thread count.
+//!
+//! * [`engine`]: [`Engine`], the one engine every batch steps with: settings, the lane
+//!   kernel or the per-env path and the rules of choosing, one worker per chunk of
+//!   envs, the parallel pass over the chunks.
+//! * `resident`: the physics-only batch's lane path, states kept in lane groups.
+//! * `chains`: [`ChainBatch`], N states of one chain, physics only.
+//!
+//! The task (`crate::env`) builds its env batch on the same [`Engine`].
+
+mod chains;
+pub mod engine;
+mod resident;
+
+pub use chains::ChainBatch;
+pub use engine::{
+    check_precision, ChunkLanePath, Engine, EnvRange, Shared, StateHome, Worker, CHUNK,
+    F32_MIN_UNIT_LENGTH_TOLERANCE, MIN_LANE_ENVS,
+};
+pub use resident::LANE_CHUNK;

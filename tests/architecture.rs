@@ -1,0 +1,478 @@
+//! The dependency ladder of `src/` (see ARCHITECTURE.md), checked from the source text:
+//! every `crate::` and `super::` path of every module is read, and
+//!
+//! * a module may use only modules on lower rungs of [`LADDER`] (a module that is not
+//!   on the ladder fails the test, so a new one must be placed);
+//! * inside a module directory (`src/env/`, `src/lanes/`, ...) the files may not use
+//!   each other in a circle.
+//!
+//! Comments are not read (an intra-doc link may point anywhere), nor is test code
+//! (everything from a file's first `#[cfg(test)]` on, and `tests.rs` files): tests sit
+//! above every layer.
+//! The crate root (`lib.rs`) and each directory's `mod.rs` only declare modules and
+//! re-export names; a path through such a facade counts as a use of the file the
+//! name comes from.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// The rungs from the bottom up: a module may use the modules of the rungs below its
+/// own, never those of its own rung or above.
+const LADDER: &[(&str, &[&str])] = &[
+    ("errors", &["error"]),
+    ("sizes and solvers", &["limits", "tridiagonal"]),
+    ("parameters", &["params"]),
+    ("scenes", &["geometry"]),
+    ("dynamics", &["model"]),
+    ("oracles and invariants", &["dense", "invariants"]),
+    ("integrators", &["integrate"]),
+    (
+        "analysis, lanes, rendering, one chain from front ends",
+        &["analysis", "lanes", "render", "scaling", "any"],
+    ),
+    ("controllers", &["control"]),
+    ("the batch engine", &["batch"]),
+    ("the task", &["env"]),
+    ("the Python bindings", &["python"]),
+];
+
+/// Rung of top-level module `name`, if it is on the ladder.
+fn rung(name: &str) -> Option<usize> {
+    LADDER.iter().position(|(_, mods)| mods.contains(&name))
+}
+
+/// A source file: its module path (`env::step`, `lanes`, `` for the crate root) and
+/// its code without comments and tests.
+struct Source {
+    module: Vec<String>,
+    is_facade: bool,
+    code: String,
+}
+
+fn module_path(src: &Path, file: &Path) -> (Vec<String>, bool) {
+    let rel = file.strip_prefix(src).unwrap();
+    let mut parts: Vec<String> = rel
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect();
+    let last = parts.pop().unwrap();
+    let stem = last.trim_end_matches(".rs").to_string();
+    let facade = stem == "mod" || (stem == "lib" && parts.is_empty());
+    if !facade {
+        parts.push(stem);
+    }
+    (parts, facade)
+}
+
+/// The code of `text` without comments, string literals, char literals and test code.
+fn code_of(text: &str) -> String {
+    let text = match text.find("#[cfg(test)]") {
+        Some(at) => &text[..at],
+        None => text,
+    };
+    let b = text.as_bytes();
+    let mut out = String::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i..].starts_with(b"//") {
+            while i < b.len() && b[i] != b'\n' {
+                i += 1;
+            }
+        } else if b[i..].starts_with(b"/*") {
+            let mut depth = 0;
+            while i < b.len() {
+                if b[i..].starts_with(b"/*") {
+                    depth += 1;
+                    i += 2;
+                } else if b[i..].starts_with(b"*/") {
+                    depth -= 1;
+                    i += 2;
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    i += 1;
+                }
+            }
+        } else if b[i] == b'"' {
+            i += 1;
+            while i < b.len() && b[i] != b'"' {
+                i += if b[i] == b'\\' { 2 } else { 1 };
+            }
+            i += 1;
+            out.push_str("\"\"");
+        } else if b[i] == b'\'' && i + 2 < b.len() && (b[i + 2] == b'\'' || b[i + 1] == b'\\') {
+            // A char literal ('x' or '\n'); a lifetime has no closing quote.
+            let end = text[i + 1..].find('\'').map_or(b.len(), |e| i + 2 + e);
+            i = end;
+        } else {
+            out.push(b[i] as char);
+            i += 1;
+        }
+    }
+    out
+}
+
+fn sources(src: &Path) -> Vec<Source> {
+    let mut files = Vec::new();
+    let mut dirs = vec![src.to_path_buf()];
+    while let Some(dir) = dirs.pop() {
+        for entry in fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs")
+                && path.file_stem().is_some_and(|s| s != "tests")
+            {
+                // A `tests.rs` file is a test module.
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+        .into_iter()
+        .map(|file| {
+            let (module, is_facade) = module_path(src, &file);
+            let code = code_of(&fs::read_to_string(&file).unwrap());
+            Source {
+                module,
+                is_facade,
+                code,
+            }
+        })
+        .collect()
+}
+
+fn is_ident(c: char) -> bool {
+    c.is_ascii_alphanumeric() || c == '_'
+}
+
+/// Every path of a `use` tree (`a::{b, c::{d, e}}` -> `a::b`, `a::c::d`, `a::c::e`).
+fn expand_use(tree: &str, prefix: &str, out: &mut Vec<String>) {
+    let tree = tree.trim();
+    let Some(open) = tree.find('{') else {
+        let path = tree.split(" as ").next().unwrap().trim();
+        if !path.is_empty() {
+            out.push(format!("{prefix}{path}"));
+        }
+        return;
+    };
+    let head = &tree[..open];
+    let inner = &tree[open + 1..tree.rfind('}').unwrap()];
+    let mut depth = 0;
+    let mut start = 0;
+    for (k, c) in inner.char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' => depth -= 1,
+            ',' if depth == 0 => {
+                expand_use(&inner[start..k], &format!("{prefix}{head}"), out);
+                start = k + 1;
+            }
+            _ => {}
+        }
+    }
+    expand_use(&inner[start..], &format!("{prefix}{head}"), out);
+}
+
+/// The `crate::`, `super::` and `self::` paths `code` uses, as written (segments joined by `::`).
+fn paths_in(code: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    // `use` statements first (they may group paths in braces).
+    let mut rest = code;
+    while let Some(at) = find_word(rest, "use") {
+        let after = &rest[at + 3..];
+        let end = after.find(';').unwrap_or(after.len());
+        let mut paths = Vec::new();
+        expand_use(&after[..end], "", &mut paths);
+        out.extend(paths.into_iter().map(|p| p.replace(' ', "")));
+        rest = &after[end..];
+    }
+    // Then paths written inline in the code.
+    let compact: String = code.chars().filter(|c| !c.is_whitespace()).collect();
+    for root in ["crate::", "super::", "self::"] {
+        let mut from = 0;
+        while let Some(at) = compact[from..].find(root) {
+            let start = from + at;
+            let preceded = compact[..start].chars().last().is_some_and(is_ident);
+            let mut end = start;
+            while end < compact.len() {
+                let c = compact[end..].chars().next().unwrap();
+                if is_ident(c) || compact[end..].starts_with("::") {
+                    end += if c == ':' { 2 } else { c.len_utf8() };
+                } else {
+                    break;
+                }
+            }
+            if !preceded {
+                out.push(compact[start..end].trim_end_matches("::").to_string());
+            }
+            from = end.max(start + root.len());
+        }
+    }
+    out
+}
+
+/// Position of the keyword `word` standing alone in `text`.
+fn find_word(text: &str, word: &str) -> Option<usize> {
+    let mut from = 0;
+    while let Some(at) = text[from..].find(word) {
+        let start = from + at;
+        let before = text[..start].chars().last();
+        let after = text[start + word.len()..].chars().next();
+        if !before.is_some_and(is_ident) && after.is_some_and(char::is_whitespace) {
+            return Some(start);
+        }
+        from = start + word.len();
+    }
+    None
+}
+
+/// The module files of the crate and what each facade re-exports (`env` + `TaskConfig`
+/// -> `env::config`).
+struct Crate {
+    files: BTreeSet<Vec<String>>,
+    exports: BTreeMap<(Vec<String>, String), Vec<String>>,
+}
+
+impl Crate {
+    fn new(sources: &[Source]) -> Self {
+        let files = sources.iter().map(|s| s.module.clone()).collect();
+        let mut krate = Self {
+            files,
+            exports: BTreeMap::new(),
+        };
+        for s in sources.iter().filter(|s| s.is_facade) {
+            for line in s.code.split(';') {
+                let Some(at) = find_word(line, "use") else {
+                    continue;
+                };
+                if !line[..at].contains("pub") {
+                    continue;
+                }
+                let mut paths = Vec::new();
+                expand_use(&line[at + 3..], "", &mut paths);
+                for p in paths {
+                    let p = p.replace(' ', "");
+                    let target = krate.absolute(&s.module, true, &p);
+                    if let Some(name) = p.rsplit("::").next() {
+                        let alias = line
+                            .split(" as ")
+                            .nth(1)
+                            .filter(|_| line.matches(" as ").count() == 1)
+                            .map(|a| a.trim().trim_end_matches('}').trim().to_string());
+                        let name = alias.unwrap_or_else(|| name.to_string());
+                        krate.exports.insert((s.module.clone(), name), target);
+                    }
+                }
+            }
+        }
+        krate
+    }
+
+    /// Whether `path` starts with a child module of the facade `module` (`config::X` in
+    /// `env/mod.rs`).
+    fn is_child(&self, module: &[String], path: &str) -> bool {
+        let first = path.split("::").next().unwrap_or("");
+        let mut child = module.to_vec();
+        child.push(first.to_string());
+        self.files.contains(&child)
+    }
+
+    /// `path` as written in module `module` made absolute (segments from the crate root);
+    /// empty for a path that leaves the crate. In a facade (`mod.rs`) the module is its
+    /// directory, so `super` is the parent directory and a bare path names a child.
+    fn absolute(&self, module: &[String], facade: bool, path: &str) -> Vec<String> {
+        let segs: Vec<&str> = path.split("::").filter(|s| !s.is_empty()).collect();
+        let mut base: Vec<String> = module.to_vec();
+        let rest = match segs.first() {
+            Some(&"crate") => {
+                base.clear();
+                &segs[1..]
+            }
+            Some(&"self") => &segs[1..],
+            Some(&"super") => {
+                let ups = segs.iter().take_while(|s| **s == "super").count();
+                for _ in 0..ups {
+                    base.pop();
+                }
+                &segs[ups..]
+            }
+            _ if facade => &segs[..],
+            _ => return Vec::new(),
+        };
+        base.extend(rest.iter().map(|s| s.to_string()));
+        base
+    }
+
+    /// The module file a full path ends in: the longest prefix that is a file, followed
+    /// through a facade's re-exports.
+    fn file_of(&self, path: &[String]) -> Option<Vec<String>> {
+        for len in (0..=path.len()).rev() {
+            let prefix = path[..len].to_vec();
+            if !self.files.contains(&prefix) {
+                continue;
+            }
+            if let Some(name) = path.get(len) {
+                if let Some(target) = self.exports.get(&(prefix.clone(), name.clone())) {
+                    if target.as_slice() != path {
+                        return self.file_of(target);
+                    }
+                }
+            }
+            return Some(prefix);
+        }
+        None
+    }
+}
+
+/// (using module file, used module file) pairs.
+type Edges = BTreeSet<(Vec<String>, Vec<String>)>;
+
+/// Every (using module file, used module file) pair of the crate; the crate root, which
+/// only declares and re-exports, is left out.
+fn edges(sources: &[Source], krate: &Crate) -> Edges {
+    let mut out = BTreeSet::new();
+    for s in sources.iter().filter(|s| !s.module.is_empty()) {
+        for p in paths_in(&s.code) {
+            let rooted = p.starts_with("crate") || p.starts_with("super") || p.starts_with("self");
+            // A facade also names its own child modules directly (`pub use config::X`).
+            if !rooted && !(s.is_facade && krate.is_child(&s.module, &p)) {
+                continue;
+            }
+            let abs = krate.absolute(&s.module, s.is_facade, &p);
+            if let Some(used) = krate.file_of(&abs) {
+                if used != s.module && !used.is_empty() {
+                    out.insert((s.module.clone(), used));
+                }
+            }
+        }
+    }
+    out
+}
+
+fn crate_edges() -> (Vec<Source>, Edges) {
+    let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src");
+    let sources = sources(&src);
+    let krate = Crate::new(&sources);
+    let edges = edges(&sources, &krate);
+    (sources, edges)
+}
+
+#[test]
+fn every_module_is_on_the_ladder() {
+    let (sources, _) = crate_edges();
+    let off: BTreeSet<&str> = sources
+        .iter()
+        .filter_map(|s| s.module.first())
+        .map(String::as_str)
+        .filter(|m| rung(m).is_none())
+        .collect();
+    assert!(
+        off.is_empty(),
+        "modules not placed on the ladder (add them to LADDER and ARCHITECTURE.md): {off:?}"
+    );
+}
+
+#[test]
+fn no_module_uses_one_on_its_own_rung_or_above() {
+    let (_, edges) = crate_edges();
+    let mut wrong = Vec::new();
+    for (from, to) in &edges {
+        let (a, b) = (&from[0], &to[0]);
+        if a == b {
+            continue;
+        }
+        if let (Some(ra), Some(rb)) = (rung(a), rung(b)) {
+            if rb >= ra {
+                wrong.push(format!(
+                    "{} uses {} ({} may use only rungs below \"{}\")",
+                    from.join("::"),
+                    to.join("::"),
+                    a,
+                    LADDER[ra].0
+                ));
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "imports against the ladder:\n{}",
+        wrong.join("\n")
+    );
+}
+
+#[test]
+fn the_files_of_a_module_use_each_other_without_circles() {
+    let (_, edges) = crate_edges();
+    // Tarjan-free check: repeatedly remove files that use no remaining sibling.
+    let inside: Vec<_> = edges
+        .iter()
+        .filter(|(a, b)| a.len() > 1 && b.len() > 1 && a[0] == b[0])
+        .collect();
+    let mut left: BTreeSet<Vec<String>> = inside
+        .iter()
+        .flat_map(|(a, b)| [a.clone(), b.clone()])
+        .collect();
+    loop {
+        let leaves: Vec<_> = left
+            .iter()
+            .filter(|m| !inside.iter().any(|(a, b)| a == *m && left.contains(b)))
+            .cloned()
+            .collect();
+        if leaves.is_empty() {
+            break;
+        }
+        for m in leaves {
+            left.remove(&m);
+        }
+    }
+    let circle: Vec<String> = inside
+        .iter()
+        .filter(|(a, b)| left.contains(a) && left.contains(b))
+        .map(|(a, b)| format!("{} -> {}", a.join("::"), b.join("::")))
+        .collect();
+    assert!(
+        circle.is_empty(),
+        "files in a circle:\n{}",
+        circle.join("\n")
+    );
+}
+
+#[test]
+fn the_reader_finds_the_paths_it_must() {
+    // The test is only as good as its reading of the source: check it on known text.
+    let code = code_of(
+        "use crate::{a::{B, c::D}, e};\n// use crate::hidden;\nfn f() { super::g::h(); \
+         let s = \"crate::in_string\"; crate::x::Y::new() }\n#[cfg(test)]\nuse crate::tests_only;",
+    );
+    let mut paths = paths_in(&code);
+    paths.sort();
+    paths.dedup();
+    for expected in [
+        "crate::a::B",
+        "crate::a::c::D",
+        "crate::e",
+        "super::g::h",
+        "crate::x::Y::new",
+    ] {
+        assert!(
+            paths.iter().any(|p| p == expected),
+            "{expected} in {paths:?}"
+        );
+    }
+    assert!(!paths
+        .iter()
+        .any(|p| p.contains("hidden") || p.contains("in_string") || p.contains("tests_only")));
+    // And on the crate: the lanes' kernel is known to use the model's layout.
+    let (_, edges) = crate_edges();
+    let has = |a: &str, b: &str| {
+        edges
+            .iter()
+            .any(|(x, y)| x.join("::") == a && y.join("::") == b)
+    };
+    assert!(has("lanes::rk4", "geometry"), "{edges:?}");
+    assert!(has("model", "params"));
+}

@@ -1,0 +1,85 @@
+"""The package's layout: the library (envs, model, policies, rendering) apart from the
+command-line tools (``chaincart_env.tools``), and no import circles. Read from the
+installed package's own source, so it holds for a wheel as for a checkout."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import chaincart_env
+
+PACKAGE = Path(chaincart_env.__file__).resolve().parent
+
+#: Library modules allowed to reach the tools, and why: the command line is the tools'
+#: entry point, and the package root keeps ``region_of_attraction`` importable (loaded
+#: on first use only).
+TOOL_USERS = {"chaincart_env.__main__", "chaincart_env"}
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _modules() -> dict[str, Path]:
+    return {_module_name(p): p for p in PACKAGE.rglob("*.py")}
+
+
+def _imports(path: Path, modules: dict[str, Path]) -> set[str]:
+    """The package's modules that ``path`` imports (at the top or inside functions)."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        else:
+            continue
+        for name in names:
+            while name and name not in modules:
+                name = name.rpartition(".")[0]
+            if name.startswith("chaincart_env"):
+                found.add(name)
+    return found
+
+
+def test_import_chaincart_env_loads_no_tool(tmp_path: Path) -> None:
+    code = (
+        "import sys, chaincart_env\n"
+        "print('\\n'.join(m for m in sys.modules if m.startswith('chaincart_env.tools')"
+        " or m.split('.')[0] in ('matplotlib', 'stable_baselines3', 'torch', 'ray', 'mujoco')))"
+    )
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
+    assert loaded.stdout.strip() == "", loaded.stdout
+
+
+def test_the_library_does_not_import_the_tools() -> None:
+    modules = _modules()
+    assert "chaincart_env.tools.bench.suite" in modules and "chaincart_env.env" in modules
+    wrong = {
+        name: sorted(m for m in _imports(path, modules) if m.startswith("chaincart_env.tools"))
+        for name, path in modules.items()
+        if not name.startswith("chaincart_env.tools") and name not in TOOL_USERS
+    }
+    assert {k: v for k, v in wrong.items() if v} == {}
+
+
+def test_modules_import_each_other_without_circles() -> None:
+    modules = _modules()
+    graph = {
+        name: {m for m in _imports(path, modules) if m != name and not name.startswith(m + ".")}
+        for name, path in modules.items()
+    }
+    # Remove modules that import no remaining module until none is left (or a circle is).
+    left = set(graph)
+    while True:
+        leaves = {m for m in left if not (graph[m] & left)}
+        if not leaves:
+            break
+        left -= leaves
+    assert left == set(), f"modules in a circle: {sorted(left)}"
