@@ -54,7 +54,10 @@ def _animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
 def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
     """``{extra: modules}`` that ``python -m chaincart_env COMMAND`` with ``args`` needs."""
     if command == "compare":
-        return {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
+        needs = {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
+        if getattr(args, "address", None) is not None:  # a Ray cluster
+            needs["rllib"] = ("ray",)
+        return needs
     if command == "evaluate":
         return {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
     if command in ("figures", "roa"):
