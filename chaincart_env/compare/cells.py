@@ -65,29 +65,29 @@ def map_cells(
     is called as each cell finishes (in the order they finish), e.g. to save it before
     the others are done. ``function`` must be importable by name (a module-level
     function) where the tasks run."""
+    results: list[Any] = [None] * len(cells)
+
+    def finished(index: int, result: R) -> None:
+        results[index] = result
+        if on_result is not None:
+            on_result(index, result)
+
     if not distributed:
-        results = []
         for index, cell in enumerate(cells):
-            results.append(function(shared, cell))
-            if on_result is not None:
-                on_result(index, results[-1])
+            finished(index, function(shared, cell))
         return results
     import ray
 
     if not ray.is_initialized():
         raise ChainCartError("map_cells(distributed=True) needs a Ray session: connect first (ray_cluster)")
-    task = ray.remote(num_cpus=max(1, torch_threads or 1))(_run_cell)
+    task: Any = ray.remote(num_cpus=max(1, torch_threads or 1))(_run_cell)
     shared_ref = ray.put(shared)
     refs = [task.remote(function, shared_ref, cell, torch_threads) for cell in cells]
     index_of = {ref: index for index, ref in enumerate(refs)}
-    results: list[Any] = [None] * len(refs)
     pending = list(refs)
     while pending:
         done, pending = ray.wait(pending, num_returns=1)
-        index = index_of[done[0]]
-        results[index] = ray.get(done[0])
-        if on_result is not None:
-            on_result(index, results[index])
+        finished(index_of[done[0]], ray.get(done[0]))
     return results
 
 

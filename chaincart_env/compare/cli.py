@@ -108,6 +108,9 @@ def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path,
                         help="a run folder written by compare, or its model.zip or rllib_checkpoint")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
+    parser.add_argument("--address", default=None,
+                        help="Ray cluster ('auto', HOST:PORT, or 'local' for a new one here) on which the evaluation "
+                        "cells run as Ray tasks, with the same results (default: in this process)")
     _add_evaluation_options(parser, defaults=False)
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
 
@@ -178,7 +181,7 @@ def _run_evaluate_command(args: argparse.Namespace, parser: argparse.ArgumentPar
 
     try:
         run_evaluate(args.model, out=args.out, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
-                     torch_threads=args.torch_threads)
+                     torch_threads=args.torch_threads, address=args.address)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

@@ -385,10 +385,12 @@ def run_evaluate(
     eval_episodes: Optional[int] = None,
     eval_seed: Optional[int] = None,
     torch_threads: Optional[int] = None,
+    address: Optional[str] = None,
 ) -> list[dict[str, Any]]:
     """Re-runs the evaluation of a saved run (same starts and sweeps unless told
     otherwise) into ``out`` (default ``<run>/evaluation``): a whole study directory, or
-    one seed's folder or model file (then that agent alone against the LQR)."""
+    one seed's folder or model file (then that agent alone against the LQR).
+    ``address``: the evaluation cells run as Ray tasks on that cluster."""
     _set_torch_threads(torch_threads)
     path = Path(path)
     if (path / RUN_FILE).is_file() and "settings" in json.loads((path / RUN_FILE).read_text()):
@@ -410,7 +412,15 @@ def run_evaluate(
     first = int(settings.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed
     print(describe(config))
     print(f"evaluating {directory} -> {into}")
-    summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
-                               sweeps=sweeps, into=into)
+    if address is None:
+        summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
+                                   sweeps=sweeps, into=into)
+    else:
+        from chaincart_env.compare.cells import ray_cluster
+
+        with ray_cluster(address, 1) as cluster:
+            print(f"the evaluation cells run as Ray tasks on {cluster}")
+            summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
+                                       sweeps=sweeps, into=into, distributed=True, torch_threads=torch_threads)
     print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
     return summaries

@@ -218,7 +218,7 @@ def evaluate_study(
     write_filmstrip(into / "filmstrip.png", first_and_lqr, config)
 
     rows = _sweep_rows(points, all_runs[len(sources):], trained)
-    summaries_by_axis = {}
+    summaries_by_axis: dict[str, tuple[str, Sequence[dict[str, Any]]]] = {}
     for axis in sweeps:
         summary = summarize_sweep([row for row in rows if row["axis"] == axis])
         summaries_by_axis[axis] = (SWEEP_AXES[axis].label, summary)
