@@ -117,7 +117,10 @@ def ray_cluster(address: Optional[str], cpus_needed: int) -> Iterator[str]:
     try:
         cpus = int(ray.cluster_resources().get("CPU", 0))
         nodes = sum(1 for node in ray.nodes() if node.get("Alive"))
-        where = "a local Ray cluster" if owned and local else f"the Ray cluster at {address or 'this session'}"
+        if not owned:
+            where = "the Ray cluster of this session"
+        else:
+            where = "a local Ray cluster" if local else f"the Ray cluster at {address}"
         if cpus < cpus_needed:
             raise ChainCartError(
                 f"{where} has {cpus} CPUs: expected at least {cpus_needed} (one per env runner); "

@@ -24,7 +24,7 @@ import numpy as np
 from chaincart_env._core import ChainCartError
 from chaincart_env.compare.cells import ray_cluster
 from chaincart_env.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.compare.run_files import replace_directory, truncate_csv
+from chaincart_env.compare.run_files import replace_directory, settled_directory, truncate_csv
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
@@ -187,7 +187,7 @@ def train_rllib(
         algo = ppo.build_algo()
         try:
             start = TrainingProgress()
-            if resume and (directory / RESUME_DIR / _STATE).is_file():
+            if resume and (settled_directory(directory / RESUME_DIR) / _STATE).is_file():
                 start = restore_training(algo, directory)
                 print(f"resumed from the checkpoint at {start.steps} env steps (iteration {start.iterations})")
             done = _train_loop(algo, timesteps, num_env_runners, directory, progress, checkpoint_every, start)

@@ -18,7 +18,7 @@ from chaincart_env.config import ChainCartConfig
 __all__ = [
     "BEST_MODEL_FILE", "CONFIG_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "MODEL_FILE", "RUN_FILE", "SavedRun",
     "folder_contents", "load_run", "read_evaluations", "read_json_object", "replace_directory", "save_run",
-    "truncate_csv", "write_folder",
+    "settled_directory", "truncate_csv", "write_folder",
 ]  # fmt: skip
 
 MODEL_FILE = "model.zip"
@@ -109,7 +109,8 @@ def read_evaluations(path: Path) -> list[dict[str, float]]:
 
 def replace_directory(staging: Path, final: Path) -> None:
     """Swaps the finished folder ``staging`` in as ``final`` (the previous ``final``
-    stays whole until the new one is in place), e.g. a checkpoint written by parts."""
+    stays whole until the new one is in place; :func:`settled_directory` finds it
+    after an interruption between the two renames), e.g. a checkpoint written by parts."""
     old = final.with_name(final.name + ".old")
     shutil.rmtree(old, ignore_errors=True)
     if final.exists():
@@ -139,3 +140,13 @@ def truncate_csv(path: Path, rows: int) -> None:
     """Keeps the header and the first ``rows`` data rows of a CSV file."""
     lines = Path(path).read_text().splitlines(keepends=True)
     Path(path).write_text("".join(lines[: rows + 1]))
+
+
+def settled_directory(final: Path) -> Path:
+    """``final`` as :func:`replace_directory` leaves it, also when it was interrupted
+    after moving the previous version aside and before moving the new one in (the
+    previous one is then put back)."""
+    old = final.with_name(final.name + ".old")
+    if not final.exists() and old.is_dir():
+        old.rename(final)
+    return final

@@ -189,6 +189,7 @@ def evaluate_study(
     into = Path(out) if into is None else Path(into)
     into.mkdir(parents=True, exist_ok=True)
     starts = tuple(evaluation_seeds(eval_seed, eval_episodes))
+    lqr_baseline(config)  # a scene without a baseline fails here, not inside a cell
     trained = trained_policies(out, seeds)
     sources = {t.name: t.source for t in trained}
     sources["LQR"] = PolicySource.lqr(config)

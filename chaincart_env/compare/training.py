@@ -160,6 +160,7 @@ def train(
     ends as the uninterrupted run would)."""
     from chaincart_env.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
+    from chaincart_env.compare.run_files import settled_directory
 
     cls = algorithm_class(algo)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
@@ -167,7 +168,7 @@ def train(
     kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    resuming = resume and (directory / CHECKPOINT_DIR).is_dir()
+    resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs)
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)

@@ -361,3 +361,7 @@ def test_a_study_on_the_cluster_gives_the_serial_tables(cluster: Cluster, tmp_pa
     run = json.loads((spread / "run.json").read_text())
     assert run["settings"]["address"] == cluster.address and run["cluster"].endswith("2 node(s), 2 CPUs")
     assert list(run["seed_runs"]) == ["3", "4"]
+    # evaluate on the cluster too: the same tables again.
+    assert main(["evaluate", str(spread), "--address", cluster.address, "--out", str(tmp_path / "again")]) == 0
+    for name in TABLES:
+        assert (tmp_path / "again" / name).read_bytes() == (serial / name).read_bytes(), name
