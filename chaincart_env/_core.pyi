@@ -286,7 +286,8 @@ class EnvBatch:
     ) -> tuple[npt.NDArray[Any], npt.NDArray[np.float64], npt.NDArray[np.bool_], npt.NDArray[np.bool_], int]:
         """One step of every env (GIL released); ``actions`` of shape ``(num_envs,
         force_dim)``, clipped to [-1, 1]. Returns ``(obs, rewards, terminated, truncated,
-        n_ended)``. Bad actions raise before any env moves."""
+        n_ended)``. Bad actions raise before any env moves (a scalar: ``InvalidTypeError``,
+        a ``TypeError``)."""
     def step_one(self, action: npt.ArrayLike) -> tuple[npt.NDArray[Any], float, bool, bool, int]:
         """``step`` for a batch of one: ``(obs, reward, terminated, truncated, events)``."""
     def events(self) -> npt.NDArray[np.uint8]:

@@ -51,12 +51,19 @@ def _animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
     return needs
 
 
+def _cluster_needs(args: Any) -> dict[str, tuple[str, ...]]:
+    """A Ray cluster (``--address``) needs Ray, from the rllib extra."""
+    return {"rllib": ("ray",)} if getattr(args, "address", None) is not None else {}
+
+
 def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
     """``{extra: modules}`` that ``python -m chaincart_env COMMAND`` with ``args`` needs."""
     if command == "compare":
-        return {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
+        needs = {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
+        return {**needs, **_cluster_needs(args)}
     if command == "evaluate":
-        return {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
+        needs = {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
+        return {**needs, **_cluster_needs(args)}
     if command in ("figures", "roa"):
         return {"plot": ("matplotlib",)}
     if command == "animate":

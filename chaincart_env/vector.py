@@ -104,9 +104,12 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     ``e_w``) come batched with ``_key`` masks, like Gymnasium's vector envs.
     ``reset(seed=s)`` seeds env i with ``s + i`` (or a list of per-env seeds): env i
     then reproduces the single env reset with ``seed=s + i`` bit for bit. A bad action
-    in any env (wrong shape, NaN, inf) raises before any env moves. Diagnostics, when
-    enabled, are top-level arrays for every env each step (of the state the step
-    reached, before a same-step reset).
+    in any env (wrong shape, NaN, inf) raises before any env moves; a scalar (``step(0)``)
+    is a ``TypeError`` (:class:`~chaincart_env.InvalidTypeError`), as in Gymnasium's
+    vector envs. Diagnostics, when enabled, are top-level arrays of every env that
+    stepped (of the state the step reached); as in ``SyncVectorEnv``, an env's reset
+    (next-step autoreset) has none (mask false, value 0), and with same-step autoreset
+    an ended env's diagnostics are in ``final_info``.
 
     Rendering follows Gymnasium's ``VectorEnv.render``: each env is drawn at
     ``render_width x render_height`` with the force of its last step, and
@@ -291,20 +294,13 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
 
     def _infos(self, n_ended: int) -> dict[str, Any]:
         info: dict[str, Any] = {}
-        if self.config.has_param_gap:
-            # Envs that started a new episode in this step report its parameters.
-            events = self._batch.events()
-            fresh = (events & (_core.EVENT_ENDED if self._same_step else _core.EVENT_RESET)) != 0
-            if fresh.any():
-                info["params"], info["_params"] = self.true_params, fresh
-        if self._diagnostics:
-            diag = self._batch.diagnostics()
-            everyone = np.ones(self.num_envs, dtype=np.bool_)
-            for k, key in enumerate(_core.DIAGNOSTICS):
-                info[key], info["_" + key] = diag[:, k], everyone
-            errors = self._batch.errors()
-            info["e_q"], info["_e_q"] = errors[:, 0], everyone
-            info["e_w"], info["_e_w"] = errors[:, 1], everyone
+        # Envs that started a new episode in this step: their info is that of a reset.
+        events = self._batch.events()
+        fresh = (events & (_core.EVENT_ENDED if self._same_step else _core.EVENT_RESET)) != 0
+        if self.config.has_param_gap and fresh.any():
+            info["params"], info["_params"] = self.true_params, fresh
+        if self._diagnostics and not fresh.all():
+            info.update(self._diagnostic_infos(~fresh, with_errors=True))
         if n_ended == 0:
             return info
         ended, episode = episode_infos(self._batch)
@@ -313,13 +309,28 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
             final_obs = np.full(self.num_envs, None, dtype=object)
             for i in np.flatnonzero(ended):
                 final_obs[i] = finals[i]
+            if self._diagnostics:  # of the state each episode ended in
+                episode.update(self._diagnostic_infos(ended, with_errors=False))
             info["final_obs"], info["_final_obs"] = final_obs, ended
             info["final_info"], info["_final_info"] = episode, ended
         else:
-            if self._diagnostics:  # e_q, e_w are already there for every env
+            if self._diagnostics:  # e_q, e_w are already there for every env that stepped
                 for key in ("e_q", "_e_q", "e_w", "_e_w"):
                     del episode[key]
             info.update(episode)
+        return info
+
+    def _diagnostic_infos(self, envs: np.ndarray, with_errors: bool) -> dict[str, Any]:
+        """The diagnostics (and ``e_q``, ``e_w``) of the envs in the mask ``envs``,
+        zero for the others, as ``SyncVectorEnv`` batches keys that only some envs'
+        infos carry (an env's reset info has no diagnostics)."""
+        values = dict(zip(_core.DIAGNOSTICS, self._batch.diagnostics().T))
+        if with_errors:
+            errors = self._batch.errors()
+            values.update(e_q=errors[:, 0], e_w=errors[:, 1])
+        info: dict[str, Any] = {}
+        for key, value in values.items():
+            info[key], info["_" + key] = np.where(envs, value, 0.0), envs
         return info
 
     def render(self) -> Optional[tuple[Any, ...]]:

@@ -5,7 +5,7 @@
 //! part of the step.
 
 use super::config::resolve;
-use super::convert::{check_shape, error, ActionSlice, Actions, Floats};
+use super::convert::{check_shape, error, shape_text, type_error, ActionSlice, Actions, Floats};
 use super::reality::{param_arrays, params_dict};
 use crate::batch::Precision;
 use crate::env::batch::RNG_BYTES;
@@ -284,18 +284,24 @@ impl EnvBatch {
         py: Python<'py>,
         actions: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let actions = Actions::extract(actions)?;
-        check_shape(
-            "actions",
-            actions.shape(),
-            &[self.batch.num_envs(), self.batch.force_dim()],
-        )?;
+        let expected = [self.batch.num_envs(), self.batch.force_dim()];
+        let extracted = Actions::extract(actions)?;
+        if extracted.shape().is_empty() {
+            // A scalar cannot be split over the envs: a TypeError, as Gymnasium's and
+            // SB3's vector envs raise when they index into it.
+            return Err(type_error(format!(
+                "actions = {}: expected an array of shape {}, not a scalar",
+                actions.repr()?,
+                shape_text(&expected)
+            )));
+        }
+        check_shape("actions", extracted.shape(), &expected)?;
         let shape = self.obs_shape(false);
         if self.obs_f64 {
-            let (o, r, te, tr, n) = step_into::<f64>(py, &mut self.batch, &actions, &shape)?;
+            let (o, r, te, tr, n) = step_into::<f64>(py, &mut self.batch, &extracted, &shape)?;
             (o, r, te, tr, n).into_pyobject(py)
         } else {
-            let (o, r, te, tr, n) = step_into::<f32>(py, &mut self.batch, &actions, &shape)?;
+            let (o, r, te, tr, n) = step_into::<f32>(py, &mut self.batch, &extracted, &shape)?;
             (o, r, te, tr, n).into_pyobject(py)
         }
     }

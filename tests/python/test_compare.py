@@ -382,3 +382,17 @@ def test_the_scene_recipe_sets_the_training_defaults_and_options_override_it(tmp
     seed_run = json.loads((tmp_path / "own" / "seed-0" / "run.json").read_text())
     assert seed_run["num_envs"] == 2
     assert seed_run["hyperparameters"] == {**recipe.hyperparameters, "n_steps": 32, "batch_size": 64}
+
+
+def test_a_checkpoint_swapped_in_whole_survives_an_interruption_between_its_renames(tmp_path: pathlib.Path) -> None:
+    from chaincart_env.tools.compare.run_files import replace_directory, settled_directory
+
+    final, staging, old = tmp_path / "checkpoints", tmp_path / "checkpoints.tmp", tmp_path / "checkpoints.old"
+    for folder, text in ((final, "previous"), (staging, "new")):
+        folder.mkdir()
+        (folder / "state.json").write_text(text)
+    replace_directory(staging, final)
+    assert (final / "state.json").read_text() == "new" and not staging.exists() and not old.exists()
+    final.rename(old)  # as if interrupted after moving the previous one aside
+    assert (settled_directory(final) / "state.json").read_text() == "new" and not old.exists()
+    assert settled_directory(final) == final  # nothing to do

@@ -26,7 +26,8 @@ from chaincart_env.tools.bench.rllib_sampling import measure_sampling
 from chaincart_env.tools.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
 from chaincart_env.tools.compare.job import OUTPUT_FILES, lqr_baseline
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.tools.compare.rllib_training import RLlibPolicy, ray_cluster
+from chaincart_env.tools.compare.cells import ray_cluster
+from chaincart_env.tools.compare.rllib_training import RLlibPolicy
 from chaincart_env.rllib import (
     ENV_NAME,
     RunnerStartSeeds,

@@ -70,7 +70,8 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint-every", type=_integer(1, "checkpoint-every"), default=50_000,
                         help="timesteps between checkpoints, for --resume (default: 50000)")
     parser.add_argument("--resume", type=Path, default=None, metavar="RUN_DIR",
-                        help="continue an interrupted run with its own settings (other options are ignored)")
+                        help="continue an interrupted run with its own settings (other options are ignored, but "
+                        "--address)")
     parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=None,
                         help="training envs in the native VecEnv of the sb3 trainer (default: the scene's training "
                         f"recipe, {GENERIC.num_envs} without one)")
@@ -96,14 +97,20 @@ def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--envs-per-runner", type=_integer(1, "envs-per-runner"), default=4,
                        help="native envs in each RLlib env runner (default: 4)")
     group.add_argument("--address", default=None,
-                       help="Ray cluster to train on ('auto': the one this machine joined with `ray start`, or "
-                       "HOST:PORT of its head); default: a local cluster started for the run")
+                       help="Ray cluster for the run: 'auto' (the one this machine joined with `ray start`), "
+                       "HOST:PORT of its head, or 'local' (a new one on this machine). The study's independent "
+                       "pieces (SB3 training seeds, evaluation cells) then run there as Ray tasks, with the same "
+                       "results, and so do RLlib's env runners. Default: everything in this process (RLlib: a "
+                       "local cluster for its runners). With --resume: replaces the run's cluster")
 
 
 def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path,
                         help="a run folder written by compare, or its model.zip or rllib_checkpoint")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
+    parser.add_argument("--address", default=None,
+                        help="Ray cluster ('auto', HOST:PORT, or 'local' for a new one here) on which the evaluation "
+                        "cells run as Ray tasks, with the same results (default: in this process)")
     _add_evaluation_options(parser, defaults=False)
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
 
@@ -147,7 +154,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
 
     try:
         if args.resume is not None:
-            resume_compare(args.resume)
+            resume_compare(args.resume, address=args.address)
             return 0
         config = config_from_options(args)
         recipe = recipe_for(config.scene, args.algo) if args.trainer == "sb3" else GENERIC
@@ -162,8 +169,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     sweeps=sweeps, eval_every=args.eval_every, eval_starts=args.eval_starts,
                     checkpoint_every=args.checkpoint_every, progress_bar=not args.no_progress,
                     torch_threads=args.torch_threads, hyperparameters=hyperparameters, trainer=args.trainer,
-                    rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner,
-                               address=args.address))
+                    rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
+                    address=args.address)
     except ChainCartError as error:
         parser.error(str(error))
     return 0
@@ -174,7 +181,7 @@ def _run_evaluate_command(args: argparse.Namespace, parser: argparse.ArgumentPar
 
     try:
         run_evaluate(args.model, out=args.out, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
-                     torch_threads=args.torch_threads)
+                     torch_threads=args.torch_threads, address=args.address)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

@@ -32,6 +32,7 @@ __all__ = [
     "rollout",
     "settle_times",
     "summarize",
+    "tabulate",
 ]
 
 
@@ -212,8 +213,14 @@ def evaluate_policies(
     tolerances: Optional[tuple[float, float]] = None,
 ) -> tuple[list[Rollouts], list[dict[str, Any]], list[dict[str, Any]]]:
     """Rollouts, per-episode rows and summaries of each ``(name, policy)`` on ``seeds``."""
-    tolerances = config.success_tolerances if tolerances is None else tolerances
     runs = [rollout(policy, name, config, seeds) for name, policy in policies]
+    return (runs, *tabulate(runs, config.success_tolerances if tolerances is None else tolerances))
+
+
+def tabulate(
+    runs: Sequence[Rollouts], tolerances: tuple[float, float]
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Per-episode rows and per-policy summaries of the rollouts of several policies."""
     episodes = [row for run in runs for row in episode_table(run, tolerances)]
     summaries = [summarize([row for row in episodes if row["policy"] == run.policy]) for run in runs]
-    return runs, episodes, summaries
+    return episodes, summaries

@@ -17,8 +17,10 @@ from __future__ import annotations
 import json
 import platform
 import signal
+import tempfile
 import time
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Optional, Sequence
 
@@ -26,8 +28,9 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.learning_curve import (
     LEARNING_CURVE_COLUMNS, learning_curve, read_learning_curve, read_training_episodes,
 )  # fmt: skip
+from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.plots import plot_learning_curve
-from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, load_run, save_run
+from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, load_run, save_run, write_folder
 from chaincart_env.tools.compare.study import (
     EVALUATION_FILES, describe, evaluate_study, lqr_baseline, policy_label, seed_directory,
 )  # fmt: skip
@@ -36,8 +39,9 @@ from chaincart_env.tools.compare.tables import write_csv
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "StudySettings",
-    "lqr_baseline", "policy_label", "resume_compare", "run_compare", "run_evaluate",
+    "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "SeedCell", "SeedTraining",
+    "StudySettings", "cluster_address", "lqr_baseline", "policy_label", "resume_compare", "run_compare",
+    "run_evaluate", "train_seed_cell",
 ]  # fmt: skip
 
 #: The trainers of compare: stable-baselines3 on one machine, Ray RLlib on a cluster.
@@ -68,6 +72,9 @@ class StudySettings(dict):  # type: ignore[type-arg]
         for axis in settings["sweeps"]:
             if axis not in SWEEP_AXES:
                 raise InvalidInputError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
+        address = settings.get("address")
+        if address is not None and (not isinstance(address, str) or not address.strip()):
+            raise InvalidInputError(f"address = {address!r}: expected 'local', 'auto' or HOST:PORT of a Ray cluster")
         for key in ("eval_every", "checkpoint_every", "eval_starts", "timesteps"):
             value = settings[key]
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -117,7 +124,7 @@ def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySe
     directory.mkdir(parents=True, exist_ok=True)
     algo, timesteps = settings["algo"], settings["timesteps"]
     if settings["trainer"] == "rllib":
-        result, trained = _train_rllib(config, directory, seed, settings)
+        result, trained = _train_rllib(config, directory, seed, settings, resume)
     else:
         from chaincart_env.tools.compare.training import train
 
@@ -142,7 +149,9 @@ def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySe
     return info
 
 
-def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: StudySettings) -> tuple[Any, dict[str, Any]]:
+def _train_rllib(
+    config: ChainCartConfig, directory: Path, seed: int, settings: StudySettings, resume: bool
+) -> tuple[Any, dict[str, Any]]:
     try:
         import ray.rllib  # noqa: F401
     except ImportError as error:
@@ -158,11 +167,14 @@ def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: 
     print(f"training PPO with RLlib for {settings['timesteps']} timesteps on {runners} env runner(s) x "
           f"{per_runner} envs, seed {seed} -> {directory}")
     result = train_rllib(config, timesteps=settings["timesteps"], seed=seed, num_env_runners=runners,
-                         envs_per_runner=per_runner, address=rllib.get("address"),
-                         episodes_csv=directory / "training_episodes.csv", checkpoint=directory / CHECKPOINT_DIR,
-                         progress=settings["progress_bar"], hyperparameters=settings["hyperparameters"])
+                         envs_per_runner=per_runner, address=cluster_address(settings), directory=directory,
+                         checkpoint=directory / CHECKPOINT_DIR, checkpoint_every=settings["checkpoint_every"],
+                         resume=resume, progress=settings["progress_bar"],
+                         hyperparameters=settings["hyperparameters"])
     info = dict(timesteps_trained=result.timesteps_trained, num_env_runners=runners, envs_per_runner=per_runner,
-                num_envs=runners * per_runner, training_iterations=result.iterations, cluster=result.cluster)
+                num_envs=runners * per_runner, training_iterations=result.iterations, cluster=result.cluster,
+                runner_nodes=result.runner_nodes, runner_restarts=result.runner_restarts,
+                resumed_from=result.resumed_from)
     return result, info
 
 
@@ -181,18 +193,43 @@ def _training_notes(run: dict[str, Any]) -> list[str]:
     return notes
 
 
+def cluster_address(settings: dict[str, Any]) -> Optional[str]:
+    """The Ray cluster a run uses (``None``: none, or for RLlib a local one per seed);
+    runs saved before the study could be distributed kept it with the RLlib settings."""
+    return settings.get("address", settings.get("rllib", {}).get("address"))
+
+
 def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
     settings = StudySettings(run["settings"])
-    for seed in settings["seeds"]:
-        if str(seed) in run["seed_runs"]:
-            continue  # trained before the interruption
-        _set_status(out, run, "training", training_seed=seed)
-        run["seed_runs"][str(seed)] = _train_seed(config, out, seed, settings, resume)
-        _set_status(out, run, "training")
+    address = cluster_address(settings)
+    if address is None:
+        return _train_and_evaluate(config, out, run, resume, distributed=False)
+    from chaincart_env.tools.compare.cells import ray_cluster
+
+    runners = settings["rllib"]["num_env_runners"] if settings["trainer"] == "rllib" else 1
+    with ray_cluster(address, max(1, runners)) as cluster:
+        print(f"the study's training seeds and evaluation cells run as Ray tasks on {cluster}")
+        run["cluster"] = cluster
+        return _train_and_evaluate(config, out, run, resume, distributed=True)
+
+
+def _train_and_evaluate(
+    config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool, distributed: bool
+) -> list[dict[str, Any]]:
+    settings = StudySettings(run["settings"])
+    pending = [seed for seed in settings["seeds"] if str(seed) not in run["seed_runs"]]  # others trained before
+    if distributed and settings["trainer"] == "sb3":
+        _train_seeds_as_tasks(config, out, run, pending, resume)
+    else:  # one after the other (RLlib spreads each seed's sampling over the cluster itself)
+        for seed in pending:
+            _set_status(out, run, "training", training_seed=seed)
+            run["seed_runs"][str(seed)] = _train_seed(config, out, seed, settings, resume)
+            _set_status(out, run, "training")
     _set_status(out, run, "evaluating")
     summaries = evaluate_study(out, config, seeds=settings["seeds"], eval_seed=settings["eval_seed"],
                                eval_episodes=settings["eval_episodes"], sweeps=settings["sweeps"],
-                               training_notes=_training_notes(run))
+                               training_notes=_training_notes(run), distributed=distributed,
+                               torch_threads=settings.get("torch_threads"))
     for seed in settings["seeds"]:
         curve_csv = seed_directory(out, seed) / "learning_curve.csv"
         if curve_csv.is_file():
@@ -200,6 +237,55 @@ def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool
                                 policy_label(settings["algo"], settings["trainer"]),
                                 next(s for s in summaries if s["policy"] == "LQR"))
     return summaries
+
+
+@dataclass(frozen=True)
+class SeedTraining:
+    """What every training-seed task shares: the scene and the run's settings."""
+
+    config: ChainCartConfig
+    settings: StudySettings
+
+
+@dataclass(frozen=True)
+class SeedCell:
+    """One training seed as a task: its seed folder's files so far (a checkpoint to
+    resume from, when ``resume``)."""
+
+    seed: int
+    resume: bool
+    files: dict[str, bytes]
+
+
+def train_seed_cell(job: SeedTraining, cell: SeedCell) -> tuple[dict[str, Any], dict[str, bytes]]:
+    """Trains one seed in a scratch folder (of the machine the task runs on) exactly as
+    the serial run does, and returns its run.json record and its folder's files."""
+    with tempfile.TemporaryDirectory(prefix="chaincart-seed-") as scratch:
+        directory = seed_directory(Path(scratch), cell.seed)
+        write_folder(directory, cell.files)
+        info = _train_seed(job.config, Path(scratch), cell.seed, job.settings, cell.resume)
+        return info, folder_contents(directory)
+
+
+def _train_seeds_as_tasks(
+    config: ChainCartConfig, out: Path, run: dict[str, Any], seeds: Sequence[int], resume: bool
+) -> None:
+    """SB3 training seeds as Ray tasks; each seed's folder is written here as it finishes."""
+    settings = StudySettings(run["settings"])
+    job = SeedTraining(config, StudySettings({**settings, "progress_bar": False}))
+    cells = [SeedCell(seed, resume, folder_contents(seed_directory(out, seed)) if resume else {}) for seed in seeds]
+
+    def save(index: int, result: tuple[dict[str, Any], dict[str, bytes]]) -> None:
+        info, files = result
+        write_folder(seed_directory(out, seeds[index]), files)
+        run["seed_runs"][str(seeds[index])] = info
+        # In the order of the seeds, as a serial run records them.
+        run["seed_runs"] = {str(s): run["seed_runs"][str(s)] for s in settings["seeds"] if str(s) in run["seed_runs"]}
+        _set_status(out, run, "training")
+
+    _set_status(out, run, "training", training_seeds=list(seeds))
+    map_cells(train_seed_cell, cells, shared=job, distributed=True, torch_threads=settings.get("torch_threads"),
+              on_result=save)
 
 
 def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
@@ -242,20 +328,26 @@ def run_compare(
     hyperparameters: Optional[dict[str, Any]] = None,
     trainer: str = "sb3",
     rllib: Optional[dict[str, Any]] = None,
+    address: Optional[str] = None,
 ) -> list[dict[str, Any]]:
     """Trains ``algo`` on ``config`` once per training seed, evaluates every agent and
     the LQR baseline on ``eval_episodes`` seeded starts and over ``sweeps`` (default
     :data:`DEFAULT_SWEEPS`), and writes the study into ``out``; returns the main
     comparison's summaries. ``trainer="rllib"`` trains with Ray RLlib (``rllib =
-    {"num_env_runners": ..., "envs_per_runner": ..., "address": ...}``)."""
+    {"num_env_runners": ..., "envs_per_runner": ...}``). ``address``: a Ray cluster
+    (``"local"``: a new one on this machine) on which the study's independent pieces
+    (SB3 training seeds, evaluation cells) run as Ray tasks, with the same results as
+    without it; RLlib's env runners run there too."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
+    runners = {"num_env_runners": 2, "envs_per_runner": 4, **(rllib or {})}
+    given = runners.pop("address", None)  # where it was before the study could be distributed
     settings = StudySettings.checked(
         algo=algo.lower(), timesteps=timesteps, seeds=list(seeds), num_envs=num_envs, eval_episodes=eval_episodes,
         eval_seed=eval_seed, sweeps={k: list(v) for k, v in (DEFAULT_SWEEPS if sweeps is None else sweeps).items()},
         eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every,
         progress_bar=progress_bar, torch_threads=torch_threads, hyperparameters=dict(hyperparameters or {}),
-        trainer=trainer, rllib={"num_env_runners": 2, "envs_per_runner": 4, "address": None, **(rllib or {})},
+        trainer=trainer, rllib=runners, address=given if address is None else address,
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     lqr_baseline(config)  # so does a scene without a baseline
@@ -269,10 +361,12 @@ def run_compare(
     return _run(config, out, run, resume=False)
 
 
-def resume_compare(out: Path) -> list[dict[str, Any]]:
+def resume_compare(out: Path, address: Optional[str] = None) -> list[dict[str, Any]]:
     """Continues the run in ``out`` where it stopped: seeds already trained are kept, an
-    interrupted seed continues from its last checkpoint (ending as it would have without
-    the interruption), the rest train, then the study is evaluated."""
+    interrupted seed continues from its last checkpoint (an SB3 seed ending as it would
+    have without the interruption; an RLlib seed as described in
+    :func:`~chaincart_env.tools.compare.rllib_training.train_rllib`), the rest train, then the
+    study is evaluated. ``address`` replaces the run's Ray cluster (e.g. a new one)."""
     out = Path(out)
     if not (out / RUN_FILE).is_file() or not (out / CONFIG_FILE).is_file():
         raise InvalidInputError(f"--resume {out}: expected a run directory of compare (with {RUN_FILE} and {CONFIG_FILE})")
@@ -280,6 +374,8 @@ def resume_compare(out: Path) -> list[dict[str, Any]]:
     if "settings" not in run or "seed_runs" not in run:
         raise InvalidInputError(f"--resume {out}: {RUN_FILE} is not that of a compare study")
     config = ChainCartConfig(**json.loads((out / CONFIG_FILE).read_text()))
+    if address is not None:
+        run["settings"]["address"] = address
     print(f"resuming {out} (status {run.get('status')!r}, seeds trained: {sorted(run['seed_runs']) or 'none'})")
     return _run(config, out, run, resume=True)
 
@@ -291,10 +387,12 @@ def run_evaluate(
     eval_episodes: Optional[int] = None,
     eval_seed: Optional[int] = None,
     torch_threads: Optional[int] = None,
+    address: Optional[str] = None,
 ) -> list[dict[str, Any]]:
     """Re-runs the evaluation of a saved run (same starts and sweeps unless told
     otherwise) into ``out`` (default ``<run>/evaluation``): a whole study directory, or
-    one seed's folder or model file (then that agent alone against the LQR)."""
+    one seed's folder or model file (then that agent alone against the LQR).
+    ``address``: the evaluation cells run as Ray tasks on that cluster."""
     _set_torch_threads(torch_threads)
     path = Path(path)
     if (path / RUN_FILE).is_file() and "settings" in json.loads((path / RUN_FILE).read_text()):
@@ -316,7 +414,15 @@ def run_evaluate(
     first = int(settings.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed
     print(describe(config))
     print(f"evaluating {directory} -> {into}")
-    summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
-                               sweeps=sweeps, into=into)
+    if address is None:
+        summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
+                                   sweeps=sweeps, into=into)
+    else:
+        from chaincart_env.tools.compare.cells import ray_cluster
+
+        with ray_cluster(address, 1) as cluster:
+            print(f"the evaluation cells run as Ray tasks on {cluster}")
+            summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
+                                       sweeps=sweeps, into=into, distributed=True, torch_threads=torch_threads)
     print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
     return summaries

@@ -6,22 +6,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional, Sequence
+from typing import Any, Mapping, Optional, Sequence
 
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, evaluate_policies, evaluation_seeds
+from chaincart_env.tools.compare.cells import map_cells
+from chaincart_env.tools.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, Rollouts, evaluation_seeds, rollout, tabulate
 from chaincart_env.tools.compare.filmstrip import write_filmstrip
 from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
 from chaincart_env.tools.compare.report import SUMMARY_FIGURE, write_report, write_summary_figure
-from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, EVALUATIONS_FILE, load_run, read_evaluations
+from chaincart_env.tools.compare.policy_sources import PolicySource
+from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, read_evaluations, read_json_object
 from chaincart_env.tools.compare.statistics import aggregate_over_seeds
-from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, run_sweep, summarize_sweep
+from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, summarize_sweep, sweep_rows
 from chaincart_env.tools.compare.tables import write_csv, write_markdown
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TrainedPolicy", "describe", "evaluate_study", "lqr_baseline",
-    "policy_label", "seed_directory", "trained_policies",
+    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "EvaluationCell", "SweepPoint", "TrainedPolicy", "describe",
+    "evaluate_cell", "evaluate_study", "lqr_baseline", "policy_label", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
 #: What the evaluation of a study writes.
@@ -79,7 +81,7 @@ class TrainedPolicy:
 
     label: str
     seed: int
-    policy: Any
+    source: PolicySource
 
     @property
     def name(self) -> str:
@@ -92,14 +94,13 @@ def trained_policies(out: Path, seeds: Sequence[int]) -> list[TrainedPolicy]:
     evaluation (where one was kept)."""
     finals, bests = [], []
     for seed in seeds:
-        run = load_run(seed_directory(out, seed))
-        label = policy_label(str(run.info["algo"]), str(run.info.get("trainer", "sb3")))
-        finals.append(TrainedPolicy(label, seed, run.model))
-        best = seed_directory(out, seed) / BEST_MODEL_FILE
-        if best.is_file():
-            from chaincart_env.tools.compare.algorithms import algorithm_class
-
-            bests.append(TrainedPolicy(f"{label} best", seed, algorithm_class(str(run.info["algo"])).load(best, device="cpu")))
+        directory = seed_directory(out, seed)
+        info = read_json_object(directory / RUN_FILE)
+        label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
+        finals.append(TrainedPolicy(label, seed, PolicySource.of_run(directory)))
+        best = PolicySource.best_of_run(directory)
+        if best is not None:
+            bests.append(TrainedPolicy(f"{label} best", seed, best))
     return finals + bests
 
 
@@ -118,13 +119,48 @@ def _aggregate_rows(summaries: Sequence[dict[str, Any]], trained: Sequence[Train
     return rows
 
 
-def _sweep(
-    trained: Sequence[TrainedPolicy], baselines: Sequence[tuple[str, Any]], config: ChainCartConfig, axis: str,
-    values: Sequence[float], seeds: Sequence[int],
+@dataclass(frozen=True)
+class EvaluationCell:
+    """One policy (by its name in the tables) on one scene variant, from the study's
+    seeded starts: an independent piece of the evaluation."""
+
+    policy: str
+    config: ChainCartConfig
+    seeds: tuple[int, ...]
+
+
+def evaluate_cell(sources: Mapping[str, PolicySource], cell: EvaluationCell) -> Rollouts:
+    """The rollouts of one :class:`EvaluationCell` (``sources``: the policies by name)."""
+    return rollout(sources[cell.policy].load(), cell.policy, cell.config, cell.seeds)
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One value of a sweep axis and the scene variant it makes."""
+
+    axis: str
+    value: float
+    config: ChainCartConfig
+
+
+def _sweep_points(config: ChainCartConfig, sweeps: Mapping[str, Sequence[float]]) -> list[SweepPoint]:
+    return [
+        SweepPoint(axis, value, SWEEP_AXES[axis].apply(config, float(value)))
+        for axis, values in sweeps.items() for value in values
+    ]
+
+
+def _sweep_rows(
+    points: Sequence[SweepPoint], runs: Sequence[Rollouts], trained: Sequence[TrainedPolicy]
 ) -> list[dict[str, Any]]:
-    named = [(t.name, t.policy) for t in trained] + list(baselines)
-    rows = run_sweep(named, config, axis, values, seeds)
+    """The rows of every sweep point (``runs``: every policy at each point in turn),
+    trained policies labelled by their label and seed."""
+    per_point = len(runs) // max(1, len(points))
     owner = {t.name: t for t in trained}
+    rows: list[dict[str, Any]] = []
+    for k, point in enumerate(points):
+        rows.extend(sweep_rows(point.axis, point.value, runs[k * per_point:(k + 1) * per_point],
+                               point.config.success_tolerances))
     for row in rows:
         if row["policy"] in owner:
             row["seed"], row["policy"] = owner[row["policy"]].seed, owner[row["policy"]].label
@@ -141,19 +177,31 @@ def evaluate_study(
     sweeps: dict[str, Sequence[float]],
     into: Optional[Path] = None,
     training_notes: Sequence[str] = (),
+    distributed: bool = False,
+    torch_threads: Optional[int] = None,
 ) -> list[dict[str, Any]]:
     """Evaluates the study in ``out`` (its seeds' agents and the LQR baseline) and writes
     :data:`EVALUATION_FILES` into ``into`` (default ``out``); returns the summaries of
     the main comparison (one per policy and seed, then the LQR, then the oracle LQR
-    where the true system can differ from the model)."""
+    where the true system can differ from the model). Every policy on every scene
+    variant is one :class:`EvaluationCell`; ``distributed``: the cells run as Ray tasks
+    on the connected cluster (:func:`~chaincart_env.tools.compare.cells.map_cells`), with
+    the same results."""
     into = Path(out) if into is None else Path(into)
     into.mkdir(parents=True, exist_ok=True)
-    starts = evaluation_seeds(eval_seed, eval_episodes)
-    trained, baseline = trained_policies(out, seeds), lqr_baseline(config)
-    oracle = [("LQR oracle", lqr_baseline(config, oracle=True))] if _has_parameter_gap(config, sweeps) else []
-    baselines = [("LQR", baseline)] + oracle
-    policies = [(t.name, t.policy) for t in trained] + baselines
-    runs, episodes, summaries = evaluate_policies(policies, config, starts)
+    starts = tuple(evaluation_seeds(eval_seed, eval_episodes))
+    lqr_baseline(config)  # a scene without a baseline fails here, not inside a cell
+    trained = trained_policies(out, seeds)
+    sources = {t.name: t.source for t in trained}
+    sources["LQR"] = PolicySource.lqr(config)
+    if _has_parameter_gap(config, sweeps):
+        sources["LQR oracle"] = PolicySource.lqr(config, oracle=True)
+    points = _sweep_points(config, sweeps)
+    cells = [EvaluationCell(name, variant, starts) for variant in [config] + [p.config for p in points]
+             for name in sources]
+    all_runs = map_cells(evaluate_cell, cells, shared=sources, distributed=distributed, torch_threads=torch_threads)
+    runs = all_runs[: len(sources)]
+    episodes, summaries = tabulate(runs, config.success_tolerances)
     write_csv(into / "comparison.csv", summaries, METRIC_COLUMNS)
     write_csv(into / "episodes.csv", episodes, EPISODE_COLUMNS)
     aggregates = _aggregate_rows(summaries, trained)
@@ -171,14 +219,13 @@ def evaluate_study(
     plot_errors(into / "errors.png", first_and_lqr, config.success_tolerances)
     write_filmstrip(into / "filmstrip.png", first_and_lqr, config)
 
-    sweep_rows, summaries_by_axis = [], {}
-    for axis, values in sweeps.items():
-        rows = _sweep(trained, baselines, config, axis, values, starts)
-        sweep_rows.extend(rows)
-        summary = summarize_sweep(rows)
+    rows = _sweep_rows(points, all_runs[len(sources):], trained)
+    summaries_by_axis: dict[str, tuple[str, Sequence[dict[str, Any]]]] = {}
+    for axis in sweeps:
+        summary = summarize_sweep([row for row in rows if row["axis"] == axis])
         summaries_by_axis[axis] = (SWEEP_AXES[axis].label, summary)
         plot_sweep(into / f"sweep_{axis}.png", summary, SWEEP_AXES[axis].label)
-    write_csv(into / "sweeps.csv", sweep_rows, ("seed",) + SWEEP_COLUMNS)
+    write_csv(into / "sweeps.csv", rows, ("seed",) + SWEEP_COLUMNS)
     write_csv(into / "sweep_summary.csv", [r for _, rows in summaries_by_axis.values() for r in rows],
               SWEEP_SUMMARY_COLUMNS)
 

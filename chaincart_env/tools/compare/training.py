@@ -150,6 +150,7 @@ def train(
     ends as the uninterrupted run would)."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
+    from chaincart_env.tools.compare.run_files import settled_directory
 
     cls = algorithm_class(algo)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
@@ -157,7 +158,7 @@ def train(
     kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    resuming = resume and (directory / CHECKPOINT_DIR).is_dir()
+    resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs)
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)

@@ -78,6 +78,8 @@ def test_bench_quick_runs_every_section_without_cargo(installed: Path, tmp_path:
     [
         (["compare", "--timesteps", "10"], "sb3,plot"),
         (["evaluate", "runs/none"], "sb3,plot"),
+        (["compare", "--address", "auto"], "sb3,plot,rllib"),  # a Ray cluster needs Ray
+        (["evaluate", "runs/none", "--address", "local"], "sb3,plot,rllib"),
         (["figures"], "plot"),
         (["roa", "--starts", "2"], "plot"),
         (["animate"], "plot"),
