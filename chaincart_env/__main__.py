@@ -39,6 +39,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
     add_compare_commands(commands)  # compare, evaluate: each sets args.handler
 
+    from chaincart_env.tools.leaderboard.cli import add_leaderboard_command
+
+    add_leaderboard_command(commands)  # leaderboard: sets args.handler
+
     from chaincart_env.tools.animate import add_animate_command
 
     add_animate_command(commands)  # animate: sets args.handler

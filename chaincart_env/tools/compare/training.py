@@ -104,9 +104,12 @@ EPISODES_FILE = "training_episodes.csv"
 
 
 def _new_agent(algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any]) -> BaseAlgorithm:
+    from chaincart_env.tools.compare.recipes import sb3_keywords
+
+    keywords = sb3_keywords(kwargs)  # checked before the envs are built
     venv = VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed))
     try:
-        return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
+        return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
     except TypeError as error:  # an unknown or ill-typed keyword
         raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
 
