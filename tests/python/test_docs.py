@@ -26,3 +26,14 @@ def test_python_block_runs_and_prints_what_it_documents(
 ) -> None:
     monkeypatch.chdir(tmp_path)  # blocks that write files write them here
     run_example(example, eval_example)
+
+
+def test_the_readme_states_the_steps_the_main_job_trains() -> None:
+    # SB3 trains whole rollouts: the default scene's budget rounded up to num_envs x n_steps.
+    from chaincart_env.compare.recipes import recipe_for
+    from chaincart_env.config import DEFAULT_SCENE
+
+    recipe = recipe_for(DEFAULT_SCENE, "ppo")
+    rollout = recipe.num_envs * recipe.hyperparameters["n_steps"]
+    trained = -(-recipe.timesteps // rollout) * rollout
+    assert f"# the main job trains {trained:,} steps" in (ROOT / "README.md").read_text()
