@@ -54,14 +54,20 @@ def _values_text(values: Sequence[float]) -> str:
 def _axis_line(label: str, rows: Sequence[dict[str, Any]], agent: str, baseline: str) -> tuple[str, dict[str, int]]:
     """One sweep axis: where each side is ahead and where they tie."""
     outcome: dict[str, list[float]] = {"agent": [], "baseline": [], "tie": []}
+    higher: dict[str, list[float]] = {"agent": [], "baseline": []}  # ties whose rates still differ
     for value in sorted({r["value"] for r in rows}):
         mine = {r["policy"]: r for r in rows if r["value"] == value}
         rates = [Rate(mine[p]["success_rate"], mine[p]["ci_low"], mine[p]["ci_high"]) for p in (agent, baseline)]
-        outcome[compare_rates(*rates)].append(value)
-    parts = [f"{name} ahead at {_values_text(outcome[side])}"
-             for side, name in (("agent", agent), ("baseline", baseline)) if outcome[side]]  # fmt: skip
+        side = compare_rates(*rates)
+        outcome[side].append(value)
+        if side == "tie" and rates[0].value != rates[1].value:
+            higher["agent" if rates[0].value > rates[1].value else "baseline"].append(value)
+    names = (("agent", agent), ("baseline", baseline))
+    parts = [f"{name} ahead at {_values_text(outcome[side])}" for side, name in names if outcome[side]]
     if outcome["tie"]:
-        parts.append(f"tied at {_values_text(outcome['tie'])}")
+        within = [f"{name} at {_values_text(higher[side])}" for side, name in names if higher[side]]
+        parts.append(f"tied at {_values_text(outcome['tie'])}"
+                     + (f" (higher rate within the intervals: {', '.join(within)})" if within else ""))  # fmt: skip
     return f"* {label}: {'; '.join(parts)}.", {side: len(values) for side, values in outcome.items()}
 
 
@@ -100,7 +106,7 @@ def verdict_lines(
     elif counts["agent"] or counts["baseline"]:
         headline = f"each side is ahead somewhere: {agent} and {baseline} split"
     else:
-        headline = f"{agent} and {baseline} cannot be told apart"
+        headline = f"{agent} and {baseline} cannot be told apart on these episodes"
     seed_text = f"{seeds} training seed{'s' if seeds != 1 else ''}"
     head = (
         f"**{headline}**: {agent} ({seed_text}) against {baseline}, success rates at {total} setting(s): "

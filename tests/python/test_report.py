@@ -63,7 +63,7 @@ def test_the_verdict_names_who_is_ahead_where() -> None:
     assert lines[0].startswith("**each side is ahead somewhere: PPO and LQR split**")
     assert "success rates at 6 setting(s): PPO ahead at 1, LQR ahead at 2, tied at 3." in lines[0]
     assert "* On the 100 evaluation starts: PPO succeeded in 100% [0.96, 1.00] of episodes, LQR in 100% [0.96, 1.00]: tied; mean return 95.5 against 97.0." in text
-    assert "* start perturbation: LQR ahead at 0.3; tied at 0.05, 0.5." in text
+    assert "* start perturbation: LQR ahead at 0.3; tied at 0.05, 0.5 (higher rate within the intervals: LQR at 0.5)." in text
     assert "* model mismatch: PPO ahead at 0.4; LQR ahead at 0." in text
     assert "With one training seed the intervals are over episodes only" in text
 
