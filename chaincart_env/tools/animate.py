@@ -22,8 +22,9 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
+from chaincart_env.cli_text import plain, scene_help
+from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
 from chaincart_env.errors import ChainCartError, InvalidInputError, MissingExtraError
-from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import ChainCartEnv
 from chaincart_env.rendering import DEFAULT_FRAME_SIZE
 
@@ -321,10 +322,10 @@ def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentP
     parser = commands.add_parser(
         "animate",
         help="write a GIF or MP4 of one episode of a scene under a policy",
-        description=__doc__,
+        description=plain(__doc__ or ""),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--scene", default=None, help="scene name (default: a saved model's scene, else the default)")
+    parser.add_argument("--scene", default=None, help=scene_help(f"a saved model's scene, else {DEFAULT_SCENE}"))
     parser.add_argument(
         "--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
         help="config keyword on top of the scene (repeatable), e.g. --set n_links=3 --set target=folded",

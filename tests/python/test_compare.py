@@ -132,6 +132,11 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
     assert all(int(r["episodes"]) == 3 for r in sweep)
     report = (tiny_run / "report.md").read_text()
     assert "## Sweep: start perturbation" in report and "![summary](summary.png)" in report
+    # The verdict first; one seed: no interval over seeds is claimed.
+    assert report.index("## Verdict") < report.index("## Setup") < report.index("## On the evaluation starts")
+    assert "PPO (1 training seed) against LQR, success rates at 3 setting(s)" in report
+    assert "over seeds" not in report.replace("no interval over seeds", "")
+    assert "PPO, one training seed: success" in report and "One seed gives no interval over seeds" in report
 
 
 def test_evaluate_reproduces_the_comparison_from_the_saved_model(
@@ -230,7 +235,8 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--timesteps", "-5"], "timesteps = -5: expected an integer >= 1"),
         (["--timesteps", "lots"], "timesteps = 'lots': expected an integer >= 1"),
         (["--num-envs", "0"], "num-envs = 0: expected an integer >= 1"),
-        (["--set", "bogus=1"], "unknown scene key 'bogus'"),
+        (["--set", "bogus=1"], "--set 'bogus=1': unknown config key \"bogus\": expected one of"),
+        (["--set", "n-link=3"], 'unknown config key "n_link" (did you mean "n_links"?)'),
         (["--set", "n_links"], "expected key=value"),
         (["--scene", "nope"], 'unknown scene "nope"'),
         (["--n-links", "two"], "n_links = 'two': expected an integer"),
@@ -304,6 +310,9 @@ def test_several_seeds_train_independent_agents_and_aggregate(tmp_path: pathlib.
     assert int(ppo["seeds"]) == 2 and ppo["interval"] == "bootstrap, over seeds"
     lqr = next(r for r in sweep if r["policy"] == "LQR")
     assert int(lqr["seeds"]) == 1 and lqr["interval"] == "Wilson, over episodes"
+    report = (tmp_path / "report.md").read_text()
+    assert "PPO (2 training seeds) against LQR" in report and "Intervals of the agent: bootstrap over seeds" in report
+    assert f"PPO over 2 training seeds: success {float(final['success_mean']):.2f} [" in report
     # Different training seeds, different agents.
     a, b = (tmp_path / f"seed-{s}" / "training_episodes.csv" for s in (3, 4))
     assert a.read_text() != b.read_text()

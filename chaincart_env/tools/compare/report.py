@@ -4,6 +4,7 @@ summary figure (``summary.png``) a README can show."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -13,6 +14,7 @@ from chaincart_env.tools.compare.tables import markdown_table
 
 __all__ = ["REPORT_FILE", "SUMMARY_FIGURE", "sweep_markdown", "write_report", "write_summary_figure"]
 
+_SEED = re.compile(r" \(seed \d+\)$")
 REPORT_FILE = "report.md"
 SUMMARY_FIGURE = "summary.png"
 
@@ -51,17 +53,19 @@ def write_report(
     directory: Path,
     *,
     title: str,
+    verdict: Sequence[str],
     setup: Sequence[str],
     comparison: Sequence[dict[str, Any]],
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
     training: Sequence[str],
     pictures: Sequence[tuple[str, str]],
 ) -> str:
-    """Writes ``report.md`` into ``directory``: the setup, the comparison on the main
-    starts, one table per sweep axis, training notes and the pictures (``(file,
-    caption)``; only files that exist are linked). Returns the text."""
-    parts = [f"# {title}\n\n", *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n",
-             markdown_table(comparison)]
+    """Writes ``report.md`` into ``directory``: the verdict (lines of Markdown), the
+    setup, the comparison on the main starts, one table per sweep axis, training notes
+    and the pictures (``(file, caption)``; only files that exist are linked). Returns
+    the text."""
+    parts = [f"# {title}\n\n", "## Verdict\n\n", *[f"{line}\n" for line in verdict], "\n## Setup\n\n",
+             *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n", markdown_table(comparison)]
     for axis, (label, rows) in sweeps.items():
         parts.append(f"\n## Sweep: {label}\n\n")
         parts.append(sweep_markdown(rows, label))
@@ -93,7 +97,7 @@ def write_summary_figure(
     from matplotlib.figure import Figure
     from PIL import Image
 
-    from chaincart_env.tools.compare.plots import draw_evaluation_curves, draw_sweep
+    from chaincart_env.tools.compare.plots import draw_errors, draw_evaluation_curves, draw_sweep
 
     panels = 2 + len(sweeps)
     columns = 2
@@ -104,17 +108,11 @@ def write_summary_figure(
     # The last panel (e_q(t)) takes the rest of its row.
     last = panels - 1
     axes.append(fig.add_subplot(grid[last // columns, last % columns:]))
-    draw_evaluation_curves(axes[0], curves, baseline, "success_rate")
+    draw_evaluation_curves(axes[0], curves, baseline, "success_rate", _SEED.sub("", errors[0].policy))
     for ax, (label, sweep_rows) in zip(axes[1:], sweeps.values()):
         draw_sweep(ax, sweep_rows, label)
-    errors_ax = axes[-1]
-    for run in errors:
-        series = run.e_q[0, : run.lengths[0] + 1]
-        errors_ax.semilogy(np.arange(series.size) * run.dt, np.maximum(series, 1e-8), label=run.policy)
-    errors_ax.axhline(tolerances[0], color="k", ls="--", lw=1, label="success tolerance")
-    errors_ax.set(xlabel="t (s)", ylabel="e_q", title=f"e_q(t) from start seed {int(errors[0].seeds[0])}")
-    errors_ax.grid(alpha=0.3, which="both")
-    errors_ax.legend(loc="best", fontsize="small")
+    draw_errors(axes[-1], errors, "e_q", tolerances[0])
+    axes[-1].set(title=f"e_q(t) from start seed {int(errors[0].seeds[0])}")
     strip_ax = fig.add_subplot(grid[rows - 1, :])
     if Path(filmstrip).is_file():
         strip_ax.imshow(np.asarray(Image.open(filmstrip)))

@@ -19,6 +19,7 @@ from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, re
 from chaincart_env.tools.compare.statistics import aggregate_over_seeds
 from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, summarize_sweep, sweep_rows
 from chaincart_env.tools.compare.tables import write_csv, write_markdown
+from chaincart_env.tools.compare.verdict import main_starts_rate, verdict_lines
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
@@ -167,6 +168,36 @@ def _sweep_rows(
     return rows
 
 
+def _seed_line(row: dict[str, Any]) -> str:
+    """A trained policy's numbers over its training seeds (an interval only with several)."""
+    if row["seeds"] < 2:
+        return (f"{row['policy']}, one training seed: success {row['success_mean']:.2f}, return "
+                f"{row['return_mean']:.1f}. One seed gives no interval over seeds (train several with --seeds).")
+    return (
+        f"{row['policy']} over {row['seeds']} training seeds: success {row['success_mean']:.2f} "
+        f"[{row['success_ci_low']:.2f}, {row['success_ci_high']:.2f}], return {row['return_mean']:.1f} "
+        f"[{row['return_ci_low']:.1f}, {row['return_ci_high']:.1f}] (mean over seeds, 95% percentile bootstrap "
+        "interval over seeds)."
+    )
+
+
+def _verdict(
+    trained: Sequence[TrainedPolicy], summaries: Sequence[dict[str, Any]], aggregates: Sequence[dict[str, Any]],
+    sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]], episodes: int,
+) -> list[str]:
+    """The verdict of the first trained policy (its final models) against the LQR."""
+    agent = trained[0].label
+    lqr = summaries[len(trained)]
+    first_seed = next(s for s in summaries if s["policy"] == trained[0].name)
+    aggregate = next(row for row in aggregates if row["policy"] == agent)
+    agent_return = aggregate["return_mean"]
+    return verdict_lines(
+        agent=agent, seeds=int(aggregate["seeds"]), baseline=str(lqr["policy"]), episodes=episodes,
+        main=(main_starts_rate(first_seed, aggregate), main_starts_rate(lqr)),
+        returns=(agent_return, lqr["return_mean"]), sweeps=sweeps,
+    )
+
+
 def evaluate_study(
     out: Path,
     config: ChainCartConfig,
@@ -234,18 +265,14 @@ def evaluate_study(
         for seed in seeds if (seed_directory(out, seed) / EVALUATIONS_FILE).is_file()
     }
     lqr_summary = summaries[len(trained)]
-    plot_evaluation_curves(into / "evaluation_curve.png", curves, lqr_summary)
+    plot_evaluation_curves(into / "evaluation_curve.png", curves, lqr_summary, trained[0].label)
     write_summary_figure(into / SUMMARY_FIGURE, curves=curves, baseline=lqr_summary, sweeps=summaries_by_axis,
                          errors=first_and_lqr, tolerances=config.success_tolerances, filmstrip=into / "filmstrip.png")
-    seed_lines = [
-        f"{row['policy']} over {row['seeds']} training seed(s): success {row['success_mean']:.2f}"
-        + (f" [{row['success_ci_low']:.2f}, {row['success_ci_high']:.2f}]" if row["seeds"] > 1 else "")
-        + f", return {row['return_mean']:.1f}"
-        + (f" [{row['return_ci_low']:.1f}, {row['return_ci_high']:.1f}]" if row["seeds"] > 1 else "")
-        + " (mean over seeds, 95% percentile bootstrap interval over seeds)." for row in aggregates
-    ]
+    verdict = _verdict(trained, summaries, aggregates, summaries_by_axis, eval_episodes)
+    print("\n".join(["", "Verdict:", *verdict]))
     write_report(
-        into, title=f"{trained[0].label} vs the paper's LQR", setup=notes + seed_lines, comparison=summaries,
+        into, title=f"{trained[0].label} vs the paper's LQR", verdict=verdict,
+        setup=notes + [_seed_line(row) for row in aggregates], comparison=summaries,
         sweeps=summaries_by_axis, training=training_notes,
         pictures=[(SUMMARY_FIGURE, "summary"), ("evaluation_curve.png", "deterministic evaluation during training"),
                   *[(f"sweep_{axis}.png", f"success vs {SWEEP_AXES[axis].label}") for axis in sweeps],
