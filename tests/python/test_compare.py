@@ -242,7 +242,7 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--n-links", "two"], "n_links = 'two': expected an integer"),
         (["--start-noise=-1"], "start_noise"),
         (["--algo-kwarg", "n_stepz=64"], "n_stepz"),
-        (["--scene", "paper-fig1"], "no LQR baseline for scene 'paper-fig1'"),
+        (["--scene", "paper-fig1"], "lqr cannot serve scene 'paper-fig1'"),
         (["--seeds", "0,0"], "expected distinct integers"),
         (["--seeds", "1,x"], "seeds = '1,x'"),
         (["--seeds", "0", "--seed", "1"], "not allowed with argument"),
@@ -282,7 +282,7 @@ def test_off_policy_algorithms_run_through_the_console_entry(algo: str, tmp_path
     assert compare_main([*args, "--out", str(tmp_path)]) == 0
     _, rows = read_csv(tmp_path / "comparison.csv")
     assert [row["policy"] for row in rows] == [f"{algo.upper()} (seed 0)", f"{algo.upper()} best (seed 0)", "LQR"]
-    assert json.loads((tmp_path / "run.json").read_text())["settings"]["algo"] == algo
+    assert json.loads((tmp_path / "run.json").read_text())["settings"]["policies"] == [algo, "lqr"]
 
 
 def test_console_scripts_point_at_the_commands() -> None:

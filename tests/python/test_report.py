@@ -1,18 +1,21 @@
 """The main job's report says what it found: a verdict from the success rates and
-their intervals (an independent count of who is ahead where), and pictures in which
-every policy has its own colour and line style and a curve hidden under another is
-named in the legend."""
+their intervals (an independent count of who is ahead where) against the best
+model-based controller, and pictures in which every controller has its own colour,
+line style and marker, the same in the main job's and in the leaderboard's pictures,
+and a curve hidden under another is named in the legend."""
 
 from __future__ import annotations
 
 import itertools
+import pathlib
 
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
 from chaincart_env.tools.compare.plots import draw_sweep
-from chaincart_env.tools.compare.styles import policy_style
+from chaincart_env.tools.compare.styles import LOOKS, policy_style
+from chaincart_env.tools.controllers import CONTROLLERS, label_of
 from chaincart_env.tools.compare.verdict import Rate, compare_rates, main_starts_rate, verdict_lines
 
 POLICIES = ["PPO", "PPO best", "LQR", "LQR oracle"]
@@ -76,12 +79,47 @@ def test_a_one_sided_verdict_says_who_succeeded_more_often() -> None:
     assert "Intervals of the agent: bootstrap over seeds" in lines[-1]
 
 
-def test_every_policy_has_its_own_colour_and_line_style_shared_by_its_seeds() -> None:
-    styles = [policy_style(p, POLICIES) for p in POLICIES]
-    for a, b in itertools.combinations(styles, 2):
-        assert a.color != b.color and a.linestyle != b.linestyle and a.hatch != b.hatch
-    assert policy_style("PPO (seed 4)", POLICIES) == policy_style("PPO", POLICIES)
-    assert policy_style("SAC best", ["SAC", "SAC best", "LQR"]) == policy_style("PPO best", POLICIES)
+def test_every_controller_and_variant_has_a_look_of_its_own() -> None:
+    assert {name for name, _ in LOOKS} == set(CONTROLLERS)
+    for (a_key, a), (b_key, b) in itertools.combinations(LOOKS.items(), 2):
+        differ = (a.color != b.color, str(a.linestyle) != str(b.linestyle), a.marker != b.marker, a.hatch != b.hatch)
+        assert all(differ), (a_key, b_key, differ)
+
+
+def test_a_controller_has_one_look_whatever_names_it() -> None:
+    # The leaderboard's names, the main job's labels, a seed's row, the RLlib trainer's label.
+    assert policy_style("PPO (seed 4)") == policy_style("PPO") == policy_style("ppo") == policy_style("PPO (RLlib)")
+    assert policy_style("lqr") == policy_style("LQR") == LOOKS[("lqr", "")]
+    assert policy_style("SAC best (seed 1)") == LOOKS[("sac", "best")] != policy_style("PPO best")
+    assert policy_style("LQR oracle") == LOOKS[("lqr", "oracle")]
+    for name in CONTROLLERS:
+        assert policy_style(name) == policy_style(label_of(name)) == LOOKS[(name, "")]
+    assert policy_style("zero") not in LOOKS.values()  # no controller: a look of its own
+
+
+def test_the_main_job_and_the_leaderboard_draw_a_controller_alike(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from chaincart_env.tools.leaderboard import report as leaderboard_report
+    from chaincart_env.tools.leaderboard.axes import parse_axes
+
+    names = ["ppo", "sac", "lqr", "mpc"]
+    rates = {label_of(n): [(0.8 - k / 10, 0.5, 0.9), (0.2, 0.1, 0.4)] for k, n in enumerate(names)}
+    ax = Figure().subplots()
+    draw_sweep(ax, sweep_rows(rates, [0.0, 0.3]), "model mismatch")
+    in_main_job = {line.get_label(): line for line in ax.get_lines()}
+    drawn: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, *args, **kwargs: drawn.append(fig))
+    cells = [dict(scene="s", controller=n, axis="mismatch", value=v, seed=0, episodes=4, successes=w, success_rate=w / 4)
+             for n in names for v, w in ((0.0, 3), (0.3, 1))]  # fmt: skip
+    leaderboard_report._plot_scene(tmp_path / "s.png", cells, parse_axes("mismatch"), "s")
+    in_leaderboard = {line.get_label(): line for line in drawn[0].axes[0].get_lines()}
+    for name in names:
+        ours, theirs = in_main_job[label_of(name)], in_leaderboard[name]
+        for look in ("get_color", "get_linestyle", "get_marker"):
+            assert getattr(ours, look)() == getattr(theirs, look)(), (name, look)
+    hatches = {c.get_hatch() for c in drawn[0].axes[0].collections if c.get_hatch()}
+    assert hatches == {LOOKS[(n, "")].hatch for n in names}
 
 
 def test_the_sweep_plot_keeps_coinciding_policies_apart_and_names_the_hidden_ones() -> None:

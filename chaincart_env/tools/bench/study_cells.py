@@ -14,8 +14,7 @@ from __future__ import annotations
 import io
 import os
 import time
-from contextlib import contextmanager
-from typing import Any, Iterator
+from typing import Any
 
 from chaincart_env.tools.bench.report import fmt_ratio
 from chaincart_env.tools.bench.rllib_sampling import MISSING_NOTE, rllib_available
@@ -32,22 +31,6 @@ def time_cells(cells: list[Any], sources: dict[str, Any], distributed: bool) -> 
     start = time.perf_counter()
     map_cells(evaluate_cell, cells, shared=sources, distributed=distributed, torch_threads=1)
     return time.perf_counter() - start
-
-
-@contextmanager
-def _torch_threads(threads: int) -> Iterator[None]:
-    """Torch on ``threads`` threads in this process for a while (if torch is installed)."""
-    try:
-        import torch
-    except ImportError:
-        yield
-        return
-    before = torch.get_num_threads()
-    torch.set_num_threads(threads)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
 
 
 def _untrained_ppo(config: Any) -> dict[str, Any]:
@@ -71,7 +54,7 @@ def cells_section(ctx: BenchContext) -> None:
         return
     import ray
 
-    from chaincart_env.tools.compare.cells import LOCAL, ray_cluster
+    from chaincart_env.tools.compare.cells import LOCAL, ray_cluster, torch_threads
     from chaincart_env.tools.compare.policy_sources import PolicySource
     from chaincart_env.tools.compare.study import EvaluationCell, SweepPoint
     from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
@@ -86,7 +69,7 @@ def cells_section(ctx: BenchContext) -> None:
              for name in sources]
     cpus = os.cpu_count() or 1
     serial, spread = [], []
-    with _torch_threads(1):  # as compare's default (--torch-threads 1), and as in every task
+    with torch_threads(1):  # as compare's default (--torch-threads 1), and as in every task
         time_cells(cells[: len(sources)], sources, distributed=False)  # this process warm, as a worker will be
         start = time.perf_counter()
         with ray_cluster(LOCAL, cpus) as cluster:

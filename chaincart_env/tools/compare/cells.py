@@ -26,7 +26,7 @@ from typing import Any, Callable, Iterator, Optional, Sequence, TypeVar
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
 
-__all__ = ["LOCAL", "map_cells", "ray_cluster"]
+__all__ = ["LOCAL", "map_cells", "ray_cluster", "torch_threads"]
 
 S = TypeVar("S")
 C = TypeVar("C")
@@ -42,6 +42,23 @@ def _set_torch_threads(threads: int) -> None:
         import torch
 
         torch.set_num_threads(threads)
+
+
+@contextmanager
+def torch_threads(threads: Optional[int]) -> Iterator[None]:
+    """Torch runs with ``threads`` threads inside (``None``, or no torch: unchanged),
+    as it does in every task of :func:`map_cells` given the same count."""
+    if threads is None or importlib.util.find_spec("torch") is None:
+        yield
+        return
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
 
 
 def _run_cell(function: Callable[[S, C], R], shared: S, cell: C, torch_threads: Optional[int]) -> R:

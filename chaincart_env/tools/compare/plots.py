@@ -4,7 +4,7 @@ curve and the errors ``e_q(t)``, ``e_w(t)`` of the compared policies on one star
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Optional, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -28,23 +28,25 @@ def _figure() -> Figure:
 
 
 def plot_learning_curve(
-    path: Path, curve: Sequence[dict[str, Any]], algo: str, baseline: dict[str, Any]
+    path: Path, curve: Sequence[dict[str, Any]], algo: str, baseline: Optional[dict[str, Any]]
 ) -> None:
     """Mean training-episode return and success rate against timesteps, with the
-    baseline's evaluation values as dashed lines."""
+    baseline's evaluation values (when there is one) as lines in its look."""
     fig = _figure()
     ret, succ = fig.subplots(1, 2)
     steps = np.array([row["timesteps"] for row in curve], dtype=float)
     mean = np.array([row["return_mean"] for row in curve], dtype=float)
     std = np.array([row["return_std"] for row in curve], dtype=float)
-    agent, lqr = policy_style(algo.upper()), policy_style(baseline["policy"])
+    agent = policy_style(algo)
     ret.plot(steps, mean, color=agent.color, ls=agent.linestyle, marker=".", label=f"{algo} (training episodes)")
     ret.fill_between(steps, mean - std, mean + std, color=agent.color, alpha=0.2, label="± std over episodes")
-    ret.axhline(baseline["return_mean"], color=lqr.color, ls=lqr.linestyle, label=f"{baseline['policy']} (evaluation)")
     ret.set(xlabel="timesteps", ylabel="episode return", title="return")
     succ.plot(steps, [row["success_rate"] for row in curve], color=agent.color, ls=agent.linestyle, marker=".",
               label=f"{algo} (training episodes)")
-    succ.axhline(baseline["success_rate"], color=lqr.color, ls=lqr.linestyle, label=f"{baseline['policy']} (evaluation)")
+    if baseline is not None:
+        look = policy_style(baseline["policy"])
+        for ax, key in ((ret, "return_mean"), (succ, "success_rate")):
+            ax.axhline(baseline[key], color=look.color, ls=look.linestyle, label=f"{baseline['policy']} (evaluation)")
     succ.set(xlabel="timesteps", ylabel="success rate", title="success rate", ylim=(-0.05, 1.05))
     for ax in (ret, succ):
         ax.xaxis.set_major_formatter(EngFormatter())
@@ -67,12 +69,11 @@ def plot_errors(path: Path, runs: Sequence[Rollouts], tolerances: tuple[float, f
 def draw_errors(ax: Any, runs: Sequence[Rollouts], key: str, tolerance: float) -> None:
     """``key`` (``e_q`` or ``e_w``) against time of each policy's first episode, log
     scale, each policy in its style (coinciding curves named), the tolerance grey."""
-    names = [run.policy for run in runs]
     drawn: list[tuple[str, np.ndarray, np.ndarray]] = []
     for run in runs:
         series = np.maximum(getattr(run, key)[0, : run.lengths[0] + 1], 1e-8)
         t = np.arange(series.size) * run.dt
-        style = policy_style(run.policy, names)
+        style = policy_style(run.policy)
         hidden = coinciding_with(t, series, drawn)
         ax.semilogy(t, series, color=style.color, ls=style.linestyle, label=legend_label(run.policy, hidden))
         drawn.append((run.policy, t, series))
@@ -83,23 +84,28 @@ def draw_errors(ax: Any, runs: Sequence[Rollouts], key: str, tolerance: float) -
 
 
 def draw_evaluation_curves(
-    ax: Any, curves: dict[str, Sequence[dict[str, Any]]], baseline: dict[str, Any], key: str = "success_rate",
-    agent_label: str = "agent",
+    ax: Any, curves: dict[str, dict[str, Sequence[dict[str, Any]]]], baselines: Sequence[dict[str, Any]],
+    key: str = "success_rate",
 ) -> None:
-    """Deterministic evaluations during training (one line per training seed, the mean
-    over seeds bold) against the baseline's value (dashed)."""
-    agent, lqr = policy_style(agent_label), policy_style(baseline["policy"])
-    series = []
-    for seed, rows in sorted(curves.items()):
-        steps = np.array([r["timesteps"] for r in rows], dtype=float)
-        values = np.array([r[key] for r in rows], dtype=float)
-        series.append((steps, values))
-        ax.plot(steps, values, color=agent.color, ls=agent.linestyle, alpha=0.45, lw=1,
-                label=f"{agent_label}, seed {seed}" if len(curves) <= 5 else None)
-    if len(series) > 1 and all(s[0].shape == series[0][0].shape and np.array_equal(s[0], series[0][0]) for s in series):
-        ax.plot(series[0][0], np.mean([s[1] for s in series], axis=0), color=agent.color, lw=2.5,
-                label=f"{agent_label}, mean over {len(series)} seeds")
-    ax.axhline(baseline[key], color=lqr.color, ls=lqr.linestyle, lw=1.2, label=f"{baseline['policy']}")
+    """Deterministic evaluations during training (``curves``: by trained policy's label,
+    then by training seed; one thin line per seed, the mean over seeds bold) against
+    each baseline's value on the evaluation starts (a horizontal line in its look)."""
+    for agent_label, by_seed in curves.items():
+        agent = policy_style(agent_label)
+        series = []
+        for seed, rows in sorted(by_seed.items()):
+            steps = np.array([r["timesteps"] for r in rows], dtype=float)
+            values = np.array([r[key] for r in rows], dtype=float)
+            series.append((steps, values))
+            ax.plot(steps, values, color=agent.color, ls=agent.linestyle, alpha=0.45, lw=1,
+                    label=f"{agent_label}, seed {seed}" if len(by_seed) <= 5 else None)
+        if len(series) > 1 and all(s[0].shape == series[0][0].shape and np.array_equal(s[0], series[0][0])
+                                   for s in series):
+            ax.plot(series[0][0], np.mean([s[1] for s in series], axis=0), color=agent.color, lw=2.5,
+                    label=f"{agent_label}, mean over {len(series)} seeds")
+    for baseline in baselines:
+        look = policy_style(baseline["policy"])
+        ax.axhline(baseline[key], color=look.color, ls=look.linestyle, lw=1.2, label=f"{baseline['policy']}")
     label = "success rate" if key == "success_rate" else "mean return"
     ax.set(xlabel="training timesteps", ylabel=label, title=f"deterministic evaluation: {label}")
     if key == "success_rate":
@@ -119,7 +125,7 @@ def draw_sweep(ax: Any, rows: Sequence[dict[str, Any]], axis_label: str) -> None
         mine = sorted((r for r in rows if r["policy"] == policy), key=lambda r: r["value"])
         x = np.array([r["value"] for r in mine], dtype=float)
         y = np.array([r["success_rate"] for r in mine], dtype=float)
-        style = policy_style(policy, policies)
+        style = policy_style(policy)
         hidden = coinciding_with(x, y, drawn)
         ax.plot(x, y, **style.line(), label=legend_label(policy, hidden))
         band(ax, x, [r["ci_low"] for r in mine], [r["ci_high"] for r in mine], style)
@@ -137,11 +143,12 @@ def plot_sweep(path: Path, rows: Sequence[dict[str, Any]], axis_label: str) -> N
 
 
 def plot_evaluation_curves(
-    path: Path, curves: dict[str, Sequence[dict[str, Any]]], baseline: dict[str, Any], agent_label: str = "agent"
+    path: Path, curves: dict[str, dict[str, Sequence[dict[str, Any]]]], baselines: Sequence[dict[str, Any]]
 ) -> None:
-    """Success rate and mean return of the deterministic evaluations during training."""
+    """Success rate and mean return of the deterministic evaluations during training
+    (:func:`draw_evaluation_curves`)."""
     fig = _figure()
     left, right = fig.subplots(1, 2)
-    draw_evaluation_curves(left, curves, baseline, "success_rate", agent_label)
-    draw_evaluation_curves(right, curves, baseline, "return_mean", agent_label)
+    draw_evaluation_curves(left, curves, baselines, "success_rate")
+    draw_evaluation_curves(right, curves, baselines, "return_mean")
     fig.savefig(path)

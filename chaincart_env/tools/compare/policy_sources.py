@@ -1,9 +1,10 @@
 """Policies as data that can travel to another machine: the trained policies of a study
-and the LQR baseline, loaded where an evaluation cell runs (this process or a Ray worker;
-:mod:`chaincart_env.tools.compare.cells`).
+and the model-based controllers, loaded where an evaluation cell runs (this process or a
+Ray worker; :mod:`chaincart_env.tools.compare.cells`).
 
 A :class:`PolicySource` holds an SB3 model's file contents, an RLlib RLModule's folder
-packed into a tar archive, or the scene configuration the LQR baseline is designed on.
+packed into a tar archive, or a model-based controller's name and the scene
+configuration it is designed on.
 :meth:`PolicySource.load` builds the policy; each process keeps the policies it loaded,
 so a worker that evaluates one policy on many scene variants loads it once.
 """
@@ -35,8 +36,9 @@ _LOADED: dict[str, Any] = {}
 class PolicySource:
     """What :meth:`load` needs to build one policy: ``kind`` is ``"sb3"`` (``payload``:
     the model's zip file, ``algo``: its algorithm), ``"rllib"`` (the RLModule folder as
-    a tar archive) or ``"lqr"`` (the scene's ``ChainCartConfig`` keywords; ``oracle``:
-    the per-episode design on the true parameters)."""
+    a tar archive) or ``"model"`` (a model-based controller: ``payload`` holds its name
+    and the scene's ``ChainCartConfig`` keywords; ``oracle``: the per-episode design on
+    the true parameters)."""
 
     kind: str
     payload: Any
@@ -57,9 +59,16 @@ class PolicySource:
         return cls("rllib", buffer.getvalue())
 
     @classmethod
+    def model_based(cls, controller: str, config: ChainCartConfig, oracle: bool = False) -> "PolicySource":
+        """Model-based controller ``controller`` (a name of
+        :data:`~chaincart_env.tools.controllers.MODEL_BASED`) designed on ``config``'s
+        nominal model (``oracle``: on each episode's true parameters)."""
+        return cls("model", {"controller": controller, "config": config.to_dict()}, oracle=oracle)
+
+    @classmethod
     def lqr(cls, config: ChainCartConfig, oracle: bool = False) -> "PolicySource":
         """The LQR baseline of ``config`` (``oracle``: designed on each episode's true parameters)."""
-        return cls("lqr", config.to_dict(), oracle=oracle)
+        return cls.model_based("lqr", config, oracle)
 
     @classmethod
     def of_run(cls, directory: Path) -> "PolicySource":
@@ -110,8 +119,9 @@ class PolicySource:
                 with tarfile.open(fileobj=io.BytesIO(self.payload)) as archive:
                     archive.extractall(folder, **_SAFE_EXTRACTION)
                 return RLlibPolicy.from_module(Path(folder))
-        if self.kind == "lqr":
-            from chaincart_env.tools.compare.study import lqr_baseline
+        if self.kind == "model":
+            from chaincart_env.tools.controllers import build_model_based
 
-            return lqr_baseline(ChainCartConfig(**self.payload), oracle=self.oracle)
-        raise InvalidInputError(f"policy source kind {self.kind!r}: expected 'sb3', 'rllib' or 'lqr'")
+            config = ChainCartConfig(**self.payload["config"])
+            return build_model_based(self.payload["controller"], config, oracle=self.oracle)
+        raise InvalidInputError(f"policy source kind {self.kind!r}: expected 'sb3', 'rllib' or 'model'")

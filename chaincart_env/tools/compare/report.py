@@ -4,7 +4,6 @@ summary figure (``summary.png``) a README can show."""
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -14,7 +13,6 @@ from chaincart_env.tools.compare.tables import markdown_table
 
 __all__ = ["REPORT_FILE", "SUMMARY_FIGURE", "sweep_markdown", "write_report", "write_summary_figure"]
 
-_SEED = re.compile(r" \(seed \d+\)$")
 REPORT_FILE = "report.md"
 SUMMARY_FIGURE = "summary.png"
 
@@ -84,22 +82,22 @@ def write_report(
 def write_summary_figure(
     path: Path,
     *,
-    curves: dict[str, Sequence[dict[str, Any]]],
-    baseline: dict[str, Any],
+    curves: dict[str, dict[str, Sequence[dict[str, Any]]]],
+    baselines: Sequence[dict[str, Any]],
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
     errors: Sequence[Any],
     tolerances: tuple[float, float],
     filmstrip: Path,
 ) -> None:
-    """One figure: the evaluation learning curve against the baseline, success against
-    each sweep axis with its bands, ``e_q(t)`` of every policy from the first start, and
-    the filmstrip of that start."""
+    """One figure: the evaluation learning curves against the baselines (when something
+    was trained), success against each sweep axis with its bands, ``e_q(t)`` of every
+    policy from the first start, and the filmstrip of that start."""
     from matplotlib.figure import Figure
     from PIL import Image
 
     from chaincart_env.tools.compare.plots import draw_errors, draw_evaluation_curves, draw_sweep
 
-    panels = 2 + len(sweeps)
+    panels = (1 if curves else 0) + len(sweeps) + 1
     columns = 2
     rows = (panels + 1) // columns + 1
     fig = Figure(figsize=(12, 3.6 * rows), dpi=100, layout="constrained")
@@ -108,8 +106,9 @@ def write_summary_figure(
     # The last panel (e_q(t)) takes the rest of its row.
     last = panels - 1
     axes.append(fig.add_subplot(grid[last // columns, last % columns:]))
-    draw_evaluation_curves(axes[0], curves, baseline, "success_rate", _SEED.sub("", errors[0].policy))
-    for ax, (label, sweep_rows) in zip(axes[1:], sweeps.values()):
+    if curves:
+        draw_evaluation_curves(axes[0], curves, baselines, "success_rate")
+    for ax, (label, sweep_rows) in zip(axes[1 if curves else 0:], sweeps.values()):
         draw_sweep(ax, sweep_rows, label)
     draw_errors(axes[-1], errors, "e_q", tolerances[0])
     axes[-1].set(title=f"e_q(t) from start seed {int(errors[0].seeds[0])}")

@@ -1,16 +1,18 @@
-"""One look per policy in every picture of the main job: its colour, line style,
-marker and the hatch of its interval band, so that a policy reads the same in each
-plot and policies whose curves coincide stay apart (and are named as hidden)."""
+"""One look per controller in every picture, the main job's and the leaderboard's: its
+colour, line style, marker and the hatch of its interval band (one table,
+:data:`LOOKS`), so that a controller reads the same in each plot, and policies whose
+curves coincide stay apart (and are named as hidden)."""
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from typing import Any, Optional, Sequence
 
 import numpy as np
 
-__all__ = ["PolicyStyle", "band", "coinciding_with", "legend_label", "policy_style"]
+from chaincart_env.tools.controllers import controller_of_label
+
+__all__ = ["LOOKS", "PolicyStyle", "band", "coinciding_with", "legend_label", "policy_style"]
 
 
 @dataclass(frozen=True)
@@ -27,37 +29,35 @@ class PolicyStyle:
         return dict(color=self.color, ls=self.linestyle, marker=self.marker)
 
 
-_BASELINE = PolicyStyle("black", "--", "s", "\\\\\\\\")
-_ORACLE = PolicyStyle("tab:purple", ":", "D", "....")
-_AGENT = PolicyStyle("tab:blue", "-", "o", "////")
-_AGENT_BEST = PolicyStyle("tab:orange", "-.", "^", "xxxx")
-#: Policies of other names (e.g. a second algorithm), in order of appearance.
-_OTHERS = (
-    PolicyStyle("tab:green", (0, (5, 1)), "v", "||||"),
-    PolicyStyle("tab:red", (0, (3, 1, 1, 1, 1, 1)), "P", "----"),
-    PolicyStyle("tab:brown", (0, (1, 2)), "X", "++++"),
-)
-_SEED = re.compile(r" \(seed \d+\)$")
+#: The look of every controller (by its ``--policies`` name) and of its variants: the
+#: best model of a training run (``best``), the LQR designed on the true parameters
+#: (``oracle``). Every entry differs from every other in colour, line style, marker
+#: and hatch.
+LOOKS: dict[tuple[str, str], PolicyStyle] = {
+    ("ppo", ""): PolicyStyle("tab:blue", "-", "o", "////"),
+    ("ppo", "best"): PolicyStyle("tab:orange", "-.", "^", "xxxx"),
+    ("sac", ""): PolicyStyle("tab:green", (0, (5, 1)), "v", "||||"),
+    ("sac", "best"): PolicyStyle("tab:olive", (0, (5, 1, 1, 1)), "<", "oo"),
+    ("td3", ""): PolicyStyle("tab:red", (0, (3, 1, 1, 1, 1, 1)), "P", "----"),
+    ("td3", "best"): PolicyStyle("tab:pink", (0, (4, 1, 1, 1, 1, 1, 1, 1)), ">", "OO"),
+    ("lqr", ""): PolicyStyle("black", "--", "s", "\\\\\\\\"),
+    ("lqr", "oracle"): PolicyStyle("tab:purple", ":", "D", "...."),
+    ("mpc", ""): PolicyStyle("tab:brown", (0, (5, 2, 1, 2)), "X", "++++"),
+    ("trajectory", ""): PolicyStyle("tab:cyan", (0, (8, 3)), "h", "**"),
+    ("energy", ""): PolicyStyle("tab:gray", (0, (1, 3)), "*", "-\\\\"),
+}
+#: Anything that is no controller of the table (a policy a user passes in).
+_OTHER = PolicyStyle("0.35", (0, (2, 1, 2, 3)), ".", "")
 
 
-def policy_style(name: str, others: Sequence[str] = ()) -> PolicyStyle:
-    """The style of policy ``name`` (``"PPO"``, ``"PPO (seed 3)"``, ``"PPO best"``,
-    ``"LQR"``, ``"LQR oracle"``, ...); a trained policy's seeds share its style.
-    ``others``: the names of the other trained policies in the picture, in order, for
-    a policy that is neither the first trained one nor a baseline."""
-    label = _SEED.sub("", name)
-    if label == "LQR":
-        return _BASELINE
-    if label == "LQR oracle":
-        return _ORACLE
-    trained = [n for n in dict.fromkeys(_SEED.sub("", o) for o in others) if n not in ("LQR", "LQR oracle")]
-    first = next((n for n in trained if not n.endswith(" best")), label.removesuffix(" best"))
-    if label == first:
-        return _AGENT
-    if label == f"{first} best":
-        return _AGENT_BEST
-    position = trained.index(label) if label in trained else 0
-    return _OTHERS[position % len(_OTHERS)]
+def policy_style(name: str) -> PolicyStyle:
+    """The look of the policy a table or legend names: a controller's name or label
+    (``"ppo"``, ``"PPO"``, ``"PPO (seed 3)"``, ``"PPO (RLlib)"``) or a variant's
+    (``"PPO best"``, ``"LQR oracle"``); a training run's seeds share its look."""
+    controller, variant = controller_of_label(name)
+    if controller is None:
+        return _OTHER
+    return LOOKS.get((controller, variant), LOOKS.get((controller, ""), _OTHER))
 
 
 def coinciding_with(x: np.ndarray, y: np.ndarray, drawn: Sequence[tuple[str, np.ndarray, np.ndarray]]) -> Optional[str]:

@@ -21,6 +21,7 @@ from chaincart_env.config import ChainCartConfig
 from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
+    "check_keywords",
     "steps_trained",
     "TRAINING_EPISODE_COLUMNS",
     "EpisodeCsvLogger",
@@ -101,6 +102,28 @@ class TrainingResult:
 
 #: Files of a training directory.
 EPISODES_FILE = "training_episodes.csv"
+
+
+#: Constructor arguments the trainer sets itself.
+_SET_BY_TRAINER = ("self", "policy", "env", "seed", "device", "verbose", "_init_setup_model")
+
+
+def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
+    """Checks, before anything trains, that ``hyperparameters`` are keywords of
+    ``algo``'s constructor (an InvalidInputError naming the others) and that their
+    values are what :func:`~chaincart_env.tools.compare.recipes.sb3_keywords` reads."""
+    import inspect
+
+    from chaincart_env.tools.compare.recipes import sb3_keywords
+
+    cls = algorithm_class(algo)
+    accepted = sorted(set(inspect.signature(cls.__init__).parameters) - set(_SET_BY_TRAINER))
+    unknown = sorted(set(hyperparameters) - set(accepted))
+    if unknown:
+        raise InvalidInputError(
+            f"{algo} keywords {unknown}: not keywords of {cls.__name__}; expected some of {', '.join(accepted)}"
+        )
+    sb3_keywords(hyperparameters, f"{algo} keywords")
 
 
 def _new_agent(algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any]) -> BaseAlgorithm:

@@ -1,5 +1,13 @@
-"""The main job's answer in plain words: what was measured, and at which settings the
-trained agent or the LQR baseline succeeded more often.
+"""The main job's answer in plain words: what was measured, and at which settings each
+learned policy or the best model-based controller succeeded more often.
+
+The *baseline* is the best model-based controller of the study: the highest success
+rate averaged over the evaluation starts and every sweep value (then the higher mean
+return on the starts; then the first named), the oracle LQR excluded (it reads the true
+parameters, which a deployed controller cannot). Each learned policy (its final models)
+is weighed against it. A study without a learned policy weighs the other model-based
+controllers against the best one; one without a model-based controller, the other
+learned policies against the best learned one.
 
 A side is *ahead* at a setting when the 95% interval of its success rate lies wholly
 above the other's; where the intervals overlap the two *tie* (the data cannot tell
@@ -16,7 +24,7 @@ from typing import Any, Sequence
 
 from chaincart_env.tools.compare.statistics import wilson_interval
 
-__all__ = ["Rate", "compare_rates", "main_starts_rate", "verdict_lines"]
+__all__ = ["Rate", "Standing", "Verdict", "compare_rates", "main_starts_rate", "study_verdict", "verdict_lines"]
 
 
 @dataclass(frozen=True)
@@ -26,6 +34,17 @@ class Rate:
     value: float
     low: float
     high: float
+
+
+@dataclass(frozen=True)
+class Standing:
+    """One policy as the verdict weighs it: its label, its training seeds (0: designed,
+    not trained), its success rate on the evaluation starts and its mean return there."""
+
+    label: str
+    seeds: int
+    main: Rate
+    returns: float
 
 
 def compare_rates(agent: Rate, baseline: Rate) -> str:
@@ -81,8 +100,9 @@ def verdict_lines(
     returns: tuple[float, float],
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
 ) -> list[str]:
-    """The verdict: a headline naming who succeeded more often over every setting, one
-    line for the evaluation starts and one per sweep axis, and how to read it."""
+    """The verdict of ``agent`` against ``baseline``: a headline naming who succeeded
+    more often over every setting, one line for the evaluation starts and one per sweep
+    axis, and how to read it. ``seeds``: the agent's training seeds (0: not trained)."""
     counts = {"agent": 0, "baseline": 0, "tie": 0}
     side = compare_rates(*main)
     counts[side] += 1
@@ -107,14 +127,72 @@ def verdict_lines(
         headline = f"each side is ahead somewhere: {agent} and {baseline} split"
     else:
         headline = f"{agent} and {baseline} cannot be told apart on these episodes"
-    seed_text = f"{seeds} training seed{'s' if seeds != 1 else ''}"
+    seed_text = f"{seeds} training seed{'s' if seeds != 1 else ''}" if seeds else "model-based"
     head = (
         f"**{headline}**: {agent} ({seed_text}) against {baseline}, success rates at {total} setting(s): "
         f"{agent} ahead at {counts['agent']}, {baseline} ahead at {counts['baseline']}, tied at {counts['tie']}."
     )
     reading = (
         "Ahead: the 95% interval of its success rate lies wholly above the other's; tied: the intervals overlap. "
-        + ("With one training seed the intervals are over episodes only: how much another seed would differ is "
-           "not measured (`--seeds 0,1,2`)." if seeds == 1 else "Intervals of the agent: bootstrap over seeds.")
+        + {0: "Neither is trained: the intervals are over episodes.",
+           1: "With one training seed the intervals are over episodes only: how much another seed would differ is "
+              "not measured (`--seeds 0,1,2`)."}.get(seeds, "Intervals of the agent: bootstrap over seeds.")
     )
     return [head, "", *lines, "", reading]
+
+
+def _overall(standing: Standing, sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]]) -> tuple[float, float]:
+    """What ranks the candidates for the baseline: the success rate averaged over the
+    evaluation starts and every sweep value, then the mean return on the starts."""
+    rates = [standing.main.value] + [
+        r["success_rate"] for _, rows in sweeps.values() for r in rows if r["policy"] == standing.label
+    ]
+    return (sum(rates) / len(rates), standing.returns)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A study's verdict: its lines of Markdown, the baseline and the policies weighed
+    against it (labels)."""
+
+    lines: list[str]
+    baseline: Standing
+    contenders: list[str]
+
+
+def study_verdict(
+    learned: Sequence[Standing],
+    model_based: Sequence[Standing],
+    sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
+    episodes: int,
+) -> Verdict:
+    """The verdict of a study (module docstring): one block of :func:`verdict_lines`
+    per policy weighed against the baseline."""
+    pool = list(model_based) or list(learned)
+    if not pool:
+        raise ValueError("a verdict needs at least one policy")
+    baseline = max(pool, key=lambda standing: _overall(standing, sweeps))
+    if model_based:
+        contenders = list(learned) or [s for s in model_based if s is not baseline]
+    else:
+        contenders = [s for s in learned if s is not baseline]
+    lines: list[str] = []
+    if len(pool) > 1:
+        kind = "model-based controller" if model_based else "learned policy"
+        lines += [f"Baseline: {baseline.label}, the best {kind} of this study (highest success rate averaged over the "
+                  "evaluation starts and every sweep value).", ""]
+    for contender in contenders:
+        if lines and lines[-1] != "":
+            lines.append("")
+        lines += verdict_lines(
+            agent=contender.label, seeds=contender.seeds, baseline=baseline.label, episodes=episodes,
+            main=(contender.main, baseline.main), returns=(contender.returns, baseline.returns), sweeps=sweeps,
+        )
+    if not contenders:
+        rate = baseline.main
+        lines.append(
+            f"**Only {baseline.label} was evaluated**: it succeeded in {rate.value:.0%} [{rate.low:.2f}, "
+            f"{rate.high:.2f}] of the {episodes} evaluation starts (mean return {baseline.returns:.1f}); nothing to "
+            "weigh it against."
+        )
+    return Verdict(lines, baseline, [c.label for c in contenders])

@@ -19,6 +19,19 @@ def _seeds(text: str) -> list[int]:
         raise argparse.ArgumentTypeError(f"{text!r}: expected integers separated by commas") from None
 
 
+def _positive(what: str) -> Any:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = 0
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{what} = {text!r}: expected an integer >= 1")
+        return value
+
+    return parse
+
+
 def _scenes(text: str) -> list[str]:
     from chaincart_env.config import SCENES
 
@@ -30,17 +43,17 @@ def _scenes(text: str) -> list[str]:
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from chaincart_env.tools.controllers import parse_controllers
     from chaincart_env.tools.leaderboard.axes import parse_axes
-    from chaincart_env.tools.leaderboard.controllers import parse_controllers
     from chaincart_env.tools.leaderboard.run import LeaderboardSettings, run_leaderboard
 
     try:
         settings = LeaderboardSettings(
             scenes=tuple(args.scenes), controllers=tuple(parse_controllers(args.policies)), seeds=tuple(args.seeds),
             axes=parse_axes(args.axes), quick=args.quick, episodes=args.episodes, timesteps=args.timesteps,
-            progress_bar=not args.no_progress,
+            progress_bar=not args.no_progress, torch_threads=args.torch_threads,
         )
-        run_leaderboard(settings, args.out, args.report)
+        run_leaderboard(settings, args.out, args.report, address=args.address)
     except (ChainCartError, InvalidInputError) as error:
         parser.error(str(error))
     print(f"leaderboard: wrote {Path(args.report or Path(args.out) / 'leaderboard.md')}")
@@ -48,20 +61,23 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 
 def leaderboard_needs(args: Any) -> dict[str, tuple[str, ...]]:
-    """The extras a leaderboard run needs: plotting always, SB3 for learned controllers."""
-    from chaincart_env.tools.leaderboard.controllers import LEARNED
+    """The extras a leaderboard run needs: plotting always, SB3 for learned controllers,
+    Ray for a cluster."""
+    from chaincart_env.tools.controllers import LEARNED
 
     needs: dict[str, tuple[str, ...]] = {"plot": ("matplotlib", "scipy")}
     names = {name.strip().lower() for name in str(args.policies).split(",")}
     if names & set(LEARNED):
         needs["sb3"] = ("stable_baselines3", "yaml")
+    if getattr(args, "address", None) is not None:
+        needs["rllib"] = ("ray",)
     return needs
 
 
 def add_leaderboard_command(commands: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
     """Adds ``leaderboard`` to a subcommand set (its handler runs it)."""
+    from chaincart_env.tools.controllers import CONTROLLERS
     from chaincart_env.tools.leaderboard.axes import AXIS_NAMES
-    from chaincart_env.tools.leaderboard.controllers import CONTROLLERS
 
     parser = commands.add_parser(
         "leaderboard", help="robustness leaderboard: success of every controller along robustness axes",
@@ -71,7 +87,8 @@ def add_leaderboard_command(commands: "argparse._SubParsersAction[argparse.Argum
     )
     parser.add_argument("--scenes", type=_scenes, required=True, help="scene names, separated by commas")
     parser.add_argument("--policies", required=True,
-                        help=f"controllers, separated by commas, among: {', '.join(CONTROLLERS)}")
+                        help=f"controllers, separated by commas, among: {', '.join(CONTROLLERS)} (the names the "
+                        "main job's compare --policies takes)")
     parser.add_argument("--out", type=Path, required=True, help="run directory (agents, cells.csv, scores.csv, report)")
     parser.add_argument("--seeds", type=_seeds, default=[0],
                         help="seeds: training seeds of learned controllers and blocks of evaluation starts (default: 0)")
@@ -84,4 +101,11 @@ def add_leaderboard_command(commands: "argparse._SubParsersAction[argparse.Argum
     parser.add_argument("--report", type=Path, default=None,
                         help="where to write the Markdown report (default: OUT/leaderboard.md); figures go beside it")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar while training")
+    parser.add_argument("--torch-threads", type=_positive("torch-threads"), default=1,
+                        help="torch threads of training and evaluation (default 1: fastest for these small networks "
+                        "on a shared machine)")
+    parser.add_argument("--address", default=None,
+                        help="Ray cluster ('auto': the one this machine joined with `ray start`, HOST:PORT of its "
+                        "head, or 'local' for a new one here) on which the agents train and the cells run as Ray "
+                        "tasks, with the same results (default: everything in this process)")
     parser.set_defaults(handler=_run)

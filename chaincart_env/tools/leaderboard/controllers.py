@@ -1,11 +1,8 @@
-"""The controllers a leaderboard compares, by the names ``--policies`` takes.
-
-* Model-based, designed on the scene's nominal model: ``lqr`` (:class:`~chaincart_env.LQRPolicy`),
-  ``energy``, ``trajectory`` and ``mpc`` (the large-motion controllers). Each is built
-  with its class's ``from_env``.
-* Learned: ``ppo``, ``sac``, ``td3``, trained on the scene with its packaged recipe
-  (:mod:`chaincart_env.tools.compare.recipes`), one agent per seed, kept in the run
-  directory and reused when the leaderboard runs again.
+"""The controllers of a leaderboard: the model-based ones built with their class's
+``from_env`` (:mod:`chaincart_env.tools.controllers`, the registry the main job uses
+too), and the learned ones (``ppo``, ``sac``, ``td3``) trained on the scene with its
+packaged recipe (:mod:`chaincart_env.tools.compare.recipes`), one agent per seed, kept
+in the run directory and reused when the leaderboard runs again.
 
 A controller that cannot serve a scene (the energy controller on a chain of two links,
 say) is reported as such, not scored as a failure.
@@ -13,7 +10,6 @@ say) is reported as such, not scored as a failure.
 
 from __future__ import annotations
 
-import importlib
 import time
 from pathlib import Path
 from typing import Any, Optional, Sequence
@@ -23,56 +19,7 @@ import numpy as np
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 
-__all__ = [
-    "CONTROLLERS",
-    "LEARNED",
-    "MODEL_BASED",
-    "NotApplicable",
-    "TimedPolicy",
-    "learned_agent",
-    "model_based",
-    "parse_controllers",
-]
-
-#: Model-based controllers: name -> (module, class).
-MODEL_BASED: dict[str, tuple[str, str]] = {
-    "lqr": ("chaincart_env.lqr", "LQRPolicy"),
-    "energy": ("chaincart_env.policies", "EnergyPolicy"),
-    "trajectory": ("chaincart_env.policies", "TrajectoryPolicy"),
-    "mpc": ("chaincart_env.policies", "MPCPolicy"),
-}
-#: Learned controllers (stable-baselines3 algorithms).
-LEARNED = ("ppo", "sac", "td3")
-#: Every name ``--policies`` accepts.
-CONTROLLERS = tuple(MODEL_BASED) + LEARNED
-
-
-class NotApplicable(Exception):
-    """The controller cannot serve this scene (with the reason)."""
-
-
-def parse_controllers(text: str) -> list[str]:
-    """``"ppo,lqr"`` into checked, distinct names in the given order."""
-    names = [name.strip().lower() for name in text.split(",") if name.strip()]
-    unknown = [name for name in names if name not in CONTROLLERS]
-    if unknown or not names or len(set(names)) != len(names):
-        raise InvalidInputError(
-            f"--policies {text!r}: expected distinct names among {list(CONTROLLERS)}, separated by commas"
-        )
-    return names
-
-
-def model_based(name: str, config: ChainCartConfig) -> Any:
-    """The model-based controller ``name`` for ``config``'s scene, designed on its
-    nominal model; :class:`NotApplicable` when it cannot serve the scene."""
-    from chaincart_env.env import ChainCartEnv
-
-    module, cls = MODEL_BASED[name]
-    policy_class = getattr(importlib.import_module(module), cls)
-    try:
-        return policy_class.from_env(ChainCartEnv(config))
-    except (ValueError, NotImplementedError) as error:
-        raise NotApplicable(f"{name} on {config.scene}: {error}") from None
+__all__ = ["TINY_TRAINING", "TimedPolicy", "seeds_checked", "train_agent"]
 
 
 #: A tiny run's training settings on top of a recipe: rollouts and warm-up short enough
@@ -84,22 +31,19 @@ TINY_TRAINING: dict[str, tuple[int, dict[str, Any]]] = {
 }
 
 
-def learned_agent(
+def train_agent(
     name: str, config: ChainCartConfig, seed: int, directory: Path, *, timesteps: Optional[int] = None,
     progress_bar: bool = False, tiny: bool = False,
-) -> Any:
-    """The agent ``name`` trained on ``config`` with seed ``seed`` (the scene's packaged
-    recipe; ``timesteps`` overrides its budget; ``tiny``: :data:`TINY_TRAINING` on top),
-    from ``directory`` if it was trained there before, else trained into it (a run that
-    was cut short resumes)."""
-    from chaincart_env.tools.compare.algorithms import algorithm_class
+) -> None:
+    """Trains the agent ``name`` on ``config`` with seed ``seed`` into ``directory``
+    (the scene's packaged recipe; ``timesteps`` overrides its budget; ``tiny``:
+    :data:`TINY_TRAINING` on top) and saves it as ``model.zip``; a run that was cut short
+    resumes from its checkpoint. The leaderboard reuses an agent whose ``model.zip``
+    exists."""
     from chaincart_env.tools.compare.recipes import recipe_for
     from chaincart_env.tools.compare.training import train
 
     directory = Path(directory)
-    model_file = directory / "model.zip"
-    if model_file.is_file():
-        return algorithm_class(name).load(model_file, device="cpu")
     recipe = recipe_for(config.scene, name)
     budget = recipe.timesteps if timesteps is None else timesteps
     num_envs, hyperparameters = recipe.num_envs, dict(recipe.hyperparameters)
@@ -112,8 +56,7 @@ def learned_agent(
         checkpoint_every=max(budget // 5, 1), progress_bar=progress_bar, hyperparameters=hyperparameters,
         resume=True,
     )
-    result.model.save(model_file)
-    return result.model
+    result.model.save(directory / "model.zip")
 
 
 class TimedPolicy:

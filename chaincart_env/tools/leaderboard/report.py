@@ -26,31 +26,19 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from chaincart_env.tools.compare.statistics import wilson_interval
+from chaincart_env.tools.compare.styles import band, policy_style
 from chaincart_env.tools.compare.tables import write_csv
-from chaincart_env.tools.leaderboard.controllers import LEARNED
+from chaincart_env.tools.controllers import LEARNED
 from chaincart_env.tools.leaderboard.statistics import (
     Estimate, iqm_estimate, performance_profile, probability_of_improvement, probability_of_improvement_estimate,
 )  # fmt: skip
 
-__all__ = ["SCORE_COLUMNS", "controller_style", "score_rows", "write_report"]
+__all__ = ["SCORE_COLUMNS", "score_rows", "write_report"]
 
 #: Columns of ``scores.csv``: one row per (scene, controller).
 SCORE_COLUMNS = (
     "scene", "controller", "robustness", "iqm", "iqm_low", "iqm_high", "us_per_step", "peak_force", "rms_force",
 )  # fmt: skip
-
-_COLORS = {
-    "lqr": "#1f77b4", "energy": "#8c564b", "trajectory": "#2ca02c", "mpc": "#9467bd",
-    "ppo": "#d62728", "sac": "#ff7f0e", "td3": "#e377c2",
-}  # fmt: skip
-_STYLES = {"lqr": "-", "energy": (0, (1, 1)), "trajectory": "--", "mpc": "-.", "ppo": "-", "sac": "--", "td3": ":"}
-_MARKERS = {"lqr": "o", "energy": "v", "trajectory": "s", "mpc": "D", "ppo": "^", "sac": "P", "td3": "X"}
-
-
-def controller_style(name: str) -> dict[str, Any]:
-    """The colour, line style and marker of a controller in every figure."""
-    return dict(color=_COLORS.get(name, "k"), ls=_STYLES.get(name, "-"), marker=_MARKERS.get(name, "o"))
-
 
 def _group(rows: Iterable[Mapping[str, Any]], *keys: str) -> dict[tuple[Any, ...], list[Mapping[str, Any]]]:
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = defaultdict(list)
@@ -183,9 +171,9 @@ def _plot_scene(path: Path, scene_rows: Sequence[Mapping[str, Any]], axes: Seque
                 highs.append(high)
             # A small sideways offset per controller keeps coinciding curves visible.
             x = positions + 0.04 * (offset - (len(controllers) - 1) / 2)
-            style = controller_style(controller)
-            ax.plot(x, rates, label=controller, lw=1.8, ms=5, **style)
-            ax.fill_between(x, lows, highs, color=style["color"], alpha=0.12)
+            style = policy_style(controller)
+            ax.plot(x, rates, label=controller, lw=1.8, ms=5, **style.line())
+            band(ax, x, lows, highs, style)
         ax.set_xticks(positions, [("none" if math.isinf(v) else f"{v:g}") for v in shown])
         ax.set_xlabel(axis.label)
         ax.set_ylim(-0.05, 1.05)
@@ -213,9 +201,9 @@ def _plot_profiles(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
     for (controller,), mine in _group(rows, "controller").items():
         matrix = np.concatenate([_score_matrix(r) for r in _group(mine, "scene").values()], axis=1)
         profile, low, high = performance_profile(matrix, taus, resamples=500)
-        style = controller_style(controller)
-        ax.plot(taus, profile, label=controller, lw=1.8, color=style["color"], ls=style["ls"])
-        ax.fill_between(taus, low, high, color=style["color"], alpha=0.12)
+        style = policy_style(controller)
+        ax.plot(taus, profile, label=controller, lw=1.8, markevery=8, ms=4, **style.line())
+        band(ax, taus, low, high, style)
     ax.set_xlabel("success fraction tau")
     ax.set_ylabel("fraction of cells with success > tau")
     ax.grid(alpha=0.3)

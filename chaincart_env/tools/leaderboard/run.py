@@ -4,26 +4,37 @@ scores, ``leaderboard.md`` and one figure per scene).
 
 A run can be repeated into the same directory: agents that were trained there are
 reused, and the cells are evaluated again (they are cheap next to training).
+
+Its independent pieces, the agents to train (one per scene, learned controller and
+seed) and then the cells, run one after the other in this process or, on a Ray
+cluster (``address``), as Ray tasks (:func:`~chaincart_env.tools.compare.cells.map_cells`),
+with the same rows (but for the measured compute time per step).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable, Mapping, Optional, Sequence
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.cells import map_cells, torch_threads
+from chaincart_env.tools.compare.policy_sources import PolicySource
+from chaincart_env.tools.compare.run_files import MODEL_FILE, folder_contents, write_folder
 from chaincart_env.tools.compare.tables import write_csv
+from chaincart_env.tools.controllers import LEARNED, NotApplicable, build_model_based
 from chaincart_env.tools.leaderboard.axes import AXES, RobustnessAxis, axis_values
-from chaincart_env.tools.leaderboard.cells import CELL_COLUMNS, cells_of, run_cell
-from chaincart_env.tools.leaderboard.controllers import (
-    LEARNED, NotApplicable, learned_agent, model_based, seeds_checked,
-)  # fmt: skip
+from chaincart_env.tools.leaderboard.cells import CELL_COLUMNS, Cell, cells_of, run_cell
+from chaincart_env.tools.leaderboard.controllers import seeds_checked, train_agent
 
-__all__ = ["LeaderboardSettings", "QUICK_EPISODES", "QUICK_TIMESTEPS", "run_leaderboard"]
+__all__ = [
+    "AgentTraining", "CellJob", "LeaderboardSettings", "QUICK_EPISODES", "QUICK_TIMESTEPS", "evaluate_cell_job",
+    "run_leaderboard", "train_agent_cell",
+]  # fmt: skip
 
 #: Episodes per cell and training budget of learned agents in a quick run.
 QUICK_EPISODES = 3
@@ -45,6 +56,8 @@ class LeaderboardSettings:
     timesteps: Optional[int] = None
     progress_bar: bool = False
     extra: dict[str, Any] = field(default_factory=dict)
+    #: Torch threads of training and evaluation (here and in every task).
+    torch_threads: int = 1
 
     @property
     def episodes_per_cell(self) -> int:
@@ -83,48 +96,152 @@ def _checked(settings: LeaderboardSettings) -> None:
     budget = settings.training_timesteps
     if budget is not None and (isinstance(budget, bool) or not isinstance(budget, int) or budget < 1):
         raise InvalidInputError(f"timesteps = {budget!r}: expected an integer >= 1")
+    threads = settings.torch_threads
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise InvalidInputError(f"torch threads = {threads!r}: expected an integer >= 1")
 
 
-def _controller_for_seed(
-    name: str, config: ChainCartConfig, seed: int, out: Path, settings: LeaderboardSettings, cache: dict[str, Any]
-) -> Any:
-    if name in LEARNED:
-        directory = out / "agents" / config.scene / name / f"seed-{seed}"
-        return learned_agent(name, config, seed, directory, timesteps=settings.training_timesteps,
-                             progress_bar=settings.progress_bar, tiny=settings.quick)
-    if name not in cache:  # model-based: one design per scene, whatever the seed
-        cache[name] = model_based(name, config)
-    return cache[name]
+def agent_directory(out: Path, scene: str, name: str, seed: int) -> Path:
+    """Where the agent of learned controller ``name`` on ``scene`` with seed ``seed`` lives."""
+    return Path(out) / "agents" / scene / name / f"seed-{seed}"
+
+
+@dataclass(frozen=True)
+class AgentTraining:
+    """One agent to train, as a task: its scene, controller, seed, budget and the files
+    of its folder so far (a checkpoint of an interrupted run)."""
+
+    config: ChainCartConfig
+    name: str
+    seed: int
+    timesteps: Optional[int]
+    tiny: bool
+    files: dict[str, bytes]
+
+
+def train_agent_cell(_: None, job: AgentTraining) -> dict[str, bytes]:
+    """Trains one agent in a scratch folder (of the machine the task runs on) exactly as
+    a serial run does, and returns the folder's files."""
+    with tempfile.TemporaryDirectory(prefix="chaincart-agent-") as scratch:
+        write_folder(Path(scratch), job.files)
+        train_agent(job.name, job.config, job.seed, Path(scratch), timesteps=job.timesteps, tiny=job.tiny)
+        return folder_contents(Path(scratch))
+
+
+@dataclass(frozen=True)
+class CellJob:
+    """One cell to evaluate: the cell, its scene's configuration and the key of its
+    policy's source."""
+
+    cell: Cell
+    config: ChainCartConfig
+    source: str
+
+
+def evaluate_cell_job(sources: Mapping[str, PolicySource], job: CellJob) -> dict[str, Any]:
+    """The row of one cell (``sources``: the policies by key, loaded once per process)."""
+    return run_cell(job.cell, job.config, sources[job.source].load())
+
+
+def _train_agents(
+    jobs: Sequence[tuple[Path, AgentTraining]], settings: LeaderboardSettings, distributed: bool,
+    log: Callable[[str], None],
+) -> None:
+    """Trains the agents not trained yet: here, into their folders, or as Ray tasks
+    whose folders are written here as each finishes."""
+    if not distributed:
+        for directory, job in jobs:
+            log(f"leaderboard: training {job.name} on {job.config.scene}, seed {job.seed}")
+            train_agent(job.name, job.config, job.seed, directory, timesteps=job.timesteps,
+                        progress_bar=settings.progress_bar, tiny=job.tiny)
+        return
+
+    def save(index: int, files: dict[str, bytes]) -> None:
+        directory, job = jobs[index]
+        write_folder(directory, files)
+        log(f"leaderboard: trained {job.name} on {job.config.scene}, seed {job.seed}")
+
+    map_cells(train_agent_cell, [job for _, job in jobs], distributed=True, torch_threads=settings.torch_threads,
+              on_result=save)
+
+
+@dataclass
+class _Plan:
+    """Every cell of a run in table order, the sources of the model-based controllers,
+    the learned agents' model files (by source key), the agents still to train and the
+    controllers that cannot serve a scene (with the reason)."""
+
+    jobs: list[CellJob] = field(default_factory=list)
+    designs: dict[str, PolicySource] = field(default_factory=dict)
+    agents: dict[str, tuple[str, Path]] = field(default_factory=dict)
+    training: list[tuple[Path, AgentTraining]] = field(default_factory=list)
+    skipped: dict[tuple[str, str], str] = field(default_factory=dict)
+
+    def sources(self) -> dict[str, PolicySource]:
+        """Every policy by key, the agents read from their model files (trained by now)."""
+        agents = {key: PolicySource.sb3(path, name) for key, (name, path) in self.agents.items()}
+        return {**self.designs, **agents}
+
+
+def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None]) -> _Plan:
+    plan = _Plan()
+    for scene in settings.scenes:
+        config = ChainCartConfig(scene=scene, **settings.extra)
+        for name in settings.controllers:
+            if name not in LEARNED:
+                try:
+                    build_model_based(name, config)  # one design per scene, whatever the seed
+                except NotApplicable as reason:
+                    plan.skipped[(scene, name)] = str(reason)
+                    log(f"leaderboard: {reason} (not scored)")
+                    continue
+                plan.designs[f"{scene}/{name}"] = PolicySource.model_based(name, config)
+            for seed in settings.seeds:
+                key = f"{scene}/{name}"
+                if name in LEARNED:
+                    directory = agent_directory(out, scene, name, seed)
+                    key = f"{key}/seed-{seed}"
+                    plan.agents[key] = (name, directory / MODEL_FILE)
+                    if not (directory / MODEL_FILE).is_file():
+                        plan.training.append((directory, AgentTraining(
+                            config, name, seed, settings.training_timesteps, settings.quick, folder_contents(directory))))
+                plan.jobs += [CellJob(cell, config, key) for cell in cells_of(
+                    scene, name, settings.axes, settings.values(), seed, settings.episodes_per_cell)]
+    return plan
+
+
+def _run(
+    settings: LeaderboardSettings, out: Path, report: Optional[Path], log: Callable[[str], None], distributed: bool
+) -> list[dict[str, Any]]:
+    from chaincart_env.tools.leaderboard.report import write_report
+
+    plan = _plan(settings, out, log)
+    _train_agents(plan.training, settings, distributed, log)
+    log(f"leaderboard: evaluating {len(plan.jobs)} cells" + (" as Ray tasks" if distributed else ""))
+    rows = map_cells(evaluate_cell_job, plan.jobs, shared=plan.sources(), distributed=distributed,
+                     torch_threads=settings.torch_threads)
+    write_csv(out / "cells.csv", rows, CELL_COLUMNS)
+    write_report(rows, settings, out, report or out / "leaderboard.md", plan.skipped)
+    return rows
 
 
 def run_leaderboard(
     settings: LeaderboardSettings, out: Path, report: Optional[Path] = None,
-    log: Callable[[str], None] = print,
+    log: Callable[[str], None] = print, address: Optional[str] = None,
 ) -> list[dict[str, Any]]:
     """Runs every cell of ``settings`` into ``out`` and writes the report (to ``report``,
-    default ``out/leaderboard.md``); returns the rows of ``cells.csv``."""
-    from chaincart_env.tools.leaderboard.report import write_report
-
+    default ``out/leaderboard.md``); returns the rows of ``cells.csv``. ``address``: a
+    Ray cluster (``"local"``: a new one on this machine) on which the agents train and
+    the cells run as Ray tasks, with the same rows."""
     _checked(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "leaderboard.json").write_text(json.dumps(settings.describe(), indent=2) + "\n")
-    rows: list[dict[str, Any]] = []
-    skipped: dict[tuple[str, str], str] = {}
-    for scene in settings.scenes:
-        config = ChainCartConfig(scene=scene, **settings.extra)
-        designs: dict[str, Any] = {}
-        for name in settings.controllers:
-            for seed in settings.seeds:
-                try:
-                    policy = _controller_for_seed(name, config, seed, out, settings, designs)
-                except NotApplicable as reason:
-                    skipped[(scene, name)] = str(reason)
-                    log(f"leaderboard: {reason} (not scored)")
-                    break
-                for cell in cells_of(scene, name, settings.axes, settings.values(), seed, settings.episodes_per_cell):
-                    rows.append(run_cell(cell, config, policy))
-                log(f"leaderboard: {scene}, {name}, seed {seed}: done")
-    write_csv(out / "cells.csv", rows, CELL_COLUMNS)
-    write_report(rows, settings, out, report or out / "leaderboard.md", skipped)
-    return rows
+    with torch_threads(settings.torch_threads):  # as in every task, so that both ways give the same agents
+        if address is None:
+            return _run(settings, out, report, log, distributed=False)
+        from chaincart_env.tools.compare.cells import ray_cluster
+
+        with ray_cluster(address, 1) as cluster:
+            log(f"leaderboard: the agents and cells run as Ray tasks on {cluster}")
+            return _run(settings, out, report, log, distributed=True)
