@@ -4,7 +4,8 @@ each on this machine), shared by the tests of this module. RLlib's env runners p
 both nodes by ``compare --trainer rllib``; training going on when a runner's process or
 a whole node is lost (and the samples lost, counted); a driver killed mid-run and its
 run resumed from the checkpoint (what is restored, compared with the checkpoint); the
-study's pieces as Ray tasks giving the serial run's tables.
+study's pieces as Ray tasks giving the serial run's tables, and the leaderboard's agents
+and cells giving the serial run's rows.
 
 The cluster keeps its files (and the address file Ray leaves for ``ray.init("auto")``)
 in a folder of its own, ignores ``RAY_ADDRESS`` and never joins a cluster already
@@ -365,3 +366,24 @@ def test_a_study_on_the_cluster_gives_the_serial_tables(cluster: Cluster, tmp_pa
     assert main(["evaluate", str(spread), "--address", cluster.address, "--out", str(tmp_path / "again")]) == 0
     for name in TABLES:
         assert (tmp_path / "again" / name).read_bytes() == (serial / name).read_bytes(), name
+
+
+def test_a_leaderboard_on_the_cluster_gives_the_serial_cells(cluster: Cluster, tmp_path: pathlib.Path) -> None:
+    serial, spread = tmp_path / "serial", tmp_path / "spread"
+    argv = ["leaderboard", "--scenes", "inverted-1", "--policies", "lqr,ppo", "--quick", "--axes", "mismatch,delay",
+            "--episodes", "2", "--seeds", "0,1", "--no-progress"]  # fmt: skip
+    assert main([*argv, "--out", str(serial)]) == 0
+    assert main([*argv, "--address", cluster.address, "--out", str(spread)]) == 0
+    # The same rows but for the measured compute time.
+    untimed = lambda rows: [{**row, "us_per_step": ""} for row in rows]  # noqa: E731
+    rows = read_csv(spread / "cells.csv")
+    assert untimed(rows) == untimed(read_csv(serial / "cells.csv")) and len(rows) == 2 * 2 * 2 * 2
+    assert all(float(row["us_per_step"]) > 0 for row in rows)
+    assert json.loads((spread / "leaderboard.json").read_text())["cluster"].endswith("2 node(s), 2 CPUs")
+    assert "cluster" not in json.loads((serial / "leaderboard.json").read_text())
+    for seed in (0, 1):  # each agent trained as a task, to the same bits, its folder back whole
+        here, there = (run / "agents" / "inverted-1" / "ppo" / f"seed-{seed}" for run in (serial, spread))
+        for member in ("policy.pth", "policy.optimizer.pth"):
+            assert zip_member(there / "model.zip", member) == zip_member(here / "model.zip", member)
+        assert (there / "checkpoints" / "state.json").is_file()
+        assert without_wall_time(read_csv(there / "evaluations.csv")) == without_wall_time(read_csv(here / "evaluations.csv"))

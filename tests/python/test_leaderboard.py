@@ -81,7 +81,18 @@ def test_options_are_checked_with_the_value_and_what_was_expected(tmp_path: path
         (["--scenes", "inverted-1", "--seeds", "0,0"], "seeds = (0, 0): expected distinct integers"),
         (["--scenes", "inverted-1", "--episodes", "0"], "episodes = 0: expected an integer >= 1"),
         (["--scenes", "inverted-1", "--timesteps", "-5"], "timesteps = -5: expected an integer >= 1"),
+        (["--scenes", "inverted-1", "--torch-threads", "0"], "torch-threads = '0': expected an integer >= 1"),
     ]:
         with pytest.raises(SystemExit):
             main(["leaderboard", "--policies", "lqr", "--out", str(tmp_path / "x"), *bad])
         assert message in capsys.readouterr().err, bad
+
+
+def test_a_cluster_needs_ray_and_learned_controllers_need_sb3() -> None:
+    from argparse import Namespace
+
+    from chaincart_env.tools.leaderboard.cli import leaderboard_needs
+
+    assert set(leaderboard_needs(Namespace(policies="lqr,mpc", address=None))) == {"plot"}
+    assert set(leaderboard_needs(Namespace(policies="lqr,SAC", address=None))) == {"plot", "sb3"}
+    assert leaderboard_needs(Namespace(policies="lqr", address="local"))["rllib"] == ("ray",)

@@ -236,7 +236,8 @@ def run_leaderboard(
     _checked(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "leaderboard.json").write_text(json.dumps(settings.describe(), indent=2) + "\n")
+    record = out / "leaderboard.json"
+    record.write_text(json.dumps(settings.describe(), indent=2) + "\n")
     with torch_threads(settings.torch_threads):  # as in every task, so that both ways give the same agents
         if address is None:
             return _run(settings, out, report, log, distributed=False)
@@ -244,4 +245,5 @@ def run_leaderboard(
 
         with ray_cluster(address, 1) as cluster:
             log(f"leaderboard: the agents and cells run as Ray tasks on {cluster}")
+            record.write_text(json.dumps({**settings.describe(), "cluster": cluster}, indent=2) + "\n")
             return _run(settings, out, report, log, distributed=True)
