@@ -253,6 +253,16 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--checkpoint-every", "-3"], "checkpoint-every = -3"),
         (["--eval-starts", "0"], "eval-starts = 0"),
         (["--resume", "/nonexistent/run"], "expected a run directory of compare"),
+        (["--policies", "ppo,dqn"], "--policies 'ppo,dqn': unknown controller 'dqn'"),
+        (["--policies", "ppo,lqe"], "unknown controller 'lqe' (did you mean 'lqr'?)"),
+        (["--policies", "lqr,ppo,LQR"], "--policies 'lqr,ppo,LQR': lqr given twice"),
+        (["--policies", ","], "--policies ',': expected distinct names among ppo, sac, td3, lqr"),
+        (["--policies", "ppo,lqr", "--algo", "sac"], "not allowed with argument"),
+        (["--policies", "sac,lqr", "--algo-kwarg", "ppo:n_steps=64"], "keywords for ppo: expected a learned algorithm"),
+        (["--policies", "ppo,lqr", "--algo-kwarg", "dqn:n_steps=64"], "--algo-kwarg 'dqn:n_steps=64': expected"),
+        (["--policies", "ppo,sac,lqr", "--algo-kwarg", "n_epochs=2"], "sac keywords ['n_epochs']: not keywords of SAC"),
+        (["--policies", "sac,lqr", "--trainer", "rllib"], "the RLlib trainer offers ppo only"),
+        (["--policies", "lqr", "--scene", "paper-fig1"], "lqr cannot serve scene 'paper-fig1'"),
     ],
 )
 def test_bad_compare_input_is_a_clear_error(
@@ -262,7 +272,7 @@ def test_bad_compare_input_is_a_clear_error(
         main(["compare", "--out", str(tmp_path), "--timesteps", "64", "--no-progress", *args])
     assert exit_info.value.code == 2
     assert message in capsys.readouterr().err
-    assert not (tmp_path / "seed-0" / "model.zip").exists()
+    assert not list(tmp_path.rglob("model.zip")) and not (tmp_path / "run.json").exists()  # stopped before training
 
 
 def test_evaluate_of_a_missing_model_is_a_clear_error(

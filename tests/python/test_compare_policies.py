@@ -1,8 +1,8 @@
-"""The study takes any set of controllers (``compare --policies``): names checked with a
-clear error, a study of model-based controllers alone, two learned algorithms side by
-side in their own folders (evaluated, re-evaluated and resumed), runs saved before
-several policies could be compared, and ``episode_start`` handed to every policy
-rolled out."""
+"""The study takes any set of controllers (``compare --policies``; bad names are in
+``test_compare``'s bad-input cases): a study of model-based controllers alone, two
+learned algorithms side by side in their own folders (evaluated, re-evaluated and
+resumed), a run directory of the one-algorithm settings, and ``episode_start`` handed
+to every policy rolled out."""
 
 from __future__ import annotations
 
@@ -56,31 +56,6 @@ def half_lqr(monkeypatch: pytest.MonkeyPatch) -> str:
     monkeypatch.setitem(controllers.CONTROLLERS, "half", Controller("half", "Half", __name__, "HalfLQR", learned=False))
     monkeypatch.setattr(controllers, "MODEL_BASED", (*controllers.MODEL_BASED, "half"))
     return "half"
-
-
-@pytest.mark.parametrize(
-    "args, message",
-    [
-        (["--policies", "ppo,dqn"], "--policies 'ppo,dqn': unknown controller 'dqn'"),
-        (["--policies", "ppo,lqe"], "unknown controller 'lqe' (did you mean 'lqr'?)"),
-        (["--policies", "lqr,ppo,LQR"], "--policies 'lqr,ppo,LQR': lqr given twice"),
-        (["--policies", ","], "--policies ',': expected distinct names among ppo, sac, td3, lqr"),
-        (["--policies", "ppo,lqr", "--algo", "sac"], "not allowed with argument"),
-        (["--policies", "sac,lqr", "--algo-kwarg", "ppo:n_steps=64"], "keywords for ppo: expected a learned algorithm"),
-        (["--policies", "ppo,lqr", "--algo-kwarg", "dqn:n_steps=64"], "--algo-kwarg 'dqn:n_steps=64': expected"),
-        (["--policies", "ppo,sac,lqr", "--algo-kwarg", "n_epochs=2"], "sac keywords ['n_epochs']: not keywords of SAC"),
-        (["--policies", "sac,lqr", "--trainer", "rllib"], "the RLlib trainer offers ppo only"),
-        (["--policies", "lqr", "--scene", "paper-fig1"], "lqr cannot serve scene 'paper-fig1'"),
-    ],
-)
-def test_bad_policies_are_a_clear_error_before_anything_trains(
-    args: list[str], message: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    with pytest.raises(SystemExit) as exit_info:
-        main(["compare", "--out", str(tmp_path), "--timesteps", "64", "--no-progress", *args])
-    assert exit_info.value.code == 2
-    assert message in capsys.readouterr().err
-    assert not list(tmp_path.rglob("model.zip")) and not (tmp_path / "run.json").exists()
 
 
 def test_a_study_of_model_based_controllers_alone(half_lqr: str, tmp_path: pathlib.Path) -> None:

@@ -231,7 +231,7 @@ def test_bench_times_sampling_of_rllibs_sync_wrapping_of_the_single_env(ray_sess
 def test_compare_with_rllib_offers_ppo_only(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit):
         main(["compare", "--trainer", "rllib", "--algo", "sac", "--out", str(tmp_path)])
-    assert "--trainer rllib with --algo sac" in capsys.readouterr().err
+    assert "--trainer rllib with sac: the RLlib trainer offers ppo only" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -389,7 +389,7 @@ def run_compare(
     num_envs: Optional[int] = None,
     eval_episodes: int = 50,
     eval_seed: int = 1_000_000,
-    sweeps: Optional[dict[str, Sequence[float]]] = None,
+    sweeps: Optional[Mapping[str, Sequence[float]]] = None,
     eval_every: int = 20_000,
     eval_starts: int = 20,
     checkpoint_every: int = 50_000,

@@ -317,7 +317,7 @@ def evaluate_study(
     curves = _evaluation_curves(out, runs)
     by_name = {s["policy"]: s for s in summaries}
     references = [by_name[name] for name in designed if name != ORACLE]
-    if curves:
+    if trained:  # (an RLlib run logs no evaluations during training: the baselines alone)
         plot_evaluation_curves(into / "evaluation_curve.png", curves, references)
     write_summary_figure(into / SUMMARY_FIGURE, curves=curves, baselines=references, sweeps=summaries_by_axis,
                          errors=first_runs, tolerances=config.success_tolerances, filmstrip=into / "filmstrip.png")

@@ -73,7 +73,9 @@ def legend_label(name: str, hidden_behind: Optional[str]) -> str:
     return name if hidden_behind is None else f"{name} (same as {hidden_behind}: lines coincide)"
 
 
-def band(ax: Any, x: np.ndarray, low: Sequence[float], high: Sequence[float], style: PolicyStyle) -> None:
+def band(
+    ax: Any, x: np.ndarray, low: np.ndarray | Sequence[float], high: np.ndarray | Sequence[float], style: PolicyStyle
+) -> None:
     """A 95% interval band in the policy's colour and hatch (bands of different
     policies overlap without mixing into one colour)."""
     ax.fill_between(x, low, high, facecolor=style.color, alpha=0.08, linewidth=0)

@@ -129,7 +129,7 @@ def probability_of_improvement_estimate(
 
 
 def performance_profile(
-    scores: np.ndarray | Sequence[Sequence[float]], thresholds: Sequence[float], **bootstrap: int | float
+    scores: np.ndarray | Sequence[Sequence[float]], thresholds: np.ndarray | Sequence[float], **bootstrap: int | float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The fraction of all scores above each threshold, with 95 % bands:
     ``(profile, low, high)``, each of the thresholds' length."""
