@@ -7,8 +7,15 @@
 //! * [`chart`]: increments on the spheres about any state; [`jacobian`]: the control
 //!   step and its exact derivatives in that chart.
 
+pub mod boxqp;
 pub mod chart;
+pub mod cost;
 pub mod dual;
 pub mod dynamics;
+pub mod energy;
+pub mod ilqr;
 pub mod jacobian;
+pub mod mpc;
+pub mod planner;
+pub mod tvlqr;
 pub mod vector;
