@@ -42,6 +42,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
     add_animate_command(commands)  # animate: sets args.handler
 
+    from chaincart_env.transitions import add_transitions_command
+
+    add_transitions_command(commands)  # transitions: sets args.handler
+
     from chaincart_env.config_docs import add_docs_command
 
     add_docs_command(commands)  # docs: sets args.handler

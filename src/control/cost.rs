@@ -56,7 +56,7 @@ impl Default for CostWeights {
             w: 0.2,
             force: 0.2,
             track: 2000.0,
-            terminal: 100.0,
+            terminal: 300.0,
             track_margin: 0.8,
         }
     }

@@ -96,6 +96,15 @@ impl<G: ScalarGeometry> EnergyController<G> {
         })
     }
 
+    /// Length of a state.
+    pub fn state_dim(&self) -> usize {
+        self.chain.state_dim()
+    }
+    /// Length of a force.
+    pub fn force_dim(&self) -> usize {
+        G::CART
+    }
+
     /// The pendulum's energy in the cart's frame, and `E_up`.
     pub fn energy(&self, y: &[f64]) -> (f64, f64) {
         let p = self.chain.params();

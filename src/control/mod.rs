@@ -7,6 +7,7 @@
 //! * [`chart`]: increments on the spheres about any state; [`jacobian`]: the control
 //!   step and its exact derivatives in that chart.
 
+pub mod any;
 pub mod boxqp;
 pub mod chart;
 pub mod cost;

@@ -165,6 +165,14 @@ impl<G: ScalarGeometry> Mpc<G> {
         self.last_step = None;
     }
 
+    /// Length of a state.
+    pub fn state_dim(&self) -> usize {
+        self.solver.model().state_dim()
+    }
+    /// Length of a force.
+    pub fn force_dim(&self) -> usize {
+        G::CART
+    }
     /// The options.
     pub fn options(&self) -> &MpcOptions {
         &self.options

@@ -12,7 +12,8 @@
 //!
 //! **Initial guesses.** At every equilibrium the force's gradient vanishes (a saddle of
 //! the cost for the hanging chain), so iLQR from zero force stays put. The planner
-//! therefore starts from several pumping guesses, `u(t) = a F sin(omega t + phi)`
+//! therefore starts from a kick either way (enough where the target lies downhill) and
+//! several pumping guesses, `u(t) = a F sin(omega t + phi)`
 //! tapered off in the last part of the horizon, at the natural frequencies of the
 //! hanging chain (the chain's resonances are where a bounded force pumps energy
 //! fastest), polishes each for a few iterations, keeps the best, and finishes it.
@@ -70,9 +71,9 @@ impl Default for PlanOptions {
             dt: 0.02,
             substeps: 2,
             weights: CostWeights::default(),
-            max_iterations: 400,
+            max_iterations: 1000,
             max_time: 30.0,
-            guesses: 8,
+            guesses: 10,
             probe_iterations: 25,
             tolerance_q: 0.1,
             tolerance_w: 0.5,
@@ -244,6 +245,11 @@ impl<G: ScalarGeometry> Planner<G> {
     /// A receding-horizon controller following the last plan.
     pub fn mpc(&mut self, options: MpcOptions) -> Result<Mpc<G>> {
         let reference = self.reference()?;
+        self.mpc_from(reference, options)
+    }
+
+    /// A receding-horizon controller following `reference` (from [`Planner::reference`]).
+    pub fn mpc_from(&self, reference: Reference, options: MpcOptions) -> Result<Mpc<G>> {
         Mpc::new(
             self.solver.model().clone(),
             self.solver.cost().clone(),
@@ -297,82 +303,103 @@ impl<G: ScalarGeometry> Planner<G> {
         let t_end = k as f64 * dt;
         let mut out = Vec::with_capacity(self.options.guesses);
         for index in 0..self.options.guesses {
-            let omega =
-                omegas[index % omegas.len()] * [1.0, 0.8, 1.25][(index / omegas.len() / 2) % 3];
-            let phase = if (index / omegas.len()) % 2 == 0 {
-                0.0
-            } else {
-                std::f64::consts::PI
-            };
-            let amplitude = [0.5, 0.8, 0.3][(index / (2 * omegas.len() * 3)) % 3];
             let mut forces = vec![0.0; k * nu];
+            if index < 2 {
+                // A kick one way or the other: enough where the target lies downhill.
+                let sign = if index == 0 { 1.0 } else { -1.0 };
+                let kick = ((0.1 / dt).round() as usize).clamp(1, k);
+                for step in 0..kick {
+                    forces[step * nu] = sign * 0.3 * self.options.max_force;
+                }
+                out.push(forces);
+                continue;
+            }
+            let pump = index - 2;
+            let omega = omegas[pump % omegas.len()] * [1.0, 0.8, 1.25][(pump / omegas.len() / 2) % 3];
+            let phase = if (pump / omegas.len()) % 2 == 0 { 0.0 } else { std::f64::consts::PI };
+            let amplitude = [0.5, 0.8, 0.3][(pump / (2 * omegas.len() * 3)) % 3];
             for step in 0..k {
                 let t = step as f64 * dt;
-                let taper = taper(t / t_end);
                 forces[step * nu] =
-                    amplitude * self.options.max_force * (omega * t + phase).sin() * taper;
+                    amplitude * self.options.max_force * (omega * t + phase).sin() * taper(t / t_end);
             }
             out.push(forces);
         }
         Ok(out)
     }
 
-    /// Plans from `start` (checked): each guess polished, the best finished.
+    /// Plans from `start` (checked): each guess polished for a few iterations, then the
+    /// most promising finished, and the next ones while the result misses the target
+    /// and the budget lasts; the best result is kept.
     pub fn plan(&mut self, start: &[f64]) -> Result<Plan> {
         self.check_start(start)?;
         let began = Instant::now();
         let deadline = began + Duration::from_secs_f64(self.options.max_time);
         let mut iterations = 0;
-        let mut best: Option<(Trajectory, usize)> = None;
+        let mut probes: Vec<(Trajectory, usize)> = Vec::new();
         let guesses = self.guesses()?;
-        let mut tried = 0;
         let mut status = SolveStatus::IterationLimit;
         for (index, guess) in guesses.iter().enumerate() {
             if Instant::now() >= deadline || iterations >= self.options.max_iterations {
                 break;
             }
-            tried += 1;
-            self.solver.clear_policy();
-            self.solver.rollout(start, guess);
-            let probe = IlqrOptions {
-                max_iterations: self
-                    .options
-                    .probe_iterations
-                    .min(self.options.max_iterations - iterations),
-                deadline: Some(deadline),
-                ..IlqrOptions::default()
-            };
-            status = self.solver.solve(start, &probe);
-            iterations += self.solver.iterations;
-            let t = &self.solver.nominal;
-            if best.as_ref().is_none_or(|(b, _)| t.cost < b.cost) {
-                best = Some((t.clone(), index));
-            }
-            // A guess that already ends well inside the tolerances is kept at once.
-            if self.ends_near_target(t, 0.5) {
+            let budget = self.options.probe_iterations.min(self.options.max_iterations - iterations);
+            status = self.polish(start, guess, budget, deadline, &mut iterations);
+            probes.push((self.solver.nominal.clone(), index));
+            // A guess that already ends well inside the tolerances is finished at once.
+            if self.ends_near_target(&self.solver.nominal, 0.5) {
+                let last = probes.len() - 1;
+                probes.swap(0, last);
+                probes.truncate(1);
                 break;
             }
         }
-        let (trajectory, best_guess) = best.expect("at least one guess is tried");
-        // Finish the best guess.
+        let tried = guesses.len().min(probes.len().max(1));
+        probes.sort_by(|a, b| a.0.cost.total_cmp(&b.0.cost));
+        let mut best: Option<(Trajectory, usize, SolveStatus)> = None;
+        for (probe, index) in probes {
+            if iterations >= self.options.max_iterations || Instant::now() >= deadline {
+                if best.is_none() {
+                    best = Some((probe, index, status));
+                }
+                break;
+            }
+            let budget = self.options.max_iterations - iterations;
+            status = self.polish(start, &probe.forces, budget, deadline, &mut iterations);
+            let t = &self.solver.nominal;
+            let reached = self.ends_near_target(t, 1.0);
+            if best.as_ref().is_none_or(|(b, _, _)| t.cost < b.cost) || reached {
+                best = Some((t.clone(), index, status));
+            }
+            if reached {
+                break;
+            }
+        }
+        let (trajectory, best_guess, status) = best.expect("at least one guess is tried");
         self.solver.clear_policy();
         self.solver.rollout(start, &trajectory.forces);
-        if iterations < self.options.max_iterations && Instant::now() < deadline {
-            let finish = IlqrOptions {
-                max_iterations: self.options.max_iterations - iterations,
-                deadline: Some(deadline),
-                ..IlqrOptions::default()
-            };
-            status = self.solver.solve(start, &finish);
-            iterations += self.solver.iterations;
-        }
-        Ok(self.result(
-            iterations,
-            began.elapsed().as_secs_f64(),
-            tried,
-            best_guess,
-            status,
-        ))
+        Ok(self.result(iterations, began.elapsed().as_secs_f64(), tried, best_guess, status))
+    }
+
+    /// Rolls `forces` out from `start` and runs at most `budget` iterations on it.
+    fn polish(
+        &mut self,
+        start: &[f64],
+        forces: &[f64],
+        budget: usize,
+        deadline: Instant,
+        iterations: &mut usize,
+    ) -> SolveStatus {
+        self.solver.clear_policy();
+        self.solver.rollout(start, forces);
+        let options = IlqrOptions {
+            max_iterations: budget,
+            deadline: Some(deadline),
+            ..IlqrOptions::default()
+        };
+        let status = self.solver.solve(start, &options);
+        *iterations += self.solver.iterations;
+        status
     }
 
     /// Whether trajectory `t` ends within `fraction` of the tolerances, on the track.

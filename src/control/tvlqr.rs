@@ -98,6 +98,10 @@ impl<G: ScalarGeometry> Tracker<G> {
         })
     }
 
+    /// Length of a force.
+    pub fn force_dim(&self) -> usize {
+        G::CART
+    }
     /// Number of planned steps.
     pub fn steps(&self) -> usize {
         self.gains.len()
