@@ -26,7 +26,7 @@ from chaincart_env.bench.report import Report
 __all__ = ["BenchSettings", "BenchContext", "SECTION_ORDER", "parse_sections", "run_suite", "readme_section", "mujoco_available"]
 
 #: Sections in the order they run (``--sections`` picks a subset).
-SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "rllib", "criterion", "targets")
+SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "control", "rllib", "criterion", "targets")
 
 
 @dataclass(frozen=True)
@@ -102,7 +102,7 @@ def _machine_line(settings: BenchSettings) -> str:
 
 def _sections() -> dict[str, Callable[[BenchContext], None]]:
     # Imported here so that `--sections scaling` does not import SB3/torch, etc.
-    from chaincart_env.bench import accuracy, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, targets
+    from chaincart_env.bench import accuracy, control, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, targets
 
     return {
         "throughput": envs.throughput_section,
@@ -110,6 +110,7 @@ def _sections() -> dict[str, Callable[[BenchContext], None]]:
         "accuracy": accuracy.accuracy_section,
         "scaling": scaling.scaling_section,
         "render": render_fps.render_section,
+        "control": control.control_section,
         "rllib": rllib_sampling.rllib_section,
         "criterion": criterion.criterion_section,
         "targets": targets.targets_section,

@@ -39,10 +39,10 @@ pub struct EnergyOptions {
 impl Default for EnergyOptions {
     fn default() -> Self {
         Self {
-            gain: 20.0,
-            centring: 1.0,
-            damping: 1.0,
-            catch_angle: 0.4,
+            gain: 5.0,
+            centring: 2.0,
+            damping: 0.2,
+            catch_angle: 0.6,
             catch_rate: 4.0,
         }
     }
@@ -85,7 +85,7 @@ impl<G: ScalarGeometry> EnergyController<G> {
             check_positive(name, value)?;
         }
         let (_, gain) = target_lqr(chain, &[-1.0], weights)?;
-        let dim = chain.state_dim();
+        let dim = super::chart::ChartLayout::of::<G>(1).dim();
         Ok(Self {
             chain: chain.clone(),
             options,

@@ -128,6 +128,34 @@ impl Models {
     }
 }
 
+/// Buffers of one knot of the backward pass.
+#[derive(Debug, Clone)]
+struct BackwardWork {
+    qx: DVector<f64>,
+    qu: DVector<f64>,
+    qxx: DMatrix<f64>,
+    va: DMatrix<f64>,
+    btv: DMatrix<f64>,
+    quu: DMatrix<f64>,
+    qux: DMatrix<f64>,
+    mk: DMatrix<f64>,
+}
+
+impl BackwardWork {
+    fn new(nz: usize, nu: usize) -> Self {
+        Self {
+            qx: DVector::zeros(nz),
+            qu: DVector::zeros(nu),
+            qxx: DMatrix::zeros(nz, nz),
+            va: DMatrix::zeros(nz, nz),
+            btv: DMatrix::zeros(nu, nz),
+            quu: DMatrix::zeros(nu, nu),
+            qux: DMatrix::zeros(nu, nz),
+            mk: DMatrix::zeros(nu, nz),
+        }
+    }
+}
+
 /// A trajectory: `horizon + 1` states (as charts) and `horizon` forces.
 #[derive(Debug, Clone)]
 pub struct Trajectory {
@@ -152,6 +180,7 @@ pub struct Ilqr<G: ScalarGeometry> {
     pub nominal: Trajectory,
     candidate: Trajectory,
     models: Models,
+    work: BackwardWork,
     mu: f64,
     ws: StepWorkspace<G>,
     scratch: Scratch,
@@ -185,6 +214,7 @@ impl<G: ScalarGeometry> Ilqr<G> {
             nominal: empty(),
             candidate: empty(),
             models: Models::new(horizon, nz, nu),
+            work: BackwardWork::new(nz, nu),
             mu: 0.0,
             scratch: Scratch {
                 residual: vec![0.0; rows],
@@ -429,57 +459,93 @@ impl<G: ScalarGeometry> Ilqr<G> {
         let nu = self.model.force_dim();
         let nz = self.model.chart().dim();
         let m = &mut self.models;
+        let w = &mut self.work;
         let ru = self.cost.dt() * self.cost.weights().force;
         m.vx[self.horizon].copy_from(&m.lx[self.horizon]);
         m.vxx[self.horizon].copy_from(&m.lxx[self.horizon]);
         let (mut dv1, mut dv2) = (0.0, 0.0);
-        let eye = DMatrix::<f64>::identity(nz, nz);
         for k in (0..self.horizon).rev() {
             let (a, b) = (&m.a[k], &m.b[k]);
-            let at = a.transpose();
-            let bt = b.transpose();
             let u = &self.nominal.forces[k * nu..(k + 1) * nu];
-            let qx = &m.lx[k] + &at * &m.vx[k + 1];
-            let mut qu = &bt * &m.vx[k + 1];
+            let (head, tail) = m.vxx.split_at_mut(k + 1);
+            let (vxx, vxx_next) = (&mut head[k], &tail[0]);
+            let (head, tail) = m.vx.split_at_mut(k + 1);
+            let (vx, vx_next) = (&mut head[k], &tail[0]);
+            // Q_x = l_x + A^T V_x', Q_u = l_u + B^T V_x'.
+            w.qx.copy_from(&m.lx[k]);
+            w.qx.gemv_tr(1.0, a, vx_next, 1.0);
+            w.qu.gemv_tr(1.0, b, vx_next, 0.0);
+            // Q_xx = l_xx + A^T V_xx' A.
+            w.va.gemm(1.0, vxx_next, a, 0.0);
+            w.qxx.copy_from(&m.lxx[k]);
+            w.qxx.gemm_tr(1.0, a, &w.va, 1.0);
+            // Regularised on the value Hessian: B^T (V_xx' + mu I) B and B^T (V_xx' + mu I) A.
+            w.btv.gemm_tr(1.0, b, vxx_next, 0.0);
             for j in 0..nu {
-                qu[j] += ru * u[j];
+                for i in 0..nz {
+                    w.btv[(j, i)] += mu * b[(i, j)];
+                }
             }
-            let qxx = &m.lxx[k] + &at * &m.vxx[k + 1] * a;
-            let vreg = &m.vxx[k + 1] + &eye * mu;
-            let bt_v = &bt * &vreg;
-            let mut quu = &bt_v * b;
+            w.quu.gemm(1.0, &w.btv, b, 0.0);
+            w.qux.gemm(1.0, &w.btv, a, 0.0);
+            let (mut lo, mut hi) = ([0.0; 2], [0.0; 2]);
             for j in 0..nu {
-                quu[(j, j)] += ru;
+                w.qu[j] += ru * u[j];
+                w.quu[(j, j)] += ru;
+                lo[j] = -self.max_force - u[j];
+                hi[j] = self.max_force - u[j];
             }
-            let qux = &bt_v * a;
-            let lo: Vec<f64> = u.iter().map(|v| -self.max_force - v).collect();
-            let hi: Vec<f64> = u.iter().map(|v| self.max_force - v).collect();
-            let sol = solve_box_qp(&quu, &qu, &lo, &hi)?;
-            let ff = DVector::from_fn(nu, |j, _| sol.step[j]);
-            let mut gain = DMatrix::zeros(nu, nz);
+            let sol = solve_box_qp(&w.quu, &w.qu, &lo[..nu], &hi[..nu])?;
+            let ff = &mut m.ff[k];
+            let gain = &mut m.gain[k];
+            gain.fill(0.0);
+            for j in 0..nu {
+                ff[j] = sol.step[j];
+            }
             let free: Vec<usize> = (0..nu).filter(|&j| sol.free[j]).collect();
             if !free.is_empty() {
-                let hf = DMatrix::from_fn(free.len(), free.len(), |r, c| quu[(free[r], free[c])]);
+                let hf = DMatrix::from_fn(free.len(), free.len(), |r, c| w.quu[(free[r], free[c])]);
                 let inv = hf.try_inverse()?;
                 for (r, &jr) in free.iter().enumerate() {
                     for col in 0..nz {
                         let mut acc = 0.0;
                         for (c, &jc) in free.iter().enumerate() {
-                            acc -= inv[(r, c)] * qux[(jc, col)];
+                            acc -= inv[(r, c)] * w.qux[(jc, col)];
                         }
                         gain[(jr, col)] = acc;
                     }
                 }
             }
-            dv1 += ff.dot(&qu);
-            dv2 += 0.5 * (ff.transpose() * &quu * &ff)[0];
-            let gt = gain.transpose();
-            let vx = qx + &gt * (&quu * &ff) + &gt * &qu + qux.transpose() * &ff;
-            let vxx = qxx + &gt * &quu * &gain + &gt * &qux + qux.transpose() * &gain;
-            m.vx[k] = vx;
-            m.vxx[k] = (&vxx + vxx.transpose()) * 0.5;
-            m.ff[k] = ff;
-            m.gain[k] = gain;
+            // Expected decrease and the value update:
+            // V_x = Q_x + K^T (Q_uu k + Q_u) + Q_ux^T k,
+            // V_xx = Q_xx + K^T (Q_uu K + Q_ux) + Q_ux^T K.
+            let mut quu_k = [0.0; 2];
+            for j in 0..nu {
+                for i in 0..nu {
+                    quu_k[j] += w.quu[(j, i)] * ff[i];
+                }
+                dv1 += ff[j] * w.qu[j];
+                dv2 += 0.5 * ff[j] * quu_k[j];
+            }
+            w.mk.gemm(1.0, &w.quu, gain, 0.0);
+            w.mk += &w.qux;
+            vx.copy_from(&w.qx);
+            for j in 0..nu {
+                let weight = quu_k[j] + w.qu[j];
+                for i in 0..nz {
+                    vx[i] += gain[(j, i)] * weight + w.qux[(j, i)] * ff[j];
+                }
+            }
+            vxx.copy_from(&w.qxx);
+            vxx.gemm_tr(1.0, gain, &w.mk, 1.0);
+            vxx.gemm_tr(1.0, &w.qux, gain, 1.0);
+            for i in 0..nz {
+                for l in 0..i {
+                    let avg = 0.5 * (vxx[(i, l)] + vxx[(l, i)]);
+                    vxx[(i, l)] = avg;
+                    vxx[(l, i)] = avg;
+                }
+            }
         }
         Some((dv1, dv2))
     }
