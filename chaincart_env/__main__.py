@@ -52,6 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_animate_command(commands)  # animate: sets args.handler
 
+    from chaincart_env.tools.transitions import add_transitions_command
+
+    add_transitions_command(commands)  # transitions: sets args.handler
+
     from chaincart_env.tools.config_docs import add_docs_command
 
     add_docs_command(commands)  # docs: sets args.handler

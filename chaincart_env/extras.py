@@ -72,4 +72,6 @@ def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
         from chaincart_env.tools.leaderboard.cli import leaderboard_needs
 
         return leaderboard_needs(args)
+    if command == "transitions" and getattr(args, "figure", False):
+        return {"plot": ("matplotlib",)}
     return {}

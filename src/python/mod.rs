@@ -6,6 +6,7 @@
 //! nothing here panics on user input.
 
 mod config;
+mod control;
 mod convert;
 mod env;
 mod model;
@@ -50,6 +51,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("AnalysisError", py.get_type::<AnalysisError>())?;
     m.add_class::<model::ChainCart>()?;
     m.add_class::<env::EnvBatch>()?;
+    m.add_class::<control::Plan>()?;
+    m.add_class::<control::TrajectoryTracker>()?;
+    m.add_class::<control::MpcController>()?;
+    m.add_class::<control::EnergyController>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(time_scaling, m)?)?;
     m.add("MAX_LINKS", crate::limits::MAX_LINKS)?;

@@ -27,7 +27,7 @@ from chaincart_env.tools.bench.report import Report
 __all__ = ["SECTION_ORDER", "parse_sections", "run_suite", "performance_page"]
 
 #: Sections in the order they run (``--sections`` picks a subset).
-SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "rllib", "cells", "criterion", "targets")
+SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "control", "rllib", "cells", "criterion", "targets")
 
 
 def parse_sections(text: str) -> list[str]:
@@ -60,7 +60,7 @@ def _machine_line(settings: BenchSettings) -> str:
 def _sections() -> dict[str, Callable[[BenchContext], None]]:
     # Imported here so that `--sections scaling` does not import SB3/torch, etc.
     from chaincart_env.tools.bench import (
-        accuracy, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, study_cells, targets,
+        accuracy, control, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, study_cells, targets,
     )  # fmt: skip
 
     return {
@@ -69,6 +69,7 @@ def _sections() -> dict[str, Callable[[BenchContext], None]]:
         "accuracy": accuracy.accuracy_section,
         "scaling": scaling.scaling_section,
         "render": render_fps.render_section,
+        "control": control.control_section,
         "rllib": rllib_sampling.rllib_section,
         "cells": study_cells.cells_section,
         "criterion": criterion.criterion_section,
