@@ -121,7 +121,7 @@ impl View {
     }
 }
 
-fn finite_or(v: f64, fallback: f64) -> f64 {
+pub(crate) fn finite_or(v: f64, fallback: f64) -> f64 {
     if v.is_finite() {
         v
     } else {

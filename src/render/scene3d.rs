@@ -9,7 +9,7 @@
 
 use super::camera::{add_scaled, dot, framing_distance, sub, Camera, Projection};
 use super::raster::{faces_camera, screen_box, Color, Floor, Paint, Raster, Scratch};
-use super::scene::{nice_step, FrameSpec};
+use super::scene::{finite_or, nice_step, FrameSpec};
 use std::cell::RefCell;
 
 const CART: Color = [52.0, 92.0, 196.0];
@@ -109,14 +109,6 @@ fn ghost() -> Paint {
 /// Model coordinates (e3 along gravity) to the z-up frame relative to `anchor`.
 fn lift(p: [f64; 3], anchor: [f64; 2]) -> [f64; 3] {
     [p[0] - anchor[0], p[1] - anchor[1], -p[2]]
-}
-
-fn finite_or(v: f64, fallback: f64) -> f64 {
-    if v.is_finite() {
-        v
-    } else {
-        fallback
-    }
 }
 
 /// Points of the chain (z-up, relative to the cart): the pivot, then each mass.
