@@ -360,12 +360,11 @@ impl<'a> Raster<'a> {
                 // Depth along forward of the floor point equals the ray parameter.
                 let t = (floor.height - p.eye[2]) / rise;
                 let ray_grad = p.up[2] / (f * rise); // d(t)/dy / t
-                for k in 0..2 {
-                    row.p0[k] = p.eye[k] + floor.offset[k] + t * base[k];
-                    row.dp[k] = t * p.right[k] / f;
-                    row.dpdy0[k] = t * (ray_grad * base[k] - p.up[k] / f);
-                    row.dpdy_dx[k] = t * ray_grad * p.right[k] / f;
-                }
+                let axis = |k: usize| t * ray_grad * p.right[k] / f;
+                row.p0 = [0, 1].map(|k| p.eye[k] + floor.offset[k] + t * base[k]);
+                row.dp = [0, 1].map(|k| t * p.right[k] / f);
+                row.dpdy0 = [0, 1].map(|k| t * (ray_grad * base[k] - p.up[k] / f));
+                row.dpdy_dx = [0, 1].map(axis);
                 row.depth = t;
             }
             rows.push(row);
@@ -558,7 +557,26 @@ impl<'a> Raster<'a> {
         let inv = 1.0 / radius_px.max(1e-9);
         let light = self.light;
         let (width, height) = (self.width, self.height);
+        // Across the rod's body the shade depends only on the signed offset from its
+        // axis: a table of it, looked up per pixel (the round ends are shaded exactly).
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        let len = dx.hypot(dy).max(1e-12);
+        let across = [-dy / len, dx / len];
+        let table: [(Color, f64); ROD_SHADES] = std::array::from_fn(|i| {
+            let s = -1.0 + 2.0 * i as f64 / (ROD_SHADES - 1) as f64;
+            let nz = (1.0 - s * s).max(0.0).sqrt();
+            let n = [(s * across[0]) as f32, (-s * across[1]) as f32, -nz as f32];
+            (light.shade(paint.color, n), nz)
+        });
+        let to_index = 0.5 * (ROD_SHADES - 1) as f64;
+        let reach = radius_px + 1.0;
+        let xs = pixel_span(a.x.min(b.x) - reach, a.x.max(b.x) + reach, width);
+        let ys = pixel_span(a.y.min(b.y) - reach, a.y.max(b.y) + reach, height);
         let mut target = self.target();
+        if !xs.is_empty() && !ys.is_empty() {
+            target.touched.include(xs.clone(), ys.start);
+            target.touched.include(xs, ys.end - 1);
+        }
         capsule_coverage(
             [a.x, a.y],
             [b.x, b.y],
@@ -566,12 +584,17 @@ impl<'a> Raster<'a> {
             width,
             height,
             |x, y, cover, (t, ex, ey)| {
-                let s = ((ex * ex + ey * ey).sqrt() * inv).min(1.0);
-                let nz = (1.0 - s * s).sqrt();
-                let n = [(ex * inv) as f32, (-ey * inv) as f32, -nz as f32];
+                let (color, nz) = if t > 0.0 && t < 1.0 {
+                    let s = ((ex * across[0] + ey * across[1]) * inv).clamp(-1.0, 1.0);
+                    table[((s + 1.0) * to_index + 0.5) as usize]
+                } else {
+                    let s = ((ex * ex + ey * ey).sqrt() * inv).min(1.0);
+                    let nz = (1.0 - s * s).sqrt();
+                    let n = [(ex * inv) as f32, (-ey * inv) as f32, -nz as f32];
+                    (light.shade(paint.color, n), nz)
+                };
                 let z = a.z + t * (b.z - a.z) - radius * nz;
-                target.touched.include(x..x + 1, y);
-                target.fragment(x, y, z as f32, light.shade(paint.color, n), cover, paint);
+                target.fragment(x, y, z as f32, color, cover, paint);
             },
         );
     }
@@ -607,19 +630,14 @@ impl<'a> Raster<'a> {
         }
         let sign = area.signum();
         // Inside: n . p + c >= 0 for every edge, with n a unit normal.
-        let edges: Vec<([f64; 2], f64, f64)> = (0..n)
+        let edges: Vec<([f64; 2], f64, bool)> = (0..n)
             .map(|i| {
                 let (p, q) = (vertices[i], vertices[(i + 1) % n]);
                 let (dx, dy) = (q.x - p.x, q.y - p.y);
                 let len = (dx * dx + dy * dy).sqrt().max(1e-12);
                 let normal = [-dy * sign / len, dx * sign / len];
                 let c = -(normal[0] * p.x + normal[1] * p.y);
-                let soft = if inner_edges.get(i).copied().unwrap_or(false) {
-                    1.5
-                } else {
-                    0.5
-                };
-                (normal, c, soft)
+                (normal, c, inner_edges.get(i).copied().unwrap_or(false))
             })
             .collect();
         let Some(inverse_depth) = inverse_depth_plane(vertices) else {
@@ -633,9 +651,9 @@ impl<'a> Raster<'a> {
         for y in pixel_span(ymin - 1.5, ymax + 1.5, self.height) {
             let py = y as f64 + 0.5;
             let mut span = Some((f64::NEG_INFINITY, f64::INFINITY));
-            for &(normal, c, soft) in &edges {
+            for &(normal, c, _) in &edges {
                 span = span.and_then(|s| {
-                    linear_interval(normal[0], normal[1] * py + c, -soft, f64::INFINITY)
+                    linear_interval(normal[0], normal[1] * py + c, -0.5, f64::INFINITY)
                         .and_then(|e| intersect(s, e))
                 });
             }
@@ -649,7 +667,21 @@ impl<'a> Raster<'a> {
                 let px = x as f64 + 0.5;
                 let cover = edges
                     .iter()
-                    .map(|&(normal, c, soft)| normal[0] * px + normal[1] * py + c + soft)
+                    .map(|&(normal, c, inner)| {
+                        // Inner edges are hard: every pixel whose centre lies within
+                        // half a pixel of the face is fully covered, so that the
+                        // neighbouring face meets it without a seam.
+                        let e = normal[0] * px + normal[1] * py + c + 0.5;
+                        if inner {
+                            if e >= 0.0 {
+                                1.0
+                            } else {
+                                0.0
+                            }
+                        } else {
+                            e
+                        }
+                    })
                     .fold(1.0f64, f64::min)
                     .clamp(0.0, 1.0) as f32;
                 if cover <= 0.0 {
@@ -677,11 +709,19 @@ impl Target<'_> {
     #[inline]
     fn fragment(&mut self, x: usize, y: usize, z: f32, color: Color, cover: f32, paint: &Paint) {
         let i = y * self.width + x;
-        if z > self.depth[i] {
+        // A little slack, so that faces meeting at an edge both reach it.
+        if z > self.depth[i] * (1.0 + DEPTH_SLACK) {
             return;
         }
         let a = cover * paint.alpha;
-        blend_pixel(&mut self.rgb[3 * i..3 * i + 3], color, a);
+        let px = &mut self.rgb[3 * i..3 * i + 3];
+        if a >= 1.0 {
+            px[0] = (color[0] + 0.5) as u8;
+            px[1] = (color[1] + 0.5) as u8;
+            px[2] = (color[2] + 0.5) as u8;
+        } else {
+            blend_pixel(px, color, a);
+        }
         if paint.solid && a >= 0.5 {
             self.depth[i] = z;
         }
@@ -751,10 +791,16 @@ fn mix(a: Color, b: Color, t: f32) -> Color {
     ]
 }
 
+/// Relative depth within which a fragment is not hidden by a nearer one.
+const DEPTH_SLACK: f32 = 1e-4;
+
+/// Shades tabulated across a rod.
+const ROD_SHADES: usize = 33;
+
 /// Grid lines fade out where cells are fewer than this many pixels across...
-const GRID_FADE_FROM: f64 = 9.0;
+const GRID_FADE_FROM: f64 = 16.0;
 /// ... and are fully drawn from this many more.
-const GRID_FADE_OVER: f64 = 14.0;
+const GRID_FADE_OVER: f64 = 16.0;
 
 /// One floor row: the ground colour with the grid's lines, each about one pixel
 /// wide however far, faded out where they crowd closer than a few pixels. Only the
@@ -821,7 +867,7 @@ fn grid_row(
             m += 1.0;
             let c = c0 + crossing.clamp(0.0, w) * slope_c;
             let strength = ((c - GRID_FADE_FROM) * (1.0 / GRID_FADE_OVER)).min(1.0);
-            if !(strength > 0.0) {
+            if strength.is_nan() || strength <= 0.0 {
                 continue;
             }
             let band = inv_rate / c;

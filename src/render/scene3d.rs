@@ -24,7 +24,9 @@ const TRAIL: Color = [150.0, 60.0, 190.0];
 /// Depth of the floor below the cart, in chain lengths.
 const FLOOR_DEPTH: f64 = 1.08;
 /// Opacity of the target's ghost.
-const GHOST_ALPHA: f32 = 0.28;
+const GHOST_ALPHA: f32 = 0.3;
+/// The ghost's rods and masses, as a fraction of the chain's.
+const GHOST_SCALE: f64 = 0.7;
 
 /// Proportions of the bodies, from the chain's length and its shortest link.
 #[derive(Debug, Clone, Copy)]
@@ -221,7 +223,7 @@ fn frame_camera(
     Framing {
         anchor,
         projection,
-        reach: 8.0 * distance + 4.0 * chain,
+        reach: 3.0 * distance + 2.0 * chain,
     }
 }
 
@@ -365,7 +367,7 @@ fn push_track(items: &mut Vec<Item>, spec: &FrameSpec, sizes: &Sizes, framing: &
         vec![[lo[0], 0.0], [hi[0], 0.0]]
     } else {
         if track.is_finite() {
-            for y in [lo[1], hi[1]] {
+            for y in [lo[1], hi[1]].into_iter().filter(|y| y.abs() <= r) {
                 push_rod(
                     items,
                     p,
@@ -375,7 +377,7 @@ fn push_track(items: &mut Vec<Item>, spec: &FrameSpec, sizes: &Sizes, framing: &
                     rail,
                 );
             }
-            for x in [lo[0], hi[0]] {
+            for x in [lo[0], hi[0]].into_iter().filter(|x| x.abs() <= r) {
                 push_rod(
                     items,
                     p,
@@ -426,7 +428,7 @@ fn push_force(
     p: &Projection,
     cart: [f64; 3],
 ) {
-    if !(spec.max_force > 0.0) {
+    if spec.max_force.is_nan() || spec.max_force <= 0.0 {
         return;
     }
     let f = [spec.force[0], spec.force[1]];
@@ -630,7 +632,7 @@ fn compose(raster: &mut Raster, w: usize, h: usize, spec: &FrameSpec, camera: &C
         .into_iter()
         .map(|v| add_scaled(v, 1.0, cart))
         .collect();
-    let spacing = nice_step(0.5 * sizes.chain);
+    let spacing = nice_step(sizes.chain);
     let floor = Floor {
         height: sizes.floor,
         spacing,
@@ -668,11 +670,19 @@ fn compose(raster: &mut Raster, w: usize, h: usize, spec: &FrameSpec, camera: &C
             .into_iter()
             .map(|v| add_scaled(v, 1.0, cart))
             .collect();
+        // Slimmer than the chain, so that the chain reads in front of its target.
         for pair in ghost_points.windows(2) {
-            push_rod(&mut items, &p, pair[0], pair[1], sizes.link_radius, ghost());
+            push_rod(
+                &mut items,
+                &p,
+                pair[0],
+                pair[1],
+                GHOST_SCALE * sizes.link_radius,
+                ghost(),
+            );
         }
         for &m in &ghost_points[1..] {
-            push_sphere(&mut items, &p, m, sizes.mass_radius, ghost());
+            push_sphere(&mut items, &p, m, GHOST_SCALE * sizes.mass_radius, ghost());
         }
     }
     // Far to near, solid bodies first, then the translucent ghost over them.
