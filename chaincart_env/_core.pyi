@@ -34,6 +34,10 @@ __all__ = [
     "MIN_FRAME_SIZE",
     "MAX_FRAME_SIZE",
     "render_frame",
+    "check_camera",
+    "default_view",
+    "CAMERA_DEFAULTS",
+    "RENDER_VIEWS",
     "target_signs",
     "paper_initial_condition",
     "INTEGRATORS",
@@ -103,6 +107,10 @@ MAX_STATE_VALUES: int
 MIN_FRAME_SIZE: int
 #: Largest frame side the renderer draws, pixels.
 MAX_FRAME_SIZE: int
+#: The camera settings of the 3-D view unless given (azimuth, elevation, distance, fov, follow).
+CAMERA_DEFAULTS: dict[str, Any]
+#: The values of the ``render_view`` key: ``"3d"``, ``"side"``, ``"top"``, ``"side+top"``.
+RENDER_VIEWS: tuple[str, ...]
 
 _Signs = Union[str, Sequence[float]]
 
@@ -451,10 +459,35 @@ def render_frame(
     track_limit: float = ...,
     width: int = 480,
     height: int = 240,
-    top_view: bool = True,
+    view: Optional[str] = None,
+    planar: bool = False,
+    azimuth: Optional[float] = None,
+    elevation: Optional[float] = None,
+    distance: Optional[float] = None,
+    fov: Optional[float] = None,
+    follow: Optional[bool] = None,
+    trail: Optional[npt.NDArray[np.float64]] = None,
 ) -> npt.NDArray[np.uint8]:
-    """One ``(height, width, 3)`` uint8 frame of a spatial state: side view (gravity
-    down) and optionally a top view, the target faintly, the force as an arrow."""
+    """One ``(height, width, 3)`` uint8 frame of a spatial state in ``view``
+    (``"3d"``, ``"side"``, ``"top"``, ``"side+top"``; ``None``: ``"side"`` if
+    ``planar`` else ``"3d"``): the 3-D view seen by the camera settings (``None``:
+    the defaults), the target faintly, the force as an arrow, the ``(k, 3)`` trail
+    of tip positions as a fading line."""
+
+def check_camera(
+    *,
+    azimuth: Optional[float] = None,
+    elevation: Optional[float] = None,
+    distance: Optional[float] = None,
+    fov: Optional[float] = None,
+    follow: Optional[bool] = None,
+) -> dict[str, Any]:
+    """Every camera setting (``None``: the default), checked; raises
+    :class:`InvalidInputError` naming the first bad one and what it accepts."""
+
+def default_view(planar: bool) -> str:
+    """The view drawn when ``render_view`` is ``None``: ``"side"`` for planar chains,
+    ``"3d"`` for spatial ones."""
 
 def time_scaling(form: str, n_links: int, min_time: float = 0.1) -> float:
     """Seconds per call of ``form`` (``"fast"``, ``"dense"``, ``"fast_rk4_step"``) for a

@@ -175,6 +175,7 @@ class ChainCartConfig:
     obs_noise: Optional[Floats] = _UNSET
     action_delay: int = _UNSET
     force_rate_limit: Optional[float] = _UNSET
+    render_view: Optional[str] = _UNSET
     _model: ChainCart = field(default=_UNSET, init=False, repr=False, compare=False)
 
     def __new__(cls, *args: Any, **kwargs: Any) -> "ChainCartConfig":
@@ -204,6 +205,12 @@ class ChainCartConfig:
         if isinstance(self.target, str):
             return tuple(_core.target_signs(self.target, self.n_links))
         return tuple(int(s) for s in self.target)
+
+    @property
+    def view(self) -> str:
+        """The picture rendered frames show: ``render_view``, or for ``None`` the
+        scene's default (``"3d"`` for spatial chains, ``"side"`` for planar ones)."""
+        return self.render_view if self.render_view is not None else _core.default_view(self.planar)
 
     @property
     def state_dim(self) -> int:

@@ -42,11 +42,11 @@ def require(purpose: str, needs: dict[str, tuple[str, ...]]) -> None:
 def _animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
     needs: dict[str, tuple[str, ...]] = {}
     suffix = ".gif" if args.out is None else Path(str(args.out)).suffix.lower()  # default: SCENE.gif
-    if suffix == ".gif":
+    if suffix in (".gif", ".png", ".mp4"):  # Pillow draws the labels of every kind
         needs["plot"] = ("PIL",)
-    elif suffix == ".mp4":
-        needs["plot"] = ("imageio", "imageio_ffmpeg")
-    if str(args.policy) not in ("lqr", "zero", "random"):  # a saved model
+    if suffix == ".mp4":
+        needs["plot"] = ("PIL", "imageio", "imageio_ffmpeg")
+    if any(str(p) not in ("lqr", "zero", "random") for p in args.policies or ()):  # a saved model
         needs["sb3"] = ("stable_baselines3",)
     return needs
 

@@ -21,7 +21,7 @@ from chaincart_env.config import REGISTERED_EPISODE_STEPS, ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies, check_num_envs
-from chaincart_env.rendering import DEFAULT_FRAME_SIZE, VECTOR_RENDER_MODES, EnvRendering, check_shown_envs
+from chaincart_env.rendering import VECTOR_RENDER_MODES, EnvRendering, check_shown_envs
 from chaincart_env.spec import JsonSpec
 
 __all__ = ["ChainCartVectorEnv", "autoreset_mode_of"]
@@ -112,7 +112,8 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     an ended env's diagnostics are in ``final_info``.
 
     Rendering follows Gymnasium's ``VectorEnv.render``: each env is drawn at
-    ``render_width x render_height`` with the force of its last step, and
+    ``render_width x render_height`` (``render_camera``, ``render_trail`` as for the
+    single env) with the force of its last step, and
 
     * ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` uint8 frames (what
       ``gymnasium.wrappers.vector.HumanRendering`` and ``RecordVideo`` read);
@@ -140,9 +141,11 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         *,
         autoreset_mode: Union[AutoresetMode, str] = AutoresetMode.NEXT_STEP,
         render_mode: Optional[str] = None,
-        render_width: int = DEFAULT_FRAME_SIZE[0],
-        render_height: int = DEFAULT_FRAME_SIZE[1],
+        render_width: Optional[int] = None,
+        render_height: Optional[int] = None,
         render_envs: Optional[int] = None,
+        render_camera: Any = None,
+        render_trail: float = 0.0,
         **kwargs: Any,
     ) -> None:
         self.num_envs = check_num_envs(num_envs)
@@ -160,6 +163,8 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
             tiled=True,
             tracked=self.num_envs,
             modes=VECTOR_RENDER_MODES,
+            camera=render_camera,
+            trail=render_trail,
         )
         self.render_mode = self._rendering.mode
         # rgb_array_list: per step, the tuple of every env's frame
@@ -247,6 +252,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         obs = self._batch.reset(seeds, mask)
         if self.render_mode is not None:
             self._rendering.clear_forces(mask)
+            self._rendering.record_tips(self._batch.states)
             self._frame_history.clear()
             self._after_transition(reset=True)
         info: dict[str, Any] = {}
@@ -284,6 +290,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         if self._same_step:
             fresh |= (events & _core.EVENT_ENDED) != 0
         self._rendering.record_forces(actions, fresh)
+        self._rendering.record_tips(self._batch.states, fresh)
         self._after_transition()
 
     def _after_transition(self, reset: bool = False) -> None:

@@ -62,6 +62,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MIN_FRAME_SIZE", crate::render::MIN_FRAME_SIZE)?;
     m.add("MAX_FRAME_SIZE", crate::render::MAX_FRAME_SIZE)?;
     m.add_function(wrap_pyfunction!(render::render_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(render::check_camera, m)?)?;
+    m.add_function(wrap_pyfunction!(render::default_view, m)?)?;
+    m.add("CAMERA_DEFAULTS", render::camera_defaults(py)?)?;
+    m.add(
+        "RENDER_VIEWS",
+        PyTuple::new(py, crate::render::ViewKind::NAMES)?,
+    )?;
     m.add_function(wrap_pyfunction!(model::target_signs, m)?)?;
     m.add_function(wrap_pyfunction!(model::paper_initial_condition, m)?)?;
     m.add(

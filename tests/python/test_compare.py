@@ -25,7 +25,7 @@ from chaincart_env.tools.compare.evaluation import (
     rollout,
     settle_times,
 )
-from chaincart_env.tools.compare.filmstrip import filmstrip_size
+from chaincart_env.tools.compare.filmstrip import DEFAULT_FRAMES, filmstrip_size
 from chaincart_env.tools.compare.job import EVALUATION_FILES, OUTPUT_FILES, SEED_FILES
 from chaincart_env.tools.compare.learning_curve import LEARNING_CURVE_COLUMNS
 from chaincart_env.tools.compare.plots import FIGURE_SIZE_PX
@@ -104,7 +104,7 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
 
     sizes = {"seed-0/learning_curve.png": FIGURE_SIZE_PX, "errors.png": FIGURE_SIZE_PX,
              "evaluation_curve.png": FIGURE_SIZE_PX, "sweep_start_noise.png": FIGURE_SIZE_PX,
-             "filmstrip.png": filmstrip_size(2, 8)}  # fmt: skip
+             "filmstrip.png": filmstrip_size(2, DEFAULT_FRAMES)}  # fmt: skip
     for name, size in sizes.items():
         with Image.open(tiny_run / name) as image:
             image.load()

@@ -32,8 +32,9 @@ def test_the_config_has_the_agreed_keyword_names() -> None:
     names = [f.name for f in dataclasses.fields(ChainCartConfig) if f.init]
     assert names[: len(KEYWORDS)] == KEYWORDS
     # The only extras: success tolerances, the diagnostics switch, the physics'
-    # precision and the reality-gap keywords, exactly those the core defines, in its order.
-    extras = ["success_tolerances", "diagnostics", "precision", *(k[0] for k in REALITY_KEYS)]
+    # precision, the reality-gap keywords, exactly those the core defines, in its order,
+    # and the rendered view.
+    extras = ["success_tolerances", "diagnostics", "precision", *(k[0] for k in REALITY_KEYS), "render_view"]
     assert names[len(KEYWORDS) :] == extras
 
 
@@ -167,7 +168,7 @@ BEFORE = json.loads((Path(__file__).parent / "data" / "config_before.json").read
 
 
 #: Keys added after the fixture was saved, with the default that keeps every result.
-ADDED_SINCE = {"precision": "f64"}
+ADDED_SINCE = {"precision": "f64", "render_view": None}
 
 
 def _saved_entry(c: ChainCartConfig) -> dict:
@@ -176,7 +177,7 @@ def _saved_entry(c: ChainCartConfig) -> dict:
     text = repr(c)
     for key, default in ADDED_SINCE.items():
         assert config.pop(key) == default
-        text = text.replace(f" {key}={default!r},", "")
+        text = text.replace(f" {key}={default!r},", "").replace(f", {key}={default!r})", ")")
     return {
         "config": config,
         "repr": text,

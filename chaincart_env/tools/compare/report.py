@@ -100,8 +100,10 @@ def write_summary_figure(
     panels = (1 if curves else 0) + len(sweeps) + 1
     columns = 2
     rows = (panels + 1) // columns + 1
-    fig = Figure(figsize=(12, 3.6 * rows), dpi=100, layout="constrained")
-    grid = fig.add_gridspec(rows, columns)
+    # The filmstrip's row is taller, so that its chains are large enough to read.
+    strip_height = 5.4
+    fig = Figure(figsize=(12, 3.6 * (rows - 1) + strip_height), dpi=100, layout="constrained")
+    grid = fig.add_gridspec(rows, columns, height_ratios=[3.6] * (rows - 1) + [strip_height])
     axes = [fig.add_subplot(grid[i // columns, i % columns]) for i in range(panels - 1)]
     # The last panel (e_q(t)) takes the rest of its row.
     last = panels - 1
