@@ -28,6 +28,7 @@ from chaincart_env.errors import (  # noqa: E402
     InvalidInputError,
     InvalidTypeError,
     MissingExtraError,
+    PlanningError,
 )
 from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
 from chaincart_env.env import ChainCartEnv  # noqa: E402
@@ -37,6 +38,7 @@ from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
     from chaincart_env.lqr import LQRPolicy
+    from chaincart_env.policies import EnergyPolicy, MPCPolicy, TrajectoryPolicy
     from chaincart_env.tools.roa import region_of_attraction
     from chaincart_env.sb3 import ChainCartVecEnv
 
@@ -54,9 +56,13 @@ __all__ = [
     "ChainCartVecEnv",
     "ChainCartVectorEnv",
     "DEFAULT_SCENE",
+    "EnergyPolicy",
     "LQRPolicy",
+    "MPCPolicy",
+    "PlanningError",
     "RewardWeights",
     "SCENES",
+    "TrajectoryPolicy",
     "__version__",
     "region_of_attraction",
     "scene_env_id",
@@ -83,6 +89,10 @@ def __getattr__(name: str) -> Any:
         from chaincart_env.lqr import LQRPolicy
 
         return LQRPolicy
+    if name in ("EnergyPolicy", "MPCPolicy", "TrajectoryPolicy"):
+        from chaincart_env import policies
+
+        return getattr(policies, name)
     if name == "region_of_attraction":
         from chaincart_env.tools.roa import region_of_attraction
 

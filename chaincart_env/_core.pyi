@@ -23,6 +23,10 @@ __all__ = [
     "AnalysisError",
     "ChainCart",
     "EnvBatch",
+    "Plan",
+    "TrajectoryTracker",
+    "MpcController",
+    "EnergyController",
     "num_threads",
     "time_scaling",
     "MAX_LINKS",
@@ -30,6 +34,10 @@ __all__ = [
     "MIN_FRAME_SIZE",
     "MAX_FRAME_SIZE",
     "render_frame",
+    "check_camera",
+    "default_view",
+    "CAMERA_DEFAULTS",
+    "RENDER_VIEWS",
     "target_signs",
     "paper_initial_condition",
     "INTEGRATORS",
@@ -100,6 +108,10 @@ MAX_STATE_VALUES: int
 MIN_FRAME_SIZE: int
 #: Largest frame side the renderer draws, pixels.
 MAX_FRAME_SIZE: int
+#: The camera settings of the 3-D view unless given (azimuth, elevation, distance, fov, follow).
+CAMERA_DEFAULTS: dict[str, Any]
+#: The values of the ``render_view`` key: ``"3d"``, ``"side"``, ``"top"``, ``"side+top"``.
+RENDER_VIEWS: tuple[str, ...]
 
 _Signs = Union[str, Sequence[float]]
 
@@ -219,6 +231,28 @@ class ChainCart:
     def controllability(self, s: _Signs) -> tuple[bool, float]:
         """``(controllable, margin)`` of the linearisation at ``s`` by the PBH eigenvector
         test (paper Prop. 3); the margin is in [0, 1], controllable means > 1e-8."""
+    def plan(
+        self,
+        start: Union[_Signs, npt.ArrayLike],
+        target: _Signs,
+        *,
+        max_force: float,
+        track_limit: float = 2.4,
+        duration: Optional[float] = None,
+        dt: float = 0.02,
+        substeps: int = 2,
+        max_iterations: int = 1000,
+        max_time: float = 30.0,
+        guesses: int = 10,
+        weights: Optional[Mapping[str, float]] = None,
+    ) -> "Plan":
+        """A plan from ``start`` (an equilibrium name, a sign tuple or a full state) to
+        the equilibrium ``target`` within ``max_force`` (N per axis) and ``track_limit``
+        (m): control-limited iLQR over ``duration`` s (default ``1 + n_links``) at the
+        control period ``dt`` with ``substeps`` RK4 steps, from up to ``guesses`` initial
+        guesses, at most ``max_iterations`` iterations and ``max_time`` s. ``weights``
+        overrides cost weights (``x``, ``q``, ``v``, ``w``, ``force``, ``track``,
+        ``terminal``, ``track_margin``)."""
     def equilibria(self) -> list[list[int]]:
         """All 2^n sign tuples, hanging first, in binary order; refused for n > 20."""
     def __reduce__(self) -> tuple[Any, ...]: ...
@@ -241,6 +275,90 @@ class ResolvedConfig:
     def force_dim(self) -> int:
         """Length of an action: 1 planar, 2 spatial."""
     def __reduce__(self) -> tuple[Any, ...]: ...
+
+@final
+class Plan:
+    """A plan of ``K`` control steps (``ChainCart.plan``)."""
+
+    @property
+    def times(self) -> npt.NDArray[np.float64]:
+        """Instants, s, shape ``(K + 1,)``."""
+    @property
+    def states(self) -> npt.NDArray[np.float64]:
+        """States in the model's layout, shape ``(K + 1, state_dim)``."""
+    @property
+    def forces(self) -> npt.NDArray[np.float64]:
+        """Forces, N, shape ``(K, force_dim)``, each held over its interval."""
+    @property
+    def converged(self) -> bool:
+        """The plan reaches the target within the tolerances and the track."""
+    @property
+    def target(self) -> list[int]:
+        """The target's sign tuple."""
+    @property
+    def dt(self) -> float:
+        """Control period, s."""
+    @property
+    def substeps(self) -> int:
+        """RK4 steps per control period."""
+    @property
+    def max_force(self) -> float:
+        """Force limit, N."""
+    @property
+    def track_limit(self) -> float:
+        """Track limit, m."""
+    @property
+    def report(self) -> dict[str, Any]:
+        """``cost``, ``iterations``, ``seconds``, ``guesses_tried``, ``best_guess``,
+        ``status``, ``e_q``, ``e_w``, ``peak_force``, ``rms_force``, ``max_cart``,
+        ``max_spin``, ``reaches_target``, ``within_track``, ``time_to_reach``, ``reason``."""
+    def tracker(self) -> "TrajectoryTracker":
+        """TVLQR along the plan, then the LQR at its target."""
+    def mpc(
+        self, horizon: int = 40, hold_horizon: int = 25, iterations: int = 2, budget: float = 0.002
+    ) -> "MpcController":
+        """Receding-horizon iLQR along the plan with a budget per control step."""
+
+@final
+class TrajectoryTracker:
+    """TVLQR along a plan, then the target's LQR."""
+
+    def force(self, k: int, state: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """The saturated force (N) at control step ``k`` of the plan's clock in ``state``."""
+    @property
+    def steps(self) -> int:
+        """Number of planned steps."""
+
+@final
+class MpcController:
+    """Receding-horizon iLQR along a plan."""
+
+    def force(self, k: int, state: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """The saturated force (N) at control step ``k`` of the plan's clock in ``state``."""
+    def reset(self) -> None:
+        """Forgets the warm start."""
+    @property
+    def stats(self) -> dict[str, Any]:
+        """``iterations``, ``seconds`` and ``horizon`` of the last ``force`` call."""
+
+@final
+class EnergyController:
+    """Energy shaping for one link, then the LQR catch."""
+
+    def __new__(
+        cls,
+        model: ChainCart,
+        max_force: float,
+        gain: Optional[float] = None,
+        centring: Optional[float] = None,
+        damping: Optional[float] = None,
+        catch_angle: Optional[float] = None,
+        catch_rate: Optional[float] = None,
+    ) -> "EnergyController": ...
+    def force(self, state: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """The saturated force (N) in ``state``."""
+    def catching(self, state: npt.ArrayLike) -> bool:
+        """Whether the LQR is in charge in ``state``."""
 
 @final
 class EnvBatch:
@@ -307,7 +425,8 @@ class EnvBatch:
     ) -> tuple[npt.NDArray[Any], npt.NDArray[np.float64], npt.NDArray[np.bool_], npt.NDArray[np.bool_], int]:
         """One step of every env (GIL released); ``actions`` of shape ``(num_envs,
         force_dim)``, clipped to [-1, 1]. Returns ``(obs, rewards, terminated, truncated,
-        n_ended)``. Bad actions raise before any env moves."""
+        n_ended)``. Bad actions raise before any env moves (a scalar: ``InvalidTypeError``,
+        a ``TypeError``)."""
     def step_one(self, action: npt.ArrayLike) -> tuple[npt.NDArray[Any], float, bool, bool, int]:
         """``step`` for a batch of one: ``(obs, reward, terminated, truncated, events)``."""
     def events(self) -> npt.NDArray[np.uint8]:
@@ -361,10 +480,35 @@ def render_frame(
     track_limit: float = ...,
     width: int = 480,
     height: int = 240,
-    top_view: bool = True,
+    view: Optional[str] = None,
+    planar: bool = False,
+    azimuth: Optional[float] = None,
+    elevation: Optional[float] = None,
+    distance: Optional[float] = None,
+    fov: Optional[float] = None,
+    follow: Optional[bool] = None,
+    trail: Optional[npt.NDArray[np.float64]] = None,
 ) -> npt.NDArray[np.uint8]:
-    """One ``(height, width, 3)`` uint8 frame of a spatial state: side view (gravity
-    down) and optionally a top view, the target faintly, the force as an arrow."""
+    """One ``(height, width, 3)`` uint8 frame of a spatial state in ``view``
+    (``"3d"``, ``"side"``, ``"top"``, ``"side+top"``; ``None``: ``"side"`` if
+    ``planar`` else ``"3d"``): the 3-D view seen by the camera settings (``None``:
+    the defaults), the target faintly, the force as an arrow, the ``(k, 3)`` trail
+    of tip positions as a fading line."""
+
+def check_camera(
+    *,
+    azimuth: Optional[float] = None,
+    elevation: Optional[float] = None,
+    distance: Optional[float] = None,
+    fov: Optional[float] = None,
+    follow: Optional[bool] = None,
+) -> dict[str, Any]:
+    """Every camera setting (``None``: the default), checked; raises
+    :class:`InvalidInputError` naming the first bad one and what it accepts."""
+
+def default_view(planar: bool) -> str:
+    """The view drawn when ``render_view`` is ``None``: ``"side"`` for planar chains,
+    ``"3d"`` for spatial ones."""
 
 def time_scaling(form: str, n_links: int, min_time: float = 0.1) -> float:
     """Seconds per call of ``form`` (``"fast"``, ``"dense"``, ``"fast_rk4_step"``) for a

@@ -22,7 +22,7 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from chaincart_env import _core
-from chaincart_env.errors import InvalidTypeError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.model import ChainCart
 
 __all__ = [
@@ -46,6 +46,7 @@ CONFIG_KEYS: tuple[tuple[str, Any, str, str], ...] = tuple(_core.CONFIG_KEYS)
 #: control delay, force-rate limit) as the core defines them: ``(name, default, help)``.
 #: Their values are checked and brought into canonical form by the core.
 REALITY_KEYS: tuple[tuple[str, Any, str], ...] = tuple(_core.REALITY_KEYS)
+_KEYWORDS: frozenset[str] = frozenset(name for name, *_ in CONFIG_KEYS)
 #: Names accepted for ``target`` (besides a sign tuple).
 EQUILIBRIUM_NAMES: tuple[str, ...] = tuple(_core.TARGET_NAMES)
 #: Names accepted for ``start`` (besides a sign tuple or a full state).
@@ -132,6 +133,16 @@ def _plain(name: str, value: Any) -> Any:
     return value
 
 
+def unknown_keyword_message(name: str) -> str:
+    """The core's message for an unknown configuration keyword: it names the closest
+    keyword when one is near (``n_link`` -> ``n_links``) and lists them all."""
+    try:
+        _core.resolve_config({name: None})
+    except InvalidInputError as error:
+        return str(error)
+    raise AssertionError(f"{name!r} is a configuration keyword")
+
+
 @dataclass(frozen=True)
 class ChainCartConfig:
     """Everything that defines a chaincart env. The fields are the core's configuration
@@ -167,7 +178,15 @@ class ChainCartConfig:
     obs_noise: Optional[Floats] = _UNSET
     action_delay: int = _UNSET
     force_rate_limit: Optional[float] = _UNSET
+    render_view: Optional[str] = _UNSET
     _resolved: _core.ResolvedConfig = field(default=_UNSET, init=False, repr=False, compare=False)
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> "ChainCartConfig":
+        # Before the generated __init__, whose TypeError would name no keyword to use.
+        for name in kwargs:
+            if name not in _KEYWORDS:
+                raise InvalidTypeError(f"ChainCartConfig: {unknown_keyword_message(name)}")
+        return super().__new__(cls)
 
     def __post_init__(self) -> None:
         given = {f.name: _plain(f.name, getattr(self, f.name)) for f in fields(self) if f.init}
@@ -192,6 +211,12 @@ class ChainCartConfig:
         if isinstance(self.target, str):
             return tuple(_core.target_signs(self.target, self.n_links))
         return tuple(int(s) for s in self.target)
+
+    @property
+    def view(self) -> str:
+        """The picture rendered frames show: ``render_view``, or for ``None`` the
+        scene's default (``"3d"`` for spatial chains, ``"side"`` for planar ones)."""
+        return self.render_view if self.render_view is not None else _core.default_view(self.planar)
 
     @property
     def state_dim(self) -> int:

@@ -15,7 +15,7 @@ from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeE
 from chaincart_env.config import ChainCartConfig, env_arguments
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies
-from chaincart_env.rendering import DEFAULT_FRAME_SIZE, RENDER_MODES, EnvRendering
+from chaincart_env.rendering import RENDER_MODES, EnvRendering
 from chaincart_env.spec import JsonSpec
 
 __all__ = ["ChainCartEnv", "observation_space", "action_space", "episode_info"]
@@ -168,8 +168,8 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
 
     ## Arguments
 
-    ``ChainCartEnv(config=None, *, render_mode=None, render_width=480, render_height=240,
-    **keywords)`` or
+    ``ChainCartEnv(config=None, *, render_mode=None, render_width=None, render_height=None,
+    render_camera=None, render_trail=0.0, **keywords)`` or
     ``gymnasium.make("ChainCart-v0", **keywords)``, keywords of
     :class:`ChainCartConfig` (explicit keywords override the scene's values; the list
     is generated from the core's definition of the keys):
@@ -192,8 +192,13 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     on to the vector env itself.
 
     ``render_mode``: ``None``, ``"rgb_array"`` (``render()`` returns a uint8 frame of
-    ``render_height x render_width x 3`` pixels) or ``"human"`` (a live window in real
-    time; where no window can open, a warning once per process and no window).
+    ``render_height x render_width x 3`` pixels, by default 360 x 480 in the 3-D view
+    and 240 x 480 in the flat views) or ``"human"`` (a live window in real time; where
+    no window can open, a warning once per process and no window). The picture is the
+    config's ``render_view``; ``render_camera`` (a
+    :class:`~chaincart_env.rendering.Camera` or a dict of its settings) places the 3-D
+    view's camera, and ``render_trail`` (seconds, default 0: none) draws the tip's
+    path over that long.
     ``metadata["render_fps"]`` is ``round(1 / dt)`` capped at 50; with shorter control
     periods (the paper's scenes) the window shows every ``round(1 / (dt * 50))``-th
     step. The frame shows the state with the force of the last step; see
@@ -211,12 +216,16 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
         config: Optional[ChainCartConfig | Mapping[str, Any]] = None,
         *,
         render_mode: Optional[str] = None,
-        render_width: int = DEFAULT_FRAME_SIZE[0],
-        render_height: int = DEFAULT_FRAME_SIZE[1],
+        render_width: Optional[int] = None,
+        render_height: Optional[int] = None,
+        render_camera: Any = None,
+        render_trail: float = 0.0,
         **kwargs: Any,
     ) -> None:
         self.config = ChainCartConfig.coerce(config, **kwargs)
-        self._rendering = EnvRendering(render_mode, self.config, render_width, render_height)
+        self._rendering = EnvRendering(
+            render_mode, self.config, render_width, render_height, camera=render_camera, trail=render_trail
+        )
         self.render_mode = self._rendering.mode
         self.model: ChainCart = self.config.make_model()
         self.observation_space = observation_space(self.config)
@@ -273,6 +282,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
             obs = self._batch.observations()[0]
         if self.render_mode is not None:
             self._rendering.clear_forces()
+            self._rendering.record_tips(self._batch.states)
             if self._rendering.human_frame_due(reset=True):
                 self.render()
         return obs, ({"params": self.true_params} if self.config.has_param_gap else {})
@@ -297,6 +307,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
         obs, reward, terminated, truncated, events = self._batch.step_one(action)
         if self.render_mode is not None:
             self._rendering.record_forces(action)
+            self._rendering.record_tips(self._batch.states)
             if self._rendering.human_frame_due():
                 self.render()
         if not (events & _ENDED or self._diagnostics):

@@ -11,6 +11,9 @@ class                   also a                          raised for
                                                         numerically (``time``, ``reason``)
 ``AnalysisError``       ``numpy.linalg.LinAlgError``    linearisation, LQR and Lyapunov solves
                         (a ``ValueError``)              that have no (stable) solution
+``PlanningError``       ``RuntimeError``                a policy whose plan does not reach its
+                                                        target (the message names the duration
+                                                        and force limit to change)
 ======================  ==============================  ==========================================
 
 The native module raises them too (it imports this module), with the core's message.
@@ -27,6 +30,7 @@ __all__ = [
     "InvalidTypeError",
     "IntegrationError",
     "AnalysisError",
+    "PlanningError",
 ]
 
 
@@ -59,6 +63,11 @@ class IntegrationError(ChainCartError, RuntimeError):
 class AnalysisError(ChainCartError, np.linalg.LinAlgError):
     """A linear-algebra analysis (linearisation, LQR gain, Lyapunov solve, ...) has no
     solution of the kind asked for, e.g. an uncontrollable equilibrium."""
+
+
+class PlanningError(ChainCartError, RuntimeError):
+    """The planner found no plan that reaches the target within the force limit, the
+    track and the duration; the message says why and names the values to change."""
 
 
 class MissingExtraError(ChainCartError, ImportError):

@@ -42,23 +42,36 @@ def require(purpose: str, needs: dict[str, tuple[str, ...]]) -> None:
 def _animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
     needs: dict[str, tuple[str, ...]] = {}
     suffix = ".gif" if args.out is None else Path(str(args.out)).suffix.lower()  # default: SCENE.gif
-    if suffix == ".gif":
+    if suffix in (".gif", ".png", ".mp4"):  # Pillow draws the labels of every kind
         needs["plot"] = ("PIL",)
-    elif suffix == ".mp4":
-        needs["plot"] = ("imageio", "imageio_ffmpeg")
-    if str(args.policy) not in ("lqr", "zero", "random"):  # a saved model
+    if suffix == ".mp4":
+        needs["plot"] = ("PIL", "imageio", "imageio_ffmpeg")
+    if any(str(p) not in ("lqr", "zero", "random") for p in args.policies or ()):  # a saved model
         needs["sb3"] = ("stable_baselines3",)
     return needs
+
+
+def _cluster_needs(args: Any) -> dict[str, tuple[str, ...]]:
+    """A Ray cluster (``--address``) needs Ray, from the rllib extra."""
+    return {"rllib": ("ray",)} if getattr(args, "address", None) is not None else {}
 
 
 def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
     """``{extra: modules}`` that ``python -m chaincart_env COMMAND`` with ``args`` needs."""
     if command == "compare":
-        return {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
+        needs = {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
+        return {**needs, **_cluster_needs(args)}
     if command == "evaluate":
-        return {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
+        needs = {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
+        return {**needs, **_cluster_needs(args)}
     if command in ("figures", "roa"):
         return {"plot": ("matplotlib",)}
     if command == "animate":
         return _animate_needs(args)
+    if command == "leaderboard":
+        from chaincart_env.tools.leaderboard.cli import leaderboard_needs
+
+        return leaderboard_needs(args)
+    if command == "transitions" and getattr(args, "figure", False):
+        return {"plot": ("matplotlib",)}
     return {}

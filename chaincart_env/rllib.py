@@ -27,6 +27,11 @@ What :func:`configure` sets:
   cluster share a stream. Without a seed (``config.seed is None``) each runner
   draws its base from OS entropy (distinct with overwhelming probability, not
   reproducible).
+* **Lost runners** (:data:`FAULT_TOLERANCE`). A runner whose process or node is
+  lost is restarted by Ray with the same worker index: it re-seeds its envs into its
+  own block (from the block's first seeds), never into another runner's. Training
+  goes on with the other runners meanwhile; the steps the lost runner had sampled in
+  the unfinished iteration are lost (at most its share of one train batch).
 * **Threads.** In a runner process the Rust thread pool is sized to the CPUs Ray
   gave the runner (``RAYON_NUM_THREADS``, unless set), as Ray does for
   OpenMP/torch (``OMP_NUM_THREADS``), so many runners on one machine do not
@@ -40,7 +45,7 @@ import inspect
 import math
 import os
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Callable, Optional, Sequence, Union
 
 import gymnasium as gym
 import numpy as np
@@ -57,6 +62,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ENV_NAME",
+    "FAULT_TOLERANCE",
     "PPO_TRAINING",
     "RunnerStartSeeds",
     "check_autoreset_mode",
@@ -105,14 +111,45 @@ PPO_TRAINING: dict[str, Any] = dict(
 )
 
 
-def register() -> str:
-    """Registers :func:`make_runner_env` with Ray under :data:`ENV_NAME` (Ray ships the
-    creator to every runner of the cluster; ``chaincart-env`` must be installed there)
-    and returns the name."""
+#: ``AlgorithmConfig.fault_tolerance`` settings of :func:`configure`: an env runner
+#: lost with its process or node is restarted by Ray (on any node with a free CPU)
+#: with the same worker index, so it re-seeds its envs into its own block of start
+#: seeds; RLlib samples with the other runners meanwhile and brings it back into
+#: service when it answers again. Stated here rather than left to RLlib's defaults,
+#: which changed across versions.
+FAULT_TOLERANCE: dict[str, Any] = dict(
+    restart_failed_env_runners=True,
+    max_num_env_runner_restarts=1000,
+    restart_failed_sub_environments=False,  # an env error is a bug: the runner fails and restarts whole
+)
+
+
+def register(name: str = ENV_NAME, creator: Optional[Callable[[Any], Any]] = None) -> str:
+    """Registers ``creator`` (default :func:`make_runner_env`) with Ray under ``name``
+    (default :data:`ENV_NAME`; Ray ships the creator to every runner of the cluster,
+    where ``chaincart-env`` must be installed) and returns the name. Works in every
+    Ray session of a process, also after ``ray.shutdown()`` and a new ``ray.init()``."""
     from ray.tune.registry import register_env
 
-    register_env(ENV_NAME, make_runner_env)
-    return ENV_NAME
+    _registry_for_this_session()
+    register_env(name, make_runner_env if creator is None else creator)
+    return name
+
+
+def _registry_for_this_session() -> None:
+    """Ray's env registry keys its entries by the job of the first Ray session of the
+    process and keeps that key after ``ray.shutdown()``: in a later session, envs
+    registered by name are invisible to the new job's runners. Let it take this
+    session's job (a no-op where Ray's registry has no such cache)."""
+    import ray
+    from ray.tune import registry
+
+    if not ray.is_initialized():
+        return  # registered when a session starts, under that session's job
+    current = ray.get_runtime_context().get_job_id()
+    cached = getattr(registry._global_registry, "_prefix", current)
+    if cached and cached != current:
+        registry._global_registry._prefix = None
 
 
 def check_autoreset_mode(env_keywords: Mapping[str, Any]) -> None:
@@ -225,6 +262,7 @@ def configure(
     name = register()
     algo_config.environment(name, env_config=env_config(config, **env_keywords))
     algo_config.env_runners(gym_env_vectorize_mode=gym.VectorizeMode.VECTOR_ENTRY_POINT)
+    algo_config.fault_tolerance(**FAULT_TOLERANCE)
     return algo_config
 
 

@@ -18,7 +18,7 @@ from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, episode_info, observation_space, start_state_option
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies, check_num_envs
-from chaincart_env.rendering import DEFAULT_FRAME_SIZE, EnvRendering, check_shown_envs
+from chaincart_env.rendering import EnvRendering, check_shown_envs
 from chaincart_env.vector import entropy_seed
 
 __all__ = ["ChainCartVecEnv"]
@@ -121,7 +121,8 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     ``y``). No env is wrapped (``env_is_wrapped`` is all False).
 
     Rendering: ``render_mode`` ``"rgb_array"`` or ``"human"``, frames of
-    ``render_width x render_height`` with each env's last force; ``render()`` tiles the
+    ``render_width x render_height`` (``render_camera``, ``render_trail`` as for the
+    single env) with each env's last force; ``render()`` tiles the
     first ``render_envs`` envs (default ``min(num_envs, 4)``) like
     :class:`chaincart_env.ChainCartVectorEnv` (``human``: in a window), and
     ``get_images()`` returns every env's frame (with ``metadata["render_fps"]`` as for
@@ -135,9 +136,11 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         *,
         seed: Optional[int] = None,
         render_mode: Optional[str] = None,
-        render_width: int = DEFAULT_FRAME_SIZE[0],
-        render_height: int = DEFAULT_FRAME_SIZE[1],
+        render_width: Optional[int] = None,
+        render_height: Optional[int] = None,
         render_envs: Optional[int] = None,
+        render_camera: Any = None,
+        render_trail: float = 0.0,
         **kwargs: Any,
     ) -> None:
         num_envs = check_num_envs(num_envs)
@@ -153,6 +156,8 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
             shown=check_shown_envs(render_envs, num_envs),
             tiled=True,
             tracked=num_envs,
+            camera=render_camera,
+            trail=render_trail,
         )
         self.render_mode: Optional[str] = self._rendering.mode
         self._diagnostics = self.config.diagnostics
@@ -191,6 +196,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
                 obs[i] = self._batch.states()[i]
         if self.render_mode is not None:
             self._rendering.clear_forces()
+            self._rendering.record_tips(self._batch.states)
             if self._rendering.human_frame_due(reset=True):
                 self.render()
         self.reset_infos = [{} for _ in range(self.num_envs)]
@@ -218,6 +224,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         dones = terminated | truncated
         if self.render_mode is not None:
             self._rendering.record_forces(actions, fresh=dones)  # done envs show their new start
+            self._rendering.record_tips(self._batch.states, fresh=dones)
             if self._rendering.human_frame_due():
                 self.render()
         # As DummyVecEnv: TimeLimit.truncated in every info.

@@ -21,7 +21,7 @@ from chaincart_env.config import REGISTERED_EPISODE_STEPS, ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.model import ChainCart
 from chaincart_env.native import NativeBatchCopies, check_num_envs
-from chaincart_env.rendering import DEFAULT_FRAME_SIZE, VECTOR_RENDER_MODES, EnvRendering, check_shown_envs
+from chaincart_env.rendering import VECTOR_RENDER_MODES, EnvRendering, check_shown_envs
 from chaincart_env.spec import JsonSpec
 
 __all__ = ["ChainCartVectorEnv", "autoreset_mode_of"]
@@ -103,12 +103,16 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     ``e_w``) come batched with ``_key`` masks, like Gymnasium's vector envs.
     ``reset(seed=s)`` seeds env i with ``s + i`` (or a list of per-env seeds): env i
     then reproduces the single env reset with ``seed=s + i`` bit for bit. A bad action
-    in any env (wrong shape, NaN, inf) raises before any env moves. Diagnostics, when
-    enabled, are top-level arrays for every env each step (of the state the step
-    reached, before a same-step reset).
+    in any env (wrong shape, NaN, inf) raises before any env moves; a scalar (``step(0)``)
+    is a ``TypeError`` (:class:`~chaincart_env.InvalidTypeError`), as in Gymnasium's
+    vector envs. Diagnostics, when enabled, are top-level arrays of every env that
+    stepped (of the state the step reached); as in ``SyncVectorEnv``, an env's reset
+    (next-step autoreset) has none (mask false, value 0), and with same-step autoreset
+    an ended env's diagnostics are in ``final_info``.
 
     Rendering follows Gymnasium's ``VectorEnv.render``: each env is drawn at
-    ``render_width x render_height`` with the force of its last step, and
+    ``render_width x render_height`` (``render_camera``, ``render_trail`` as for the
+    single env) with the force of its last step, and
 
     * ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` uint8 frames (what
       ``gymnasium.wrappers.vector.HumanRendering`` and ``RecordVideo`` read);
@@ -136,9 +140,11 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         *,
         autoreset_mode: Union[AutoresetMode, str] = AutoresetMode.NEXT_STEP,
         render_mode: Optional[str] = None,
-        render_width: int = DEFAULT_FRAME_SIZE[0],
-        render_height: int = DEFAULT_FRAME_SIZE[1],
+        render_width: Optional[int] = None,
+        render_height: Optional[int] = None,
         render_envs: Optional[int] = None,
+        render_camera: Any = None,
+        render_trail: float = 0.0,
         **kwargs: Any,
     ) -> None:
         self.num_envs = check_num_envs(num_envs)
@@ -156,6 +162,8 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
             tiled=True,
             tracked=self.num_envs,
             modes=VECTOR_RENDER_MODES,
+            camera=render_camera,
+            trail=render_trail,
         )
         self.render_mode = self._rendering.mode
         # rgb_array_list: per step, the tuple of every env's frame
@@ -243,6 +251,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         obs = self._batch.reset(seeds, mask)
         if self.render_mode is not None:
             self._rendering.clear_forces(mask)
+            self._rendering.record_tips(self._batch.states)
             self._frame_history.clear()
             self._after_transition(reset=True)
         info: dict[str, Any] = {}
@@ -280,6 +289,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         if self._same_step:
             fresh |= (events & _core.EVENT_ENDED) != 0
         self._rendering.record_forces(actions, fresh)
+        self._rendering.record_tips(self._batch.states, fresh)
         self._after_transition()
 
     def _after_transition(self, reset: bool = False) -> None:
@@ -290,20 +300,13 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
 
     def _infos(self, n_ended: int) -> dict[str, Any]:
         info: dict[str, Any] = {}
-        if self.config.has_param_gap:
-            # Envs that started a new episode in this step report its parameters.
-            events = self._batch.events()
-            fresh = (events & (_core.EVENT_ENDED if self._same_step else _core.EVENT_RESET)) != 0
-            if fresh.any():
-                info["params"], info["_params"] = self.true_params, fresh
-        if self._diagnostics:
-            diag = self._batch.diagnostics()
-            everyone = np.ones(self.num_envs, dtype=np.bool_)
-            for k, key in enumerate(_core.DIAGNOSTICS):
-                info[key], info["_" + key] = diag[:, k], everyone
-            errors = self._batch.errors()
-            info["e_q"], info["_e_q"] = errors[:, 0], everyone
-            info["e_w"], info["_e_w"] = errors[:, 1], everyone
+        # Envs that started a new episode in this step: their info is that of a reset.
+        events = self._batch.events()
+        fresh = (events & (_core.EVENT_ENDED if self._same_step else _core.EVENT_RESET)) != 0
+        if self.config.has_param_gap and fresh.any():
+            info["params"], info["_params"] = self.true_params, fresh
+        if self._diagnostics and not fresh.all():
+            info.update(self._diagnostic_infos(~fresh, with_errors=True))
         if n_ended == 0:
             return info
         ended, episode = episode_infos(self._batch)
@@ -312,13 +315,28 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
             final_obs = np.full(self.num_envs, None, dtype=object)
             for i in np.flatnonzero(ended):
                 final_obs[i] = finals[i]
+            if self._diagnostics:  # of the state each episode ended in
+                episode.update(self._diagnostic_infos(ended, with_errors=False))
             info["final_obs"], info["_final_obs"] = final_obs, ended
             info["final_info"], info["_final_info"] = episode, ended
         else:
-            if self._diagnostics:  # e_q, e_w are already there for every env
+            if self._diagnostics:  # e_q, e_w are already there for every env that stepped
                 for key in ("e_q", "_e_q", "e_w", "_e_w"):
                     del episode[key]
             info.update(episode)
+        return info
+
+    def _diagnostic_infos(self, envs: np.ndarray, with_errors: bool) -> dict[str, Any]:
+        """The diagnostics (and ``e_q``, ``e_w``) of the envs in the mask ``envs``,
+        zero for the others, as ``SyncVectorEnv`` batches keys that only some envs'
+        infos carry (an env's reset info has no diagnostics)."""
+        values = dict(zip(_core.DIAGNOSTICS, self._batch.diagnostics().T))
+        if with_errors:
+            errors = self._batch.errors()
+            values.update(e_q=errors[:, 0], e_w=errors[:, 1])
+        info: dict[str, Any] = {}
+        for key, value in values.items():
+            info[key], info["_" + key] = np.where(envs, value, 0.0), envs
         return info
 
     def render(self) -> Optional[tuple[Any, ...]]:

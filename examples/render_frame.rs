@@ -1,14 +1,16 @@
-//! Writes one raw RGB frame of the paper's Fig. 3 start (for eyeballing the renderer):
-//! `cargo run --example render_frame -- OUT.rgb [WIDTH HEIGHT]`.
+//! Writes one frame of the paper's Fig. 3 start as a binary PPM image (for eyeballing
+//! the renderer): `cargo run --example render_frame -- OUT.ppm [WIDTH HEIGHT [VIEW]]`,
+//! VIEW one of `3d` (default), `side`, `top`, `side+top`.
 
-use chaincart::render::{render, FrameSpec};
+use chaincart::render::{render, Camera, FrameSpec, ViewKind};
 use chaincart::{ChainParams, SpatialChain};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let out = args.get(1).cloned().unwrap_or_else(|| "frame.rgb".into());
+    let out = args.get(1).cloned().unwrap_or_else(|| "frame.ppm".into());
     let width = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(640);
-    let height = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(320);
+    let height = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(480);
+    let view = ViewKind::from_name(args.get(4).map_or("3d", |s| s.as_str())).expect("view");
     let chain = SpatialChain::new(ChainParams::paper());
     let mut y = chain.equilibrium(&[-1.0, -1.0, -1.0, 1.0, 1.0]).unwrap();
     let (a, b) = (6f64.to_radians(), 35f64.to_radians());
@@ -25,8 +27,13 @@ fn main() {
         force: [12.0, -5.0],
         max_force: 20.0,
         track_limit: 0.5,
-        top_view: true,
+        planar: false,
+        view,
+        camera: Camera::default(),
+        trail: &[],
     };
     render(width, height, &spec, &mut pixels).expect("render");
-    std::fs::write(&out, &pixels).expect("write frame");
+    let mut image = format!("P6\n{width} {height}\n255\n").into_bytes();
+    image.extend_from_slice(&pixels);
+    std::fs::write(&out, image).expect("write frame");
 }

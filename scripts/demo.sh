@@ -7,5 +7,5 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-scripts/setup.sh
+scripts/setup.sh sb3,plot  # the extras of compare; the test suite needs them all
 exec .venv/bin/python -m chaincart_env compare --out runs/compare "$@"

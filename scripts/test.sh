@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-scripts/setup.sh
+scripts/setup.sh  # with every extra: the suite tests each optional path
 echo "== cargo test"
 cargo test
 echo "== pytest"

@@ -83,6 +83,18 @@ pub enum InputError {
         /// The value given.
         value: f64,
     },
+    /// One env's entry of a batch's input (e.g. the action array of a vector env)
+    /// is NaN or infinity.
+    NonFiniteInEnv {
+        /// Name of the argument or quantity.
+        name: &'static str,
+        /// The env whose entry it is.
+        env: usize,
+        /// Position within that env's entries.
+        component: usize,
+        /// The value given.
+        value: f64,
+    },
     /// A choice that other settings rule out (e.g. f32 physics with an integrator that
     /// has no f32 kernel).
     Incompatible {
@@ -216,15 +228,25 @@ impl fmt::Display for InputError {
                 name,
                 expected,
             } => {
-                write!(
-                    f,
-                    "unknown {kind} {name:?}: expected one of {}",
-                    quoted(expected)
-                )
+                write!(f, "unknown {kind} {name:?}")?;
+                if let Some(closest) = closest_name(name, expected) {
+                    write!(f, " (did you mean {closest:?}?)")?;
+                }
+                write!(f, ": expected one of {}", quoted(expected))
             }
             NonFinite { name, index, value } => {
                 write!(f, "{name}[{index}] = {value}: expected a finite number")
             }
+            NonFiniteInEnv {
+                name,
+                env,
+                component,
+                value,
+            } => write!(
+                f,
+                "{name}[{env}, {component}] = {value}: expected a finite number \
+                 (env {env}, component {component})"
+            ),
             Incompatible {
                 name,
                 value,
@@ -334,6 +356,30 @@ pub fn check_size(name: &'static str, value: usize, limit: usize) -> Result<()> 
     }
 }
 
+/// The accepted name closest to a mistyped `name` (a missing or extra letter, two
+/// letters swapped, `-` for `_`, ...), if one is close enough to be meant.
+pub fn closest_name(name: &str, accepted: &[&'static str]) -> Option<&'static str> {
+    // Similarity 1 - (edits / longer length): "n_link" -> "n_links" is 0.86; below
+    // 0.6 the name was more likely something else altogether.
+    const LEAST_SIMILARITY: f64 = 0.6;
+    let folded = name.to_lowercase().replace('-', "_");
+    accepted
+        .iter()
+        .map(|&candidate| {
+            let similarity = strsim::normalized_damerau_levenshtein(
+                &folded,
+                &candidate.to_lowercase().replace('-', "_"),
+            );
+            (candidate, similarity)
+        })
+        .filter(|&(_, similarity)| similarity >= LEAST_SIMILARITY)
+        .fold(None, |best: Option<(&'static str, f64)>, item| match best {
+            Some(b) if b.1 >= item.1 => Some(b),
+            _ => Some(item),
+        })
+        .map(|(candidate, _)| candidate)
+}
+
 /// `"a", "b", "c"`: names as error messages list them.
 pub fn quoted(names: &[&str]) -> String {
     names
@@ -365,6 +411,33 @@ mod tests {
         );
         assert_eq!(check_size("n", 5, 5), Ok(()));
         assert!(check_size("n", 6, 5).is_err());
+    }
+
+    #[test]
+    fn a_mistyped_name_suggests_the_closest_accepted_one() {
+        const KEYS: &[&str] = &["n_links", "link_lengths", "link_masses", "dt", "max_force"];
+        assert_eq!(closest_name("n_link", KEYS), Some("n_links"));
+        assert_eq!(closest_name("link_length", KEYS), Some("link_lengths"));
+        assert_eq!(closest_name("link-masses", KEYS), Some("link_masses"));
+        assert_eq!(closest_name("max_froce", KEYS), Some("max_force"));
+        assert_eq!(closest_name("bogus", KEYS), None);
+        assert_eq!(closest_name("", KEYS), None);
+        let e = InputError::UnknownName {
+            kind: "config key",
+            name: "n_link".into(),
+            expected: KEYS,
+        };
+        assert_eq!(
+            e.to_string(),
+            "unknown config key \"n_link\" (did you mean \"n_links\"?): expected one of \
+             \"n_links\", \"link_lengths\", \"link_masses\", \"dt\", \"max_force\""
+        );
+        let far = InputError::UnknownName {
+            kind: "config key",
+            name: "bogus".into(),
+            expected: KEYS,
+        };
+        assert!(!far.to_string().contains("did you mean"), "{far}");
     }
 
     #[test]

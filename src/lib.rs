@@ -37,6 +37,7 @@ macro_rules! dispatch {
 pub mod analysis;
 pub mod any;
 pub mod batch;
+pub mod control;
 pub mod dense;
 pub mod env;
 pub mod error;

@@ -1,10 +1,10 @@
-"""The rendering part of an env: render mode, frame size, the forces last applied
-(each frame shows them) and, in human mode, the window. Shared by the single env, the
-native vector env and the SB3 VecEnv."""
+"""The rendering part of an env: render mode, frame size and camera, the forces last
+applied (each frame shows them), the tips' trails and, in human mode, the window.
+Shared by the single env, the native vector env and the SB3 VecEnv."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, Optional
 
 import numpy as np
@@ -38,7 +38,9 @@ def check_shown_envs(render_envs: Any, num_envs: int) -> int:
 
 class EnvRendering:
     """Frames of the first ``shown`` envs of a batch, each with the force its env last
-    applied (remembered for the first ``tracked`` envs, default ``shown``).
+    applied and, with ``trail`` seconds > 0, its tip's recent path (both remembered
+    for the first ``tracked`` envs, default ``shown``), seen by ``camera`` in the 3-D
+    view.
     ``render(states)`` returns the frame (``tiled=False``, one env) or the grid of
     frames (:func:`tile_frames`) in ``rgb_array`` mode, shows it in ``human`` mode, and
     does nothing without a render mode. ``fps`` is the config's :func:`render_fps`;
@@ -48,21 +50,27 @@ class EnvRendering:
         self,
         render_mode: Optional[str],
         config: ChainCartConfig,
-        width: int,
-        height: int,
+        width: Optional[int],
+        height: Optional[int],
         *,
         shown: int = 1,
         tiled: bool = False,
         tracked: Optional[int] = None,
         modes: Sequence[str] = RENDER_MODES,
+        camera: Any = None,
+        trail: float = 0.0,
     ) -> None:
         self.mode = check_render_mode(render_mode, modes)
-        self.renderer = ChainRenderer(config, width, height)  # validates the size in every mode
+        # Validates the size, camera and trail in every mode.
+        self.renderer = ChainRenderer(config, width, height, camera, trail)
         self.shown = shown
         self.tiled = tiled
         # Forces are remembered only where frames are drawn from them.
         rows = shown if tracked is None or self.mode is None else max(tracked, shown)
         self.forces = np.zeros((rows, config.force_dim))
+        # Trails only where frames are drawn and a trail is asked for.
+        keeps_trails = self.mode is not None and self.renderer.trail_length > 0
+        self.trails = [self.renderer.new_trail() for _ in range(rows)] if keeps_trails else []
         self._max_force = float(config.max_force)
         self.fps = render_fps(config.dt)
         self._stride = steps_per_frame(config.dt)
@@ -87,6 +95,18 @@ class EnvRendering:
         if fresh is not None:
             self.forces[np.asarray(fresh[:tracked], dtype=bool)] = 0.0
 
+    def record_tips(self, states: Callable[[], np.ndarray], fresh: Optional[np.ndarray] = None) -> None:
+        """Adds each tracked env's tip to its trail, reading ``states()`` (the batch's
+        states) only when trails are kept; envs flagged ``fresh`` (just reset) start
+        a new trail."""
+        if not self.trails:
+            return
+        y = states()
+        for i, trail in enumerate(self.trails):
+            if fresh is not None and fresh[i]:
+                trail.clear()
+            trail.add(self.renderer.tip(y[i]))
+
     def human_frame_due(self, reset: bool = False) -> bool:
         """Whether human mode shows a frame now: after every reset and every
         ``steps_per_frame``-th step since."""
@@ -96,11 +116,15 @@ class EnvRendering:
         return self._steps % self._stride == 0
 
     def clear_forces(self, mask: Optional[np.ndarray] = None) -> None:
-        """No force shown for the envs in ``mask`` (all envs: ``None``), after a reset."""
+        """No force and no trail shown for the envs in ``mask`` (all envs: ``None``),
+        after a reset."""
         if mask is None:
             self.forces[:] = 0.0
         else:
             self.forces[np.asarray(mask[: len(self.forces)], dtype=bool)] = 0.0
+        for i, trail in enumerate(self.trails):
+            if mask is None or mask[i]:
+                trail.clear()
 
     def frames(self, states: Sequence[np.ndarray] | np.ndarray, first: int = 0) -> list[np.ndarray]:
         """Frames of the states (model layout) of envs ``first, first + 1, ...``, each
@@ -110,7 +134,8 @@ class EnvRendering:
                 f"states of envs {first}..{first + len(states) - 1} to draw: forces are tracked for "
                 f"envs 0..{len(self.forces) - 1} only"
             )
-        return [self.renderer.frame(y, f) for y, f in zip(states, self.forces[first:])]
+        trails: Sequence[Any] = self.trails[first:] if self.trails else [None] * len(states)
+        return [self.renderer.frame(y, f, t) for y, f, t in zip(states, self.forces[first:], trails)]
 
     def image(self, states: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
         """The frame of the first env (``tiled=False``) or the grid of the first

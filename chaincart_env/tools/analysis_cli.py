@@ -12,6 +12,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from chaincart_env.cli_text import scene_help
+
 __all__ = ["add_commands"]
 
 _ROA_SIZES = "0.025,0.05,0.1,0.2,0.3,0.4,0.6,0.8,1.0"
@@ -72,7 +74,7 @@ def add_commands(commands: Any) -> None:
     roa = commands.add_parser(
         "roa", help="fraction of random starts the LQR baseline stabilises vs start noise (table, CSV, PNG)"
     )
-    roa.add_argument("--scene", default=None, help="scene name (default: the default scene)")
+    roa.add_argument("--scene", default=None, help=scene_help())
     roa.add_argument("--sizes", type=_sizes, default=_sizes(_ROA_SIZES),
                      help=f"comma-separated start noises (default: {_ROA_SIZES})")  # fmt: skip
     roa.add_argument("--starts", type=_positive_int, default=200, help="seeded starts per noise (default: 200)")

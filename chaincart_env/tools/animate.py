@@ -1,12 +1,14 @@
 """``python -m chaincart_env animate``: a GIF (Pillow) or MP4 (imageio with
-imageio-ffmpeg) of one episode of any scene under any policy: ``random``, ``zero``,
+imageio-ffmpeg) of one episode of any scene under one or several policies side by
+side from the same start, or a PNG still of chosen moments: ``random``, ``zero``,
 ``lqr`` or a saved stable-baselines3 model (a ``.zip``, or a run folder written by
 ``compare`` holding ``model.zip``, ``config.json`` and ``run.json``).
 
-Frames are drawn by the env's ``rgb_array`` rendering, one every
+Frames are drawn by the env's ``rgb_array`` rendering in the 3-D view (``--view``
+picks another), each under a band naming its policy with the time stamp, one every
 ``round(1 / (dt * fps))`` steps, so the animation plays in real time at
 ``1 / (dt * stride)`` frames per second (GIF frame delays are whole centiseconds:
-at most 50 fps).
+at most 50 fps). A policy whose episode ended keeps showing its last frame.
 """
 
 from __future__ import annotations
@@ -22,10 +24,11 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
+from chaincart_env.cli_text import plain, scene_help
+from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
 from chaincart_env.errors import ChainCartError, InvalidInputError, MissingExtraError
-from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import ChainCartEnv
-from chaincart_env.rendering import DEFAULT_FRAME_SIZE
+from chaincart_env.rendering import RENDER_VIEWS, Camera, default_frame_size
 
 __all__ = ["Animation", "animate", "add_animate_command", "load_sb3_model", "parse_settings", "make_policy"]
 
@@ -37,13 +40,18 @@ DEFAULT_FPS = 25.0
 MAX_GIF_FPS = 50.0
 #: SB3 algorithms tried, in order, on a model whose algorithm no JSON names.
 SB3_ALGORITHMS = ("PPO", "SAC", "TD3", "A2C", "DDPG")
+#: Seconds of the tip's path drawn as a trail unless asked otherwise.
+DEFAULT_TRAIL = 1.0
+#: Frames of a still (``.png``) unless ``times`` are given: evenly spaced over the run.
+DEFAULT_STILL_FRAMES = 4
 
 Policy = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
 class Animation:
-    """What :func:`animate` wrote."""
+    """What :func:`animate` wrote. ``episode_return`` and ``ended`` are the first
+    policy's; ``returns`` and ``endings`` every policy's, in order."""
 
     path: Path
     frames: int
@@ -54,13 +62,18 @@ class Animation:
     ended: str  # "time limit", "out of track", "numerical failure" or "step limit"
     width: int
     height: int
+    policies: tuple[str, ...] = ()
+    returns: tuple[float, ...] = ()
+    endings: tuple[str, ...] = ()
 
     def summary(self) -> str:
         """One line saying what was written: file, frames, size, frame rate, steps."""
+        runs = "; ".join(f"{p}: return {r:.2f}, ended by {e}" for p, r, e in zip(self.policies, self.returns, self.endings))
+        if self.path.suffix.lower() == ".png":
+            return f"wrote {self.path}: a still of {self.frames} frames of {self.width}x{self.height} ({runs})"
         return (
             f"wrote {self.path}: {self.frames} frames of {self.width}x{self.height} at {self.fps:g} fps "
-            f"({self.frames / self.fps:.2f} s), {self.steps} steps ({self.steps_per_frame} per frame), "
-            f"return {self.episode_return:.2f}, ended by {self.ended}"
+            f"({self.frames / self.fps:.2f} s), {self.steps} steps ({self.steps_per_frame} per frame); {runs}"
         )
 
 
@@ -183,9 +196,20 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
 # -- writing ---------------------------------------------------------------------------
 
 
+def _check_pillow(what: str) -> None:
+    try:
+        import PIL  # noqa: F401
+    except ImportError as e:
+        raise MissingExtraError(f"{what} needs Pillow: pip install 'chaincart-env[plot]'") from e
+
+
 def _check_output(path: Path) -> str:
-    """The container of ``path`` (``gif`` or ``mp4``), checking what it needs."""
+    """The container of ``path`` (``gif``, ``mp4`` or ``png``), checking what it needs
+    (Pillow draws the labels of every kind)."""
     suffix = path.suffix.lower()
+    if suffix == ".png":
+        _check_pillow("writing a PNG still")
+        return "png"
     if suffix == ".gif":
         try:
             import PIL  # noqa: F401
@@ -201,8 +225,9 @@ def _check_output(path: Path) -> str:
                 f"writing {path.name} needs imageio and imageio-ffmpeg, not installed: "
                 "pip install 'chaincart-env[plot]' (or write a .gif)"
             ) from e
+        _check_pillow("labelling the frames")
         return "mp4"
-    raise InvalidInputError(f"--out {str(path)!r}: expected a file name ending in .gif or .mp4")
+    raise InvalidInputError(f"--out {str(path)!r}: expected a file name ending in .gif, .mp4 or .png")
 
 
 def _write_gif(path: Path, frames: Iterator[np.ndarray], fps: float) -> None:
@@ -231,53 +256,150 @@ def _write_mp4(path: Path, frames: Iterator[np.ndarray], fps: float) -> None:
 # -- the animation ---------------------------------------------------------------------
 
 
-def _rollout_frames(
-    env: ChainCartEnv, policy: Policy, seed: int, steps: int, stride: int, tally: dict[str, Any]
-) -> Iterator[np.ndarray]:
-    """Frames of one episode from ``reset(seed)``: the start, every ``stride``-th step,
-    and the last step taken (at most ``steps``, fewer if the episode ends)."""
-    def frame() -> np.ndarray:
-        image = env.render()
+class _Run:
+    """One policy's episode from the shared start, stepped on demand, with its frame."""
+
+    def __init__(self, name: str, env: ChainCartEnv, policy: Policy, seed: int) -> None:
+        self.name, self.env, self.policy = name, env, policy
+        self.obs, _ = env.reset(seed=seed)
+        self.steps, self.episode_return, self.ended = 0, 0.0, "step limit"
+        self.over = False
+        self.frame = self._render()
+
+    def _render(self) -> np.ndarray:
+        image = self.env.render()
         assert image is not None  # rgb_array mode
         return image
 
-    obs, _ = env.reset(seed=seed)
-    tally.update(frames=1, steps=0, episode_return=0.0, ended="step limit")
-    yield frame()
-    for k in range(1, steps + 1):
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        tally["steps"], tally["episode_return"] = k, tally["episode_return"] + float(reward)
-        over = terminated or truncated or k == steps
-        if k % stride == 0 or over:
-            tally["frames"] += 1
-            yield frame()
-        if terminated or truncated:
-            tally["ended"] = (
-                "out of track" if info.get("out_of_track")
-                else "numerical failure" if info.get("numerical_failure")
-                else "time limit"
-            )
+    def advance(self, to_step: int) -> None:
+        """Steps until ``to_step`` steps are done (or the episode ends), then draws."""
+        if self.over or self.steps >= to_step:
             return
+        while self.steps < to_step:
+            self.obs, reward, terminated, truncated, info = self.env.step(self.policy(self.obs))
+            self.steps += 1
+            self.episode_return += float(reward)
+            if terminated or truncated:
+                self.over = True
+                self.ended = (
+                    "out of track" if info.get("out_of_track")
+                    else "numerical failure" if info.get("numerical_failure")
+                    else "time limit"
+                )
+                break
+        self.frame = self._render()
+
+
+def _font(size: int) -> Any:
+    from PIL import ImageFont
+
+    try:
+        return ImageFont.load_default(size=size)
+    except TypeError:  # Pillow < 10.1: one bitmap size
+        return ImageFont.load_default()
+
+
+def _label_height(height: int) -> int:
+    """Height of the band above each frame holding its label: about a 16th of the
+    frame, at least 12 pixels, even (video encoders want even sizes)."""
+    return 2 * max(6, round(height / 32))
+
+
+def _compose(rows: Sequence[Sequence[tuple[np.ndarray, str]]]) -> np.ndarray:
+    """Frames in a grid (rows of equal frames), each under a band with its label."""
+    from PIL import Image, ImageDraw
+
+    h, w, _ = rows[0][0][0].shape
+    band = _label_height(h)
+    columns = max(len(r) for r in rows)
+    canvas = Image.new("RGB", (columns * w, len(rows) * (h + band)), (255, 255, 255))
+    draw = ImageDraw.Draw(canvas)
+    font = _font(max(9, round(0.75 * band)))
+    for r, row in enumerate(rows):
+        for c, (frame, label) in enumerate(row):
+            top = r * (h + band)
+            canvas.paste(Image.fromarray(frame), (c * w, top + band))
+            draw.text((c * w + 4, top + band // 2), label, fill=(20, 20, 20), font=font, anchor="lm")
+    return np.asarray(canvas)
+
+
+def _stamp(run: _Run, dt: float) -> str:
+    return f"{run.name}   t = {run.steps * dt:.2f} s"
+
+
+def _animation_frames(runs: Sequence[_Run], steps: int, stride: int, dt: float, tally: dict[str, Any]) -> Iterator[np.ndarray]:
+    """Side-by-side frames of the runs: the start, every ``stride``-th step, and the
+    last step (at most ``steps``; fewer when every episode has ended)."""
+    tally.update(frames=1, steps=0)
+    yield _compose([[(run.frame, _stamp(run, dt)) for run in runs]])
+    k = 0
+    while k < steps and not all(run.over for run in runs):
+        k = min(k + stride, steps)
+        for run in runs:
+            run.advance(k)
+        tally.update(frames=tally["frames"] + 1, steps=max(run.steps for run in runs))
+        yield _compose([[(run.frame, _stamp(run, dt)) for run in runs]])
+
+
+def _still(runs: Sequence[_Run], moments: Sequence[int], dt: float) -> np.ndarray:
+    """One row per run, one column per moment (steps from the start)."""
+    rows: list[list[tuple[np.ndarray, str]]] = [[] for _ in runs]
+    for k in sorted(moments):
+        for run, row in zip(runs, rows):
+            run.advance(k)
+            row.append((run.frame, _stamp(run, dt)))
+    return _compose(rows)
+
+
+def _write_png(path: Path, image: np.ndarray) -> None:
+    from PIL import Image
+
+    # An adaptive palette keeps a still of smooth shading small.
+    Image.fromarray(image).quantize(colors=256, dither=Image.Dither.NONE).save(path, optimize=True)
+
+
+def _check_times(times: Sequence[float], steps: int, dt: float) -> list[int]:
+    out = []
+    for t in times:
+        if not (isinstance(t, (int, float)) and math.isfinite(t) and 0 <= t <= steps * dt + 1e-9):
+            raise InvalidInputError(f"times = {list(times)!r}: expected seconds in [0, {steps * dt:g}] (the run's length)")
+        out.append(round(t / dt))
+    if not out:
+        raise InvalidInputError("times = []: expected at least one moment")
+    return out
 
 
 def animate(
     config: ChainCartConfig,
     out: Path,
-    policy: str = "lqr",
+    policy: str | Sequence[str] = "lqr",
     *,
     seconds: Optional[float] = None,
     steps: Optional[int] = None,
     fps: float = DEFAULT_FPS,
-    width: int = DEFAULT_FRAME_SIZE[0],
-    height: int = DEFAULT_FRAME_SIZE[1],
+    width: Optional[int] = None,
+    height: Optional[int] = None,
     seed: int = 0,
     model: Any = None,
+    view: str = "3d",
+    camera: "Camera | dict[str, Any] | None" = None,
+    trail: float = DEFAULT_TRAIL,
+    times: Optional[Sequence[float]] = None,
 ) -> Animation:
-    """Writes an animation of one episode of ``config`` under ``policy`` (or a loaded
-    SB3 ``model``) to ``out`` (``.gif`` or ``.mp4``): at most ``steps`` env steps, or
-    ``seconds`` of simulated time, or else the whole episode."""
+    """Writes an animation of one episode of ``config`` under ``policy`` (a name or
+    path; several side by side, each from the same ``seed``; a loaded SB3 ``model``
+    is used for the first) to ``out``: ``.gif`` or ``.mp4``, at most ``steps`` env
+    steps, or ``seconds`` of simulated time, or else the whole episode; or ``.png``,
+    a still of the moments ``times`` (seconds; default: evenly spaced). Frames are of
+    ``view`` (``"3d"`` default, seen by ``camera``, with the tip's path over the last
+    ``trail`` seconds), ``width x height`` each (default: the view's)."""
     out = Path(out)
     container = _check_output(out)
+    names = [policy] if isinstance(policy, str) else list(policy)
+    if not names:
+        raise InvalidInputError("policy = []: expected at least one policy")
+    if view not in RENDER_VIEWS:
+        raise InvalidInputError(f"view = {view!r}: expected one of {list(RENDER_VIEWS)}")
     if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps > 0):
         raise InvalidInputError(f"fps = {fps!r}: expected a number > 0")
     if seconds is not None and steps is not None:
@@ -293,24 +415,45 @@ def animate(
     wanted = min(fps, MAX_GIF_FPS) if container == "gif" else fps
     stride = max(1, math.ceil(1.0 / (config.dt * wanted) - 1e-9))
     actual_fps = 1.0 / (config.dt * stride)
-    env = ChainCartEnv(config, render_mode="rgb_array", render_width=width, render_height=height)
-    act = make_policy(policy, env, seed, model)
-    tally: dict[str, Any] = {}
-    frames = _rollout_frames(env, act, seed, steps, stride, tally)
+    shown = config.replace(render_view=view)
+    width, height = (default_frame_size(view)[0] if width is None else width,
+                     default_frame_size(view)[1] if height is None else height)
+    runs = []
+    for k, name in enumerate(names):
+        env = ChainCartEnv(shown, render_mode="rgb_array", render_width=width, render_height=height,
+                           render_camera=camera, render_trail=trail)
+        runs.append(_Run(_policy_label(name), env, make_policy(name, env, seed, model if k == 0 else None), seed))
     out.parent.mkdir(parents=True, exist_ok=True)
-    (_write_gif if container == "gif" else _write_mp4)(out, frames, actual_fps)
-    env.close()
+    tally: dict[str, Any] = {}
+    if container == "png":
+        moments = _check_times(times, steps, config.dt) if times is not None else [
+            round(steps * i / (DEFAULT_STILL_FRAMES - 1)) for i in range(DEFAULT_STILL_FRAMES)]
+        _write_png(out, _still(runs, moments, config.dt))
+        tally.update(frames=len(moments) * len(runs), steps=max(run.steps for run in runs))
+    else:
+        frames = _animation_frames(runs, steps, stride, config.dt, tally)
+        (_write_gif if container == "gif" else _write_mp4)(out, frames, actual_fps)
+    for run in runs:
+        run.env.close()
     return Animation(
         path=out,
         frames=tally["frames"],
         fps=actual_fps,
         steps=tally["steps"],
         steps_per_frame=stride,
-        episode_return=tally["episode_return"],
-        ended=tally["ended"],
+        episode_return=runs[0].episode_return,
+        ended=runs[0].ended,
         width=width,
         height=height,
+        policies=tuple(run.name for run in runs),
+        returns=tuple(run.episode_return for run in runs),
+        endings=tuple(run.ended for run in runs),
     )
+
+
+def _policy_label(name: str) -> str:
+    """A policy's label: its name, or a saved model's folder or file name."""
+    return name if name in POLICY_NAMES else Path(name).stem if Path(name).suffix else Path(name).name
 
 
 # -- command line ----------------------------------------------------------------------
@@ -321,26 +464,40 @@ def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentP
     parser = commands.add_parser(
         "animate",
         help="write a GIF or MP4 of one episode of a scene under a policy",
-        description=__doc__,
+        description=plain(__doc__ or ""),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--scene", default=None, help="scene name (default: a saved model's scene, else the default)")
+    parser.add_argument("--scene", default=None, help=scene_help(f"a saved model's scene, else {DEFAULT_SCENE}"))
     parser.add_argument(
         "--set", dest="settings", action="append", default=[], metavar="KEY=VALUE",
         help="config keyword on top of the scene (repeatable), e.g. --set n_links=3 --set target=folded",
     )
     parser.add_argument(
-        "--policy", default="lqr",
-        help="random, zero, lqr (default) or a saved SB3 model: a .zip or a compare run folder",
+        "--policy", dest="policies", action="append", default=None, metavar="POLICY",
+        help="random, zero, lqr (default) or a saved SB3 model: a .zip or a compare run folder; "
+             "repeat it to show several side by side from the same start",
     )
     length = parser.add_mutually_exclusive_group()
     length.add_argument("--seconds", type=float, default=None, help="simulated seconds (default: one episode)")
     length.add_argument("--steps", type=int, default=None, help="env steps (default: one episode)")
-    parser.add_argument("--out", type=Path, default=None, help="output .gif or .mp4 (default: SCENE.gif)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output .gif, .mp4, or .png for a still (default: SCENE.gif)")
+    parser.add_argument("--times", default=None, metavar="T1,T2,...",
+                        help=f"a still's moments in seconds (default: {DEFAULT_STILL_FRAMES} evenly spaced)")
+    parser.add_argument("--view", default="3d", choices=list(RENDER_VIEWS), help="picture of the frames (default 3d)")
+    parser.add_argument("--azimuth", type=float, default=None, help="camera azimuth, degrees (3d view)")
+    parser.add_argument("--elevation", type=float, default=None, help="camera elevation, degrees (3d view)")
+    parser.add_argument("--distance", type=float, default=None, help="camera distance, m (default: framed)")
+    parser.add_argument("--fov", type=float, default=None, help="vertical field of view, degrees")
+    follow = parser.add_mutually_exclusive_group()
+    follow.add_argument("--follow", dest="follow", action="store_true", default=None, help="camera follows the cart")
+    follow.add_argument("--fixed", dest="follow", action="store_false", help="camera stays on the track's centre")
+    parser.add_argument("--trail", type=float, default=DEFAULT_TRAIL,
+                        help=f"seconds of the tip's path drawn (default {DEFAULT_TRAIL:g}; 0: none)")
     parser.add_argument("--fps", type=float, default=DEFAULT_FPS,
                         help=f"frame rate asked for (default {DEFAULT_FPS:g}; real time, so rounded to dt)")
-    parser.add_argument("--width", type=int, default=DEFAULT_FRAME_SIZE[0], help="frame width in pixels")
-    parser.add_argument("--height", type=int, default=DEFAULT_FRAME_SIZE[1], help="frame height in pixels")
+    parser.add_argument("--width", type=int, default=None, help="frame width in pixels (default: the view's)")
+    parser.add_argument("--height", type=int, default=None, help="frame height in pixels (default: the view's)")
     parser.add_argument("--seed", type=int, default=0, help="reset seed (and the random policy's)")
     # Usage errors print this subcommand's usage, not the top level's.
     parser.set_defaults(handler=lambda args, _top=None: run_animate_command(args, parser))
@@ -358,19 +515,35 @@ def run_animate_command(args: argparse.Namespace, parser: Optional[argparse.Argu
     return 0
 
 
+def _camera_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    names = ("azimuth", "elevation", "distance", "fov", "follow")
+    return {k: getattr(args, k) for k in names if getattr(args, k) is not None}
+
+
+def _times_from_args(text: Optional[str]) -> Optional[list[float]]:
+    if text is None:
+        return None
+    try:
+        return [float(t) for t in text.split(",") if t.strip()]
+    except ValueError as e:
+        raise InvalidInputError(f"--times {text!r}: expected seconds separated by commas, e.g. 0,0.5,1") from e
+
+
 def _animation_from_args(args: argparse.Namespace) -> Animation:
     settings = parse_settings(args.settings)
+    policies = args.policies or ["lqr"]
     model = None
     keywords: dict[str, Any] = {}
-    if args.policy not in POLICY_NAMES:
-        model = load_sb3_model(Path(args.policy))
+    if policies[0] not in POLICY_NAMES:
+        model = load_sb3_model(Path(policies[0]))
         if args.scene is None:
-            keywords = saved_config(Path(args.policy)) or {}
+            keywords = saved_config(Path(policies[0])) or {}
     if args.scene is not None:
         keywords = {"scene": args.scene}
     config = ChainCartConfig(**{**keywords, **settings})
     out = args.out if args.out is not None else Path(f"{config.scene}.gif")
     return animate(
-        config, out, args.policy, seconds=args.seconds, steps=args.steps, fps=args.fps,
-        width=args.width, height=args.height, seed=args.seed, model=model,
+        config, out, policies, seconds=args.seconds, steps=args.steps, fps=args.fps,
+        width=args.width, height=args.height, seed=args.seed, model=model, view=args.view,
+        camera=_camera_from_args(args), trail=args.trail, times=_times_from_args(args.times),
     )

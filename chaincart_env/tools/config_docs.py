@@ -62,6 +62,8 @@ def option_help(name: str) -> str:
     """The command line's help of the option of configuration key ``name``."""
     for key, default, help_text, _ in _core.CONFIG_KEYS:
         if key == name:
+            if key == "scene":
+                help_text = f"{help_text}: {', '.join(_core.SCENES)}"
             return f"{help_text} (default scene: {value_text(default)})".replace("%", "%%")
     raise KeyError(name)
 
@@ -101,14 +103,30 @@ def add_docs_command(commands: Any) -> None:
     parser.set_defaults(handler=lambda args, _parser: main(write=args.write))
 
 
+def _checked_parts() -> str:
+    """The generated parts, page by page: ``configuration.md (config-keys, scenes), ...``."""
+    names: dict[str, list[str]] = {}
+    for page, name in _SECTIONS:
+        names.setdefault(page, []).append(name)
+    return ", ".join(f"docs/{page} ({', '.join(parts)})" for page, parts in names.items())
+
+
 def main(write: bool) -> int:
-    """Writes or checks the generated parts; 1 when ``--check`` finds a stale page."""
-    stale = {path: new for path, (old, new) in generated_pages().items() if old != new}
+    """Writes or checks the generated parts, saying what it checked or rewrote; 1 when
+    ``--check`` finds a stale page."""
+    pages = generated_pages()
+    stale = {path: new for path, (old, new) in pages.items() if old != new}
+    print(f"generated from the core's configuration (keys and scenes): {_checked_parts()}")
     if write:
         for path, new in stale.items():
             path.write_text(new)
+            print(f"rewrote docs/{path.name}")
+        if not stale:
+            print("nothing to rewrite: every page is current")
         return 0
     for path in stale:
-        print(f"{path} differs from the configuration the core defines: run python -m chaincart_env docs --write")
+        print(f"docs/{path.name} differs from the configuration the core defines: run python -m chaincart_env docs --write")
+    if not stale:
+        print(f"all {len(pages)} pages are current")
     return 1 if stale else 0
 

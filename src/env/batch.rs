@@ -413,10 +413,21 @@ impl<G: LaneScene> EnvBatch<G> {
     pub fn check_actions<A: Real>(&self, actions: &[A]) -> Result<()> {
         check_size("actions", actions.len(), self.num_envs * self.force_dim())?;
         if let Some(index) = actions.iter().position(|a| !a.to_f64().is_finite()) {
-            return Err(InputError::NonFinite {
-                name: "actions",
-                index,
-                value: actions[index].to_f64(),
+            let value = actions[index].to_f64();
+            // A vector env's actions are (num_envs, force_dim): name the env.
+            return Err(if self.num_envs > 1 {
+                InputError::NonFiniteInEnv {
+                    name: "actions",
+                    env: index / self.force_dim(),
+                    component: index % self.force_dim(),
+                    value,
+                }
+            } else {
+                InputError::NonFinite {
+                    name: "actions",
+                    index,
+                    value,
+                }
             }
             .into());
         }

@@ -15,6 +15,7 @@
 use crate::integrate::Method;
 use crate::lanes::Precision;
 use crate::params::STANDARD_GRAVITY;
+use crate::render::ViewKind;
 use std::sync::LazyLock;
 
 /// A value as the key table and the scenes write it.
@@ -342,6 +343,14 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "Largest change of the applied force per second, per cart axis (N/s); \
                None for no limit.",
     },
+    ConfigKey {
+        name: "render_view",
+        kind: KeyKind::Choice(&ViewKind::NAMES),
+        default: KeyValue::None,
+        expected: "one of 3d, side, top, side+top, or none for the scene's default",
+        help: "picture of rendered frames: 3d (a lit perspective view), side, top or side+top \
+               (flat views); none: 3d for spatial chains, side for planar ones",
+    },
 ];
 
 /// The key with this name.
@@ -380,6 +389,19 @@ mod tests {
                 assert_eq!(names.len(), values.len(), "{}", key.name);
             }
         }
+    }
+
+    #[test]
+    fn the_render_views_are_the_renderers() {
+        let key = config_key("render_view").unwrap();
+        let KeyKind::Choice(names) = key.kind else {
+            panic!("render_view is a choice");
+        };
+        for name in names {
+            assert_eq!(ViewKind::from_name(name).unwrap().name(), *name);
+            assert!(key.expected.contains(name), "{name}");
+        }
+        assert!(ViewKind::from_name("3D").is_err());
     }
 
     #[test]

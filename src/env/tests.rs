@@ -414,7 +414,11 @@ fn bad_actions_change_no_env() {
     let mut a = vec![0.5; 80];
     a[57] = f64::NAN;
     let e = b.step(&a, out.buffers()).unwrap_err();
-    assert!(e.to_string().contains("actions[57] = NaN"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("actions[28, 1] = NaN: expected a finite number (env 28, component 1)"),
+        "{e}"
+    );
     a[57] = f64::INFINITY;
     assert!(b.step(&a, out.buffers()).is_err());
     let e = b.step(&a[..79], out.buffers()).unwrap_err();

@@ -6,7 +6,7 @@
 //! part of the step.
 
 use super::config::{resolve, ResolvedConfig};
-use super::convert::{check_shape, error, ActionSlice, Actions, Floats};
+use super::convert::{check_shape, error, shape_text, type_error, ActionSlice, Actions, Floats};
 use super::reality::{param_arrays, params_dict};
 use crate::any::AnyChain;
 use crate::env::EnvParams;
@@ -343,16 +343,26 @@ impl PyEnvBatch {
         py: Python<'py>,
         actions: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let actions = Actions::extract(actions)?;
-        check_shape("actions", actions.shape(), &[self.num_envs, self.force_dim])?;
+        let expected = [self.num_envs, self.force_dim];
+        let extracted = Actions::extract(actions)?;
+        if extracted.shape().is_empty() {
+            // A scalar cannot be split over the envs: a TypeError, as Gymnasium's and
+            // SB3's vector envs raise when they index into it.
+            return Err(type_error(format!(
+                "actions = {}: expected an array of shape {}, not a scalar",
+                actions.repr()?,
+                shape_text(&expected)
+            )));
+        }
+        check_shape("actions", extracted.shape(), &expected)?;
         let shape = self.obs_shape(false);
         if self.obs_f64 {
             let (o, r, te, tr, n) =
-                scene!(&mut self.batch, b => step_into::<_, f64>(py, b, &actions, &shape))?;
+                scene!(&mut self.batch, b => step_into::<_, f64>(py, b, &extracted, &shape))?;
             (o, r, te, tr, n).into_pyobject(py)
         } else {
             let (o, r, te, tr, n) =
-                scene!(&mut self.batch, b => step_into::<_, f32>(py, b, &actions, &shape))?;
+                scene!(&mut self.batch, b => step_into::<_, f32>(py, b, &extracted, &shape))?;
             (o, r, te, tr, n).into_pyobject(py)
         }
     }

@@ -6,6 +6,7 @@
 //! nothing here panics on user input.
 
 mod config;
+mod control;
 mod convert;
 mod env;
 mod model;
@@ -51,6 +52,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::ChainCart>()?;
     m.add_class::<env::PyEnvBatch>()?;
     m.add_class::<config::ResolvedConfig>()?;
+    m.add_class::<control::Plan>()?;
+    m.add_class::<control::TrajectoryTracker>()?;
+    m.add_class::<control::MpcController>()?;
+    m.add_class::<control::EnergyController>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(time_scaling, m)?)?;
     m.add("MAX_LINKS", crate::limits::MAX_LINKS)?;
@@ -58,6 +63,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MIN_FRAME_SIZE", crate::render::MIN_FRAME_SIZE)?;
     m.add("MAX_FRAME_SIZE", crate::render::MAX_FRAME_SIZE)?;
     m.add_function(wrap_pyfunction!(render::render_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(render::check_camera, m)?)?;
+    m.add_function(wrap_pyfunction!(render::default_view, m)?)?;
+    m.add("CAMERA_DEFAULTS", render::camera_defaults(py)?)?;
+    m.add(
+        "RENDER_VIEWS",
+        PyTuple::new(py, crate::render::ViewKind::NAMES)?,
+    )?;
     m.add_function(wrap_pyfunction!(model::target_signs, m)?)?;
     m.add_function(wrap_pyfunction!(model::paper_initial_condition, m)?)?;
     m.add(

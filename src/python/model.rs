@@ -361,6 +361,57 @@ impl ChainCart {
         Ok((c.controllable, c.margin))
     }
 
+    /// A plan from `start` (an equilibrium name, a sign tuple or a full state) to the
+    /// equilibrium `target` (a name or a sign tuple) within `max_force` (N per axis) and
+    /// `track_limit` (m): control-limited iLQR over `duration` s (default `1 + n_links`)
+    /// at the control period `dt` with `substeps` RK4 steps, from up to `guesses`
+    /// initial guesses, at most `max_iterations` iterations and `max_time` s. `weights`
+    /// overrides cost weights (`x`, `q`, `v`, `w`, `force`, `track`, `terminal`,
+    /// `track_margin`). The GIL is released while it plans.
+    #[pyo3(signature = (
+        start, target, *, max_force, track_limit=2.4, duration=None, dt=0.02, substeps=2,
+        max_iterations=1000, max_time=30.0, guesses=10, weights=None
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn plan(
+        &self,
+        py: Python<'_>,
+        start: &Bound<'_, PyAny>,
+        target: &Bound<'_, PyAny>,
+        max_force: f64,
+        track_limit: f64,
+        duration: Option<f64>,
+        dt: f64,
+        substeps: usize,
+        max_iterations: usize,
+        max_time: f64,
+        guesses: usize,
+        weights: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<super::control::Plan> {
+        let defaults = crate::control::planner::PlanOptions::default();
+        let options = crate::control::planner::PlanOptions {
+            max_force,
+            track_limit,
+            duration: duration.unwrap_or(1.0 + self.chain.n_links() as f64),
+            dt,
+            substeps,
+            max_iterations,
+            max_time,
+            guesses,
+            ..defaults
+        };
+        super::control::plan(
+            py,
+            &self.chain,
+            super::control::PlanArguments {
+                start: start.clone(),
+                target: target.clone(),
+                options,
+                weights: weights.cloned(),
+            },
+        )
+    }
+
     /// All 2^n equilibria as sign tuples, hanging (all +1) first, in binary order
     /// (bit i-1 of the index set means link i is upright). Refused for n > 20.
     fn equilibria(&self) -> PyResult<Vec<Vec<i64>>> {

@@ -1,17 +1,25 @@
-//! Software rendering of chain states into RGB frames (no windowing, no Python).
+//! Software rendering of chain states into RGB frames (no windowing, no GPU, no
+//! Python): a lit perspective 3-D view ([`scene3d`], drawn by [`raster`] through the
+//! [`camera`]) and the flat side and top views ([`scene`], drawn on a [`Canvas`]).
 
+pub mod camera;
 pub mod canvas;
+pub mod raster;
 pub mod scene;
+pub mod scene3d;
 
+pub use camera::Camera;
 pub use canvas::Canvas;
-pub use scene::{draw_frame, FrameSpec};
+pub use scene::{draw_frame, FrameSpec, ViewKind};
 
 use crate::error::{check_finite, check_len, InputError, Result};
 
-/// Renders one `height x width x 3` frame into `pixels`, validating sizes. Wild
-/// (huge or off-screen) states draw without error; NaN coordinates are skipped.
+/// Renders one `height x width x 3` frame into `pixels`, validating sizes and the
+/// camera. Wild (huge or off-screen) states draw without error; NaN coordinates are
+/// skipped.
 pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) -> Result<()> {
     check_frame_size(width, height)?;
+    spec.camera.validate()?;
     check_len("state", spec.state, 4 + 6 * spec.lengths.len())?;
     check_finite("force", &spec.force)?;
     if let Some(s) = spec.target {
@@ -25,7 +33,11 @@ pub fn render(width: usize, height: usize, spec: &FrameSpec, pixels: &mut [u8]) 
         }
         .into());
     }
-    draw_frame(&mut Canvas::new(width, height, pixels), spec);
+    if spec.view == ViewKind::ThreeD {
+        scene3d::draw_3d(width, height, spec, &spec.camera, pixels);
+    } else {
+        draw_frame(&mut Canvas::new(width, height, pixels), spec);
+    }
     Ok(())
 }
 
@@ -64,7 +76,10 @@ mod tests {
             force: [3.0, -1.0],
             max_force: 10.0,
             track_limit: 0.5,
-            top_view: true,
+            planar: false,
+            view: ViewKind::SideTop,
+            camera: Camera::default(),
+            trail: &[],
         };
         render(120, 80, &spec, &mut px).unwrap();
         px
@@ -93,7 +108,10 @@ mod tests {
             force: [0.0; 2],
             max_force: 10.0,
             track_limit: f64::INFINITY,
-            top_view: true,
+            planar: false,
+            view: ViewKind::SideTop,
+            camera: Camera::default(),
+            trail: &[],
         };
         let mut px = vec![0u8; 120 * 80 * 3];
         render(120, 80, &spec, &mut px).unwrap();
@@ -118,7 +136,10 @@ mod tests {
                 force: [0.0; 2],
                 max_force: 10.0,
                 track_limit: 10.0,
-                top_view: false,
+                planar: false,
+                view: ViewKind::Side,
+                camera: Camera::default(),
+                trail: &[],
             };
             let mut px = vec![0u8; 120 * 80 * 3];
             render(120, 80, &spec, &mut px).unwrap();
@@ -153,7 +174,10 @@ mod tests {
             force: [0.0; 2],
             max_force: 1.0,
             track_limit: 1.0,
-            top_view: false,
+            planar: false,
+            view: ViewKind::Side,
+            camera: Camera::default(),
+            trail: &[],
         };
         assert!(render(4, 4, &spec, &mut [0u8; 48]).is_err());
         assert!(render(32, 32, &spec, &mut [0u8; 10]).is_err());

@@ -1,8 +1,9 @@
-//! Draws one frame of the chain: a side view (e1 right, e3 = gravity down) and a
-//! top view (e1 right, e2 up), the cart on its track (with distance marks when the
+//! Draws the flat views of the chain: a side view (e1 right, e3 = gravity down), a
+//! top view (e1 right, e2 up), or both side by side, the cart on its track (with distance marks when the
 //! track scrolls with the cart), the target equilibrium drawn faintly from the cart,
 //! and the applied force as an arrow.
 
+use super::camera::Camera;
 use super::canvas::{Canvas, Rgb};
 
 const BACKGROUND: Rgb = [250, 250, 250];
@@ -29,8 +30,77 @@ pub struct FrameSpec<'a> {
     pub max_force: f64,
     /// Track half-length, m (end stops; infinite: none).
     pub track_limit: f64,
-    /// Draw the top view beside the side view (planar scenes need only the side view).
-    pub top_view: bool,
+    /// The state is a planar one embedded (the 3-D view draws a single rail).
+    pub planar: bool,
+    /// Which view to draw.
+    pub view: ViewKind,
+    /// The 3-D view's camera.
+    pub camera: Camera,
+    /// Recent positions of the tip, oldest first (model coordinates), drawn as a
+    /// fading line by the 3-D view.
+    pub trail: &'a [[f64; 3]],
+}
+
+/// The picture a frame shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewKind {
+    /// A lit perspective view.
+    ThreeD,
+    /// The side view alone: e1 right, gravity down.
+    Side,
+    /// The top view alone: e1 right, e2 up, centred on the cart.
+    Top,
+    /// The side view with the top view beside it.
+    SideTop,
+}
+
+impl ViewKind {
+    /// The names of the views, as the `render_view` key takes them.
+    pub const NAMES: [&'static str; 4] = ["3d", "side", "top", "side+top"];
+
+    /// The view of a name.
+    pub fn from_name(name: &str) -> crate::error::Result<Self> {
+        match name {
+            "3d" => Ok(Self::ThreeD),
+            "side" => Ok(Self::Side),
+            "top" => Ok(Self::Top),
+            "side+top" => Ok(Self::SideTop),
+            _ => Err(crate::error::InputError::UnknownName {
+                kind: "render_view",
+                name: name.to_string(),
+                expected: &Self::NAMES,
+            }
+            .into()),
+        }
+    }
+
+    /// The view's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::ThreeD => "3d",
+            Self::Side => "side",
+            Self::Top => "top",
+            Self::SideTop => "side+top",
+        }
+    }
+
+    /// The view drawn unless one is chosen: the 3-D view for spatial chains, the side
+    /// view (which shows a planar chain exactly) for planar ones.
+    pub fn default_for(planar: bool) -> Self {
+        if planar {
+            Self::Side
+        } else {
+            Self::ThreeD
+        }
+    }
+
+    fn has_side(self) -> bool {
+        matches!(self, Self::Side | Self::SideTop)
+    }
+
+    fn has_top(self) -> bool {
+        matches!(self, Self::Top | Self::SideTop)
+    }
 }
 
 /// Maps world coordinates of one view to pixels of its panel.
@@ -51,7 +121,7 @@ impl View {
     }
 }
 
-fn finite_or(v: f64, fallback: f64) -> f64 {
+pub(crate) fn finite_or(v: f64, fallback: f64) -> f64 {
     if v.is_finite() {
         v
     } else {
@@ -126,7 +196,7 @@ fn draw_arrow(canvas: &mut Canvas, from: [f64; 2], to: [f64; 2], width: f64) {
 }
 
 /// The largest of 1, 2, 5 times a power of ten not above `x` (> 0).
-fn nice_step(x: f64) -> f64 {
+pub(crate) fn nice_step(x: f64) -> f64 {
     let power = 10f64.powf(x.log10().floor());
     [5.0, 2.0, 1.0]
         .into_iter()
@@ -198,7 +268,11 @@ impl FrameLayout {
         let chain_length: f64 = spec.lengths.iter().sum();
         let (w, height) = (canvas.width() as f64, canvas.height() as f64);
         // The side view shows the track, so it gets the larger share of the width.
-        let side_width = if spec.top_view { 0.62 * w } else { w };
+        let side_width = match spec.view {
+            ViewKind::SideTop => 0.62 * w,
+            ViewKind::Top => 0.0,
+            _ => w,
+        };
         let track = if spec.track_limit.is_finite() {
             spec.track_limit.max(0.0)
         } else {
@@ -237,7 +311,7 @@ impl FrameLayout {
     }
 }
 
-/// Draws the frame into the whole canvas.
+/// Draws the flat view(s) of `spec` into the whole canvas.
 pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
     canvas.fill(BACKGROUND);
     let y = spec.state;
@@ -248,9 +322,11 @@ pub fn draw_frame(canvas: &mut Canvas, spec: &FrameSpec) {
     // Each view draws only inside its panel (the track line or a far-off cart would
     // otherwise run on into the top view).
     let panel_columns = layout.side_width.round() as usize;
-    canvas.clip_columns(0, panel_columns);
-    draw_side_view(canvas, spec, &layout, cart, &points);
-    if spec.top_view && !spec.lengths.is_empty() {
+    if spec.view.has_side() {
+        canvas.clip_columns(0, panel_columns);
+        draw_side_view(canvas, spec, &layout, cart, &points);
+    }
+    if spec.view.has_top() && !spec.lengths.is_empty() {
         canvas.clip_columns(panel_columns, canvas.width());
         draw_top_view(canvas, spec, &layout, cart, &points);
     }
@@ -357,7 +433,9 @@ fn draw_top_view(
 ) {
     let (panel_w, h) = (layout.side_width, layout.height);
     let top_w = canvas.width() as f64 - panel_w;
-    canvas.rect([panel_w - 0.5, 0.0], [panel_w + 0.5, h], SEPARATOR, 1.0);
+    if panel_w > 0.0 {
+        canvas.rect([panel_w - 0.5, 0.0], [panel_w + 0.5, h], SEPARATOR, 1.0);
+    }
     let top = View {
         origin: [panel_w + 0.5 * top_w, 0.5 * h],
         center: cart,

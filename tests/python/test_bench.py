@@ -205,3 +205,15 @@ def test_mujoco_reset_of_an_unstable_run_is_reported_as_divergence(tmp_path: Pat
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     final, _ = run_mujoco(ChainCart(5), "rk4", 1e-3, 0.1)  # a stable run raises nothing
     assert np.all(np.isfinite(final))
+
+
+def test_cells_section_times_serial_and_distributed_cells() -> None:
+    from chaincart_env.tools.bench.report import Report
+    from chaincart_env.tools.bench.study_cells import cells_section
+    from chaincart_env.tools.bench.suite import BenchContext, BenchSettings
+
+    ctx = BenchContext(BenchSettings(quick=True), Report(echo=False))
+    cells_section(ctx)  # on a local Ray cluster of its own
+    timing = ctx.results["cells"]
+    assert timing["serial_s"] > 0 and timing["distributed_s"] > 0 and timing["cold_s"] > 0
+    assert "| as Ray tasks" in ctx.report.text()

@@ -25,7 +25,7 @@ from chaincart_env.tools.compare.evaluation import (
     rollout,
     settle_times,
 )
-from chaincart_env.tools.compare.filmstrip import filmstrip_size
+from chaincart_env.tools.compare.filmstrip import DEFAULT_FRAMES, filmstrip_size
 from chaincart_env.tools.compare.job import EVALUATION_FILES, OUTPUT_FILES, SEED_FILES
 from chaincart_env.tools.compare.learning_curve import LEARNING_CURVE_COLUMNS
 from chaincart_env.tools.compare.plots import FIGURE_SIZE_PX
@@ -104,7 +104,7 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
 
     sizes = {"seed-0/learning_curve.png": FIGURE_SIZE_PX, "errors.png": FIGURE_SIZE_PX,
              "evaluation_curve.png": FIGURE_SIZE_PX, "sweep_start_noise.png": FIGURE_SIZE_PX,
-             "filmstrip.png": filmstrip_size(2, 8)}  # fmt: skip
+             "filmstrip.png": filmstrip_size(2, DEFAULT_FRAMES)}  # fmt: skip
     for name, size in sizes.items():
         with Image.open(tiny_run / name) as image:
             image.load()
@@ -132,6 +132,11 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
     assert all(int(r["episodes"]) == 3 for r in sweep)
     report = (tiny_run / "report.md").read_text()
     assert "## Sweep: start perturbation" in report and "![summary](summary.png)" in report
+    # The verdict first; one seed: no interval over seeds is claimed.
+    assert report.index("## Verdict") < report.index("## Setup") < report.index("## On the evaluation starts")
+    assert "PPO (1 training seed) against LQR, success rates at 3 setting(s)" in report
+    assert "over seeds" not in report.replace("no interval over seeds", "")
+    assert "PPO, one training seed: success" in report and "One seed gives no interval over seeds" in report
 
 
 def test_evaluate_reproduces_the_comparison_from_the_saved_model(
@@ -230,13 +235,14 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--timesteps", "-5"], "timesteps = -5: expected an integer >= 1"),
         (["--timesteps", "lots"], "timesteps = 'lots': expected an integer >= 1"),
         (["--num-envs", "0"], "num-envs = 0: expected an integer >= 1"),
-        (["--set", "bogus=1"], "unknown scene key 'bogus'"),
+        (["--set", "bogus=1"], "--set 'bogus=1': unknown config key \"bogus\": expected one of"),
+        (["--set", "n-link=3"], 'unknown config key "n_link" (did you mean "n_links"?)'),
         (["--set", "n_links"], "expected key=value"),
         (["--scene", "nope"], 'unknown scene "nope"'),
         (["--n-links", "two"], "n_links = 'two': expected an integer"),
         (["--start-noise=-1"], "start_noise"),
         (["--algo-kwarg", "n_stepz=64"], "n_stepz"),
-        (["--scene", "paper-fig1"], "no LQR baseline for scene 'paper-fig1'"),
+        (["--scene", "paper-fig1"], "lqr cannot serve scene 'paper-fig1'"),
         (["--seeds", "0,0"], "expected distinct integers"),
         (["--seeds", "1,x"], "seeds = '1,x'"),
         (["--seeds", "0", "--seed", "1"], "not allowed with argument"),
@@ -247,6 +253,16 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--checkpoint-every", "-3"], "checkpoint-every = -3"),
         (["--eval-starts", "0"], "eval-starts = 0"),
         (["--resume", "/nonexistent/run"], "expected a run directory of compare"),
+        (["--policies", "ppo,dqn"], "--policies 'ppo,dqn': unknown controller 'dqn'"),
+        (["--policies", "ppo,lqe"], "unknown controller 'lqe' (did you mean 'lqr'?)"),
+        (["--policies", "lqr,ppo,LQR"], "--policies 'lqr,ppo,LQR': lqr given twice"),
+        (["--policies", ","], "--policies ',': expected distinct names among ppo, sac, td3, lqr"),
+        (["--policies", "ppo,lqr", "--algo", "sac"], "not allowed with argument"),
+        (["--policies", "sac,lqr", "--algo-kwarg", "ppo:n_steps=64"], "keywords for ppo: expected a learned algorithm"),
+        (["--policies", "ppo,lqr", "--algo-kwarg", "dqn:n_steps=64"], "--algo-kwarg 'dqn:n_steps=64': expected"),
+        (["--policies", "ppo,sac,lqr", "--algo-kwarg", "n_epochs=2"], "sac keywords ['n_epochs']: not keywords of SAC"),
+        (["--policies", "sac,lqr", "--trainer", "rllib"], "the RLlib trainer offers ppo only"),
+        (["--policies", "lqr", "--scene", "paper-fig1"], "lqr cannot serve scene 'paper-fig1'"),
     ],
 )
 def test_bad_compare_input_is_a_clear_error(
@@ -256,7 +272,7 @@ def test_bad_compare_input_is_a_clear_error(
         main(["compare", "--out", str(tmp_path), "--timesteps", "64", "--no-progress", *args])
     assert exit_info.value.code == 2
     assert message in capsys.readouterr().err
-    assert not (tmp_path / "seed-0" / "model.zip").exists()
+    assert not list(tmp_path.rglob("model.zip")) and not (tmp_path / "run.json").exists()  # stopped before training
 
 
 def test_evaluate_of_a_missing_model_is_a_clear_error(
@@ -276,7 +292,7 @@ def test_off_policy_algorithms_run_through_the_console_entry(algo: str, tmp_path
     assert compare_main([*args, "--out", str(tmp_path)]) == 0
     _, rows = read_csv(tmp_path / "comparison.csv")
     assert [row["policy"] for row in rows] == [f"{algo.upper()} (seed 0)", f"{algo.upper()} best (seed 0)", "LQR"]
-    assert json.loads((tmp_path / "run.json").read_text())["settings"]["algo"] == algo
+    assert json.loads((tmp_path / "run.json").read_text())["settings"]["policies"] == [algo, "lqr"]
 
 
 def test_console_scripts_point_at_the_commands() -> None:
@@ -304,6 +320,9 @@ def test_several_seeds_train_independent_agents_and_aggregate(tmp_path: pathlib.
     assert int(ppo["seeds"]) == 2 and ppo["interval"] == "bootstrap, over seeds"
     lqr = next(r for r in sweep if r["policy"] == "LQR")
     assert int(lqr["seeds"]) == 1 and lqr["interval"] == "Wilson, over episodes"
+    report = (tmp_path / "report.md").read_text()
+    assert "PPO (2 training seeds) against LQR" in report and "Intervals of the agent: bootstrap over seeds" in report
+    assert f"PPO over 2 training seeds: success {float(final['success_mean']):.2f} [" in report
     # Different training seeds, different agents.
     a, b = (tmp_path / f"seed-{s}" / "training_episodes.csv" for s in (3, 4))
     assert a.read_text() != b.read_text()
@@ -382,3 +401,17 @@ def test_the_scene_recipe_sets_the_training_defaults_and_options_override_it(tmp
     seed_run = json.loads((tmp_path / "own" / "seed-0" / "run.json").read_text())
     assert seed_run["num_envs"] == 2
     assert seed_run["hyperparameters"] == {**recipe.hyperparameters, "n_steps": 32, "batch_size": 64}
+
+
+def test_a_checkpoint_swapped_in_whole_survives_an_interruption_between_its_renames(tmp_path: pathlib.Path) -> None:
+    from chaincart_env.tools.compare.run_files import replace_directory, settled_directory
+
+    final, staging, old = tmp_path / "checkpoints", tmp_path / "checkpoints.tmp", tmp_path / "checkpoints.old"
+    for folder, text in ((final, "previous"), (staging, "new")):
+        folder.mkdir()
+        (folder / "state.json").write_text(text)
+    replace_directory(staging, final)
+    assert (final / "state.json").read_text() == "new" and not staging.exists() and not old.exists()
+    final.rename(old)  # as if interrupted after moving the previous one aside
+    assert (settled_directory(final) / "state.json").read_text() == "new" and not old.exists()
+    assert settled_directory(final) == final  # nothing to do

@@ -7,10 +7,13 @@ import json
 import pickle
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
-from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartError, RewardWeights
+import chaincart_env
+from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartEnv, ChainCartError, ChainCartVectorEnv
+from chaincart_env import RewardWeights
 from chaincart_env import _core
 from chaincart_env.config import CONFIG_KEYS, REALITY_KEYS
 from chaincart_env.errors import InvalidInputError, InvalidTypeError
@@ -29,8 +32,9 @@ def test_the_config_has_the_agreed_keyword_names() -> None:
     names = [f.name for f in dataclasses.fields(ChainCartConfig) if f.init]
     assert names[: len(KEYWORDS)] == KEYWORDS
     # The only extras: success tolerances, the diagnostics switch, the physics'
-    # precision and the reality-gap keywords, exactly those the core defines, in its order.
-    extras = ["success_tolerances", "diagnostics", "precision", *(k[0] for k in REALITY_KEYS)]
+    # precision, the reality-gap keywords, exactly those the core defines, in its order,
+    # and the rendered view.
+    extras = ["success_tolerances", "diagnostics", "precision", *(k[0] for k in REALITY_KEYS), "render_view"]
     assert names[len(KEYWORDS) :] == extras
 
 
@@ -120,9 +124,35 @@ def test_bad_config_raises_a_clear_error(kwargs: dict, message: str) -> None:
     assert message in str(e.value), str(e.value)
 
 
-def test_unknown_keywords_are_type_errors() -> None:
-    with pytest.raises(TypeError, match="n_link"):
+def test_unknown_keywords_are_type_errors_suggesting_the_closest_keyword() -> None:
+    with pytest.raises(TypeError, match=r'unknown config key "n_link" \(did you mean "n_links"\?\): expected one of'):
         ChainCartConfig(n_link=2)  # type: ignore[call-arg]
+    with pytest.raises(InvalidInputError, match=r'"link_length" \(did you mean "link_lengths"\?\)'):
+        ChainCartConfig(n_links=2, link_length=0.3)  # type: ignore[call-arg]
+    with pytest.raises(TypeError) as far:
+        ChainCartConfig(bogus=1)  # type: ignore[call-arg]
+    assert 'unknown config key "bogus": expected one of "n_links", ' in str(far.value)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: ChainCartEnv(n_link=3),
+        lambda: gym.make("ChainCart-v0", n_link=3),
+        lambda: ChainCartVectorEnv(4, n_link=3),
+        lambda: chaincart_env.ChainCartVecEnv(4, n_link=3),
+        lambda: ChainCartConfig.coerce({"n_link": 3}),
+        lambda: ChainCartConfig().replace(n_link=3),
+    ],
+)
+def test_every_env_constructor_suggests_the_closest_keyword(make) -> None:
+    with pytest.raises(InvalidTypeError, match=r'unknown config key "n_link" \(did you mean "n_links"\?\)'):
+        make()
+
+
+def test_a_mistyped_scene_suggests_the_closest_scene() -> None:
+    with pytest.raises(InvalidInputError, match=r'unknown scene "inverted2" \(did you mean "inverted-2"\?\)'):
+        ChainCartConfig(scene="inverted2")
 
 
 def test_start_accepts_signs_and_full_states() -> None:
@@ -138,7 +168,7 @@ BEFORE = json.loads((Path(__file__).parent / "data" / "config_before.json").read
 
 
 #: Keys added after the fixture was saved, with the default that keeps every result.
-ADDED_SINCE = {"precision": "f64"}
+ADDED_SINCE = {"precision": "f64", "render_view": None}
 
 
 def _saved_entry(c: ChainCartConfig) -> dict:
@@ -147,7 +177,7 @@ def _saved_entry(c: ChainCartConfig) -> dict:
     text = repr(c)
     for key, default in ADDED_SINCE.items():
         assert config.pop(key) == default
-        text = text.replace(f" {key}={default!r},", "")
+        text = text.replace(f" {key}={default!r},", "").replace(f", {key}={default!r})", ")")
     return {
         "config": config,
         "repr": text,
@@ -182,7 +212,7 @@ def test_every_key_default_is_accepted_by_the_core(key: str) -> None:
 
 
 def test_unknown_keys_and_scenes_name_the_value_and_the_choices() -> None:
-    with pytest.raises(InvalidInputError, match=r'unknown config key "n_link": expected one of "n_links", '):
+    with pytest.raises(InvalidInputError, match=r'unknown config key "n_link" \(did you mean "n_links"\?\): expected one of "n_links", '):
         _core.resolve_config({"n_link": 2})
     with pytest.raises(InvalidInputError, match=r'unknown scene "cartpole": expected one of "inverted-1", '):
         _core.resolve_config({"scene": "cartpole"})

@@ -1,7 +1,8 @@
 """Rendering: frames of the Rust rasteriser through ``render_frame`` and the envs,
 tiles of vector envs, the animate command, human mode without a display, and bad
-input. Geometry is checked against the documented conventions (e1 to the right,
-gravity down) by locating coloured pixels, not against stored images."""
+input. Geometry of the flat views is checked against the documented conventions (e1
+to the right, gravity down) by locating coloured pixels; the 3-D view's pictures are
+held against stored images in ``test_render_golden.py``."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from PIL import Image
 
 from chaincart_env import ChainCart, ChainCartEnv, ChainCartError, ChainCartVectorEnv, _core
 from chaincart_env.__main__ import main
-from chaincart_env.tools.animate import animate, load_sb3_model, parse_settings
+from chaincart_env.tools.animate import _label_height, animate, load_sb3_model, parse_settings
 from chaincart_env.tools.bench.render_benchmark import render_benchmark
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.rendering import (
@@ -154,7 +155,8 @@ def test_the_force_arrow_shows_the_last_applied_force() -> None:
 
 
 def test_spatial_force_shows_in_the_top_view() -> None:
-    env = ChainCartEnv(scene="paper-fig2", render_mode="rgb_array", render_width=300, render_height=100)
+    env = ChainCartEnv(scene="paper-fig2", render_view="side+top", render_mode="rgb_array", render_width=300,
+                       render_height=100)
     env.reset(seed=0)
     start = env.model_state.copy()
     frames = []
@@ -181,15 +183,15 @@ def test_spatial_force_shows_in_the_top_view() -> None:
         {0: 50.0},  # the cart far beyond the track, off-screen
     ],
 )
-@pytest.mark.parametrize("top_view", [True, False])
-def test_wild_states_draw_without_crashing(wild: dict[int, float], top_view: bool) -> None:
+@pytest.mark.parametrize("view", ["3d", "side", "top", "side+top"])
+def test_wild_states_draw_without_crashing(wild: dict[int, float], view: str) -> None:
     y = ChainCart(3).equilibrium("inverted")
     for index, value in wild.items():
         y[index] = value
     for track_limit in (2.0, np.inf):
         frame = _core.render_frame(
             [0.2, 0.2, 0.2], y, [5.0, -1e9], target=[-1.0] * 3, max_force=10.0, track_limit=track_limit,
-            width=64, height=32, top_view=top_view,
+            width=64, height=32, view=view, trail=np.array([[np.nan, 0, 0], [1e300, 0, 0], [0.0, 0, 0]]),
         )
         assert frame.shape == (32, 64, 3) and frame.dtype == np.uint8
 
@@ -413,15 +415,18 @@ def test_animate_writes_a_gif_with_one_frame_per_stride(tmp_path: Path) -> None:
     # dt = 20 ms at 25 fps: a frame every 2 steps, plus the start: 7 steps -> 0, 2, 4, 6, 7.
     out = tmp_path / "run.gif"
     assert main(["animate", "--policy", "random", "--steps", "7", "--out", str(out),
-                 "--width", "48", "--height", "24", "--seed", "3"]) == 0
+                 "--width", "64", "--height", "48", "--seed", "3"]) == 0
     frames = decoded_frames(out)
-    assert len(frames) == 5 and frames[0].shape == (24, 48, 3)
+    band = _label_height(48)  # the label above the picture
+    assert len(frames) == 5 and frames[0].shape == (48 + band, 64, 3)
     with Image.open(out) as im:
         assert im.info["duration"] == 40 and im.info["loop"] == 0
-    # The first frame is the seeded start as the env draws it (up to the GIF palette).
-    env = ChainCartEnv(render_mode="rgb_array", render_width=48, render_height=24)
+    # The first frame is the seeded start as the env draws it in the 3-D view (up to
+    # the GIF palette), under its label.
+    env = ChainCartEnv(render_view="3d", render_mode="rgb_array", render_width=64, render_height=48)
     env.reset(seed=3)
-    assert np.abs(frames[0].astype(int) - env.render()).mean() < 3
+    assert np.abs(frames[0][band:].astype(int) - env.render()).mean() < 3
+    assert frames[0][:band].min() < 100  # the label's text
 
 
 def test_animate_api_counts_and_stops_at_the_episode_end(tmp_path: Path) -> None:
@@ -472,8 +477,8 @@ def test_animate_writes_an_mp4(tmp_path: Path) -> None:
     out = tmp_path / "a.mp4"
     assert main(["animate", "--steps", "20", "--fps", "25", "--out", str(out), "--width", "64", "--height", "32"]) == 0
     frames = iio.imread(out)
-    # One frame per 2 steps (dt 20 ms at 25 fps) plus the reset frame.
-    assert frames.shape == (11, 32, 64, 3) and frames.dtype == np.uint8
+    # One frame per 2 steps (dt 20 ms at 25 fps) plus the reset frame, each under its label.
+    assert frames.shape == (11, 32 + _label_height(32), 64, 3) and frames.dtype == np.uint8
     assert frames.std() > 0
 
 
@@ -486,7 +491,10 @@ def test_animate_bad_input_is_a_usage_error(
     assert "imageio-ffmpeg, not installed: pip install 'chaincart-env[plot]'" in capsys.readouterr().err
     assert not (tmp_path / "a.mp4").exists()
     cases = [
-        (["--out", str(tmp_path / "a.png")], "expected a file name ending in .gif or .mp4"),
+        (["--out", str(tmp_path / "a.bmp")], "expected a file name ending in .gif, .mp4 or .png"),
+        (["--elevation", "95"], "elevation = 95"),
+        (["--fov", "0.5"], "fov = 0.5"),
+        (["--times", "0,x"], "expected seconds separated by commas"),
         (["--policy", "smart"], "expected one of ['random', 'zero', 'lqr'], an SB3 model .zip"),
         (["--scene", "paper-fig1", "--policy", "lqr"], "use --policy zero"),
         (["--width", "4"], "render_width = 4"),

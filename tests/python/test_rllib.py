@@ -26,7 +26,8 @@ from chaincart_env.tools.bench.rllib_sampling import measure_sampling
 from chaincart_env.tools.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
 from chaincart_env.tools.compare.job import OUTPUT_FILES, lqr_baseline
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.tools.compare.rllib_training import RLlibPolicy, ray_cluster
+from chaincart_env.tools.compare.cells import ray_cluster
+from chaincart_env.tools.compare.rllib_training import RLlibPolicy
 from chaincart_env.rllib import (
     ENV_NAME,
     RunnerStartSeeds,
@@ -230,7 +231,7 @@ def test_bench_times_sampling_of_rllibs_sync_wrapping_of_the_single_env(ray_sess
 def test_compare_with_rllib_offers_ppo_only(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit):
         main(["compare", "--trainer", "rllib", "--algo", "sac", "--out", str(tmp_path)])
-    assert "--trainer rllib with --algo sac" in capsys.readouterr().err
+    assert "--trainer rllib with sac: the RLlib trainer offers ppo only" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -27,7 +27,7 @@ from chaincart_env.tools.bench.report import Report
 __all__ = ["SECTION_ORDER", "parse_sections", "run_suite", "performance_page"]
 
 #: Sections in the order they run (``--sections`` picks a subset).
-SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "rllib", "criterion", "targets")
+SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "control", "rllib", "cells", "criterion", "targets")
 
 
 def parse_sections(text: str) -> list[str]:
@@ -59,7 +59,9 @@ def _machine_line(settings: BenchSettings) -> str:
 
 def _sections() -> dict[str, Callable[[BenchContext], None]]:
     # Imported here so that `--sections scaling` does not import SB3/torch, etc.
-    from chaincart_env.tools.bench import accuracy, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, targets
+    from chaincart_env.tools.bench import (
+        accuracy, control, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, study_cells, targets,
+    )  # fmt: skip
 
     return {
         "throughput": envs.throughput_section,
@@ -67,7 +69,9 @@ def _sections() -> dict[str, Callable[[BenchContext], None]]:
         "accuracy": accuracy.accuracy_section,
         "scaling": scaling.scaling_section,
         "render": render_fps.render_section,
+        "control": control.control_section,
         "rllib": rllib_sampling.rllib_section,
+        "cells": study_cells.cells_section,
         "criterion": criterion.criterion_section,
         "targets": targets.targets_section,
     }

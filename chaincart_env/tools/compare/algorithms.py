@@ -1,22 +1,20 @@
 """The stable-baselines3 algorithms the main job trains, by name (what training uses
-and what loading a saved run needs, without one importing the other)."""
+and what loading a saved run needs, without one importing the other): the learned
+controllers of :mod:`chaincart_env.tools.controllers`."""
 
 from __future__ import annotations
 
-from stable_baselines3 import PPO, SAC, TD3
-from stable_baselines3.common.base_class import BaseAlgorithm
+from typing import Any
 
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.controllers import LEARNED, controller_class
 
-__all__ = ["ALGORITHMS", "algorithm_class"]
-
-#: The stable-baselines3 algorithms the main job offers.
-ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
+__all__ = ["algorithm_class"]
 
 
-def algorithm_class(name: str) -> type[BaseAlgorithm]:
+def algorithm_class(name: str) -> Any:
     """The SB3 class of ``name`` (``ppo``, ``sac`` or ``td3``, any case)."""
-    try:
-        return ALGORITHMS[name.lower()]
-    except (KeyError, AttributeError):
-        raise InvalidInputError(f"unknown algorithm {name!r}: expected one of {sorted(ALGORITHMS)}") from None
+    key = name.lower() if isinstance(name, str) else name
+    if key not in LEARNED:
+        raise InvalidInputError(f"unknown algorithm {name!r}: expected one of {list(LEARNED)}")
+    return controller_class(key)

@@ -33,18 +33,13 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
+from chaincart_env.tools.compare.run_files import replace_directory, truncate_csv
 from chaincart_env.errors import InvalidInputError
 
 __all__ = ["CHECKPOINT_DIR", "Checkpointer", "restore", "truncate_csv"]
 
 CHECKPOINT_DIR = "checkpoints"
 _MODEL, _ENVS, _RANDOM, _STATE, _BUFFER = "model.zip", "envs.pkl", "random_state.pkl", "state.json", "replay_buffer.pkl"
-
-
-def truncate_csv(path: Path, rows: int) -> None:
-    """Keeps the header and the first ``rows`` data rows of a CSV file."""
-    lines = Path(path).read_text().splitlines(keepends=True)
-    Path(path).write_text("".join(lines[: rows + 1]))
 
 
 def _data_rows(path: Path) -> int:
@@ -124,12 +119,7 @@ class Checkpointer(BaseCallback):
             "kept": [name for name in self.keep if (staging / name).is_file()],
         }
         (staging / _STATE).write_text(json.dumps(state, indent=2) + "\n")
-        old = self.directory / (CHECKPOINT_DIR + ".old")
-        shutil.rmtree(old, ignore_errors=True)
-        if final.exists():
-            final.rename(old)
-        staging.rename(final)
-        shutil.rmtree(old, ignore_errors=True)
+        replace_directory(staging, final)
         self.saved += 1
 
 

@@ -1,5 +1,6 @@
-"""Command line of the main job: ``compare`` (train, evaluate against LQR, report) and
-``evaluate`` (re-run the comparison of a saved model). Registered as subcommands of
+"""Command line of the main job: ``compare`` (train the learned policies, evaluate them
+and the model-based controllers, report) and ``evaluate`` (re-run the comparison of a
+saved run). Registered as subcommands of
 ``python -m chaincart_env`` and as the console script ``chaincart-compare``.
 
 Nothing heavy is imported here: stable-baselines3 (or Ray) and torch load when a command runs.
@@ -13,14 +14,14 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
-from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
+from chaincart_env.tools.compare.recipes import GENERIC
 from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options, parse_value
 from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES, parse_sweep
+from chaincart_env.tools.controllers import CONTROLLERS, LEARNED
 
 __all__ = ["add_commands", "compare_main"]
 
 DEFAULT_OUT = Path("runs/compare")
-ALGORITHM_NAMES = ("ppo", "sac", "td3")
 
 
 def _integer(minimum: int, what: str) -> Callable[[str], int]:
@@ -49,11 +50,17 @@ def _add_evaluation_options(parser: argparse.ArgumentParser, defaults: bool) -> 
 
 def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--timesteps", type=_integer(1, "timesteps"), default=None,
-                        help=f"training budget in env steps (default: the scene's training recipe, "
-                        f"{GENERIC.timesteps} without one)")
+                        help=f"training budget in env steps of every learned policy (default: each one's training "
+                        f"recipe for the scene, {GENERIC.timesteps} without one)")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default: {DEFAULT_OUT})")
-    parser.add_argument("--algo", type=str.lower, choices=ALGORITHM_NAMES, default="ppo",
-                        help="stable-baselines3 algorithm (default: ppo)")
+    policies = parser.add_mutually_exclusive_group()
+    policies.add_argument("--policies", default=None, metavar="P1,P2,...",
+                          help=f"the controllers to compare, in any order, among: {', '.join(CONTROLLERS)}. "
+                          f"Learned ones ({', '.join(LEARNED)}) train once per training seed with their recipe; "
+                          "model-based ones are designed on the scene's nominal model. All run from the same seeded "
+                          "starts on the same true systems (default: ppo,lqr)")
+    policies.add_argument("--algo", type=str.lower, choices=LEARNED, default=None,
+                          help="one stable-baselines3 algorithm compared with the LQR: --algo sac is --policies sac,lqr")
     seeds = parser.add_mutually_exclusive_group()
     seeds.add_argument("--seed", type=_integer(0, "seed"), default=None,
                        help="one training seed: agent and env i seeded seed + i (default: 0)")
@@ -70,13 +77,15 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint-every", type=_integer(1, "checkpoint-every"), default=50_000,
                         help="timesteps between checkpoints, for --resume (default: 50000)")
     parser.add_argument("--resume", type=Path, default=None, metavar="RUN_DIR",
-                        help="continue an interrupted run with its own settings (other options are ignored)")
+                        help="continue an interrupted run with its own settings (other options are ignored, but "
+                        "--address)")
     parser.add_argument("--num-envs", type=_integer(1, "num-envs"), default=None,
-                        help="training envs in the native VecEnv of the sb3 trainer (default: the scene's training "
-                        f"recipe, {GENERIC.num_envs} without one)")
-    parser.add_argument("--algo-kwarg", dest="algo_kwargs", action="append", default=[], metavar="KEY=VALUE",
-                        help="constructor keyword of the algorithm on top of the scene's training recipe (repeatable), "
-                        "e.g. --algo-kwarg n_steps=256; with --trainer rllib a PPOConfig.training keyword, "
+                        help="training envs in the native VecEnv of the sb3 trainer, for every learned policy "
+                        f"(default: each one's training recipe for the scene, {GENERIC.num_envs} without one)")
+    parser.add_argument("--algo-kwarg", dest="algo_kwargs", action="append", default=[], metavar="[ALGO:]KEY=VALUE",
+                        help="constructor keyword of the learned algorithms on top of their training recipe "
+                        "(repeatable), e.g. --algo-kwarg n_steps=256; ALGO: for one of them only, e.g. --algo-kwarg "
+                        "sac:learning_starts=1000; with --trainer rllib a PPOConfig.training keyword, "
                         "e.g. --algo-kwarg train_batch_size_per_learner=4096")
     _add_rllib_options(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -96,14 +105,21 @@ def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--envs-per-runner", type=_integer(1, "envs-per-runner"), default=4,
                        help="native envs in each RLlib env runner (default: 4)")
     group.add_argument("--address", default=None,
-                       help="Ray cluster to train on ('auto': the one this machine joined with `ray start`, or "
-                       "HOST:PORT of its head); default: a local cluster started for the run")
+                       help="Ray cluster for the run: 'auto' (the one this machine joined with `ray start`), "
+                       "HOST:PORT of its head, or 'local' (a new one on this machine). The study's independent "
+                       "pieces (SB3 training seeds, evaluation cells) then run there as Ray tasks, with the same "
+                       "results, and so do RLlib's env runners. Default: everything in this process (RLlib: a "
+                       "local cluster for its runners). With --resume: replaces the run's cluster")
 
 
 def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path,
-                        help="a run folder written by compare, or its model.zip or rllib_checkpoint")
+                        help="a run folder written by compare, or one training run's folder (seed-<s>/ or "
+                        "<algo>/seed-<s>/) or its model.zip or rllib_checkpoint")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
+    parser.add_argument("--address", default=None,
+                        help="Ray cluster ('auto', HOST:PORT, or 'local' for a new one here) on which the evaluation "
+                        "cells run as Ray tasks, with the same results (default: in this process)")
     _add_evaluation_options(parser, defaults=False)
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_evaluate_command(args, parser))
 
@@ -122,11 +138,22 @@ def _default_sweeps() -> str:
     return " ".join(f"{axis}={','.join(f'{v:g}' for v in values)}" for axis, values in DEFAULT_SWEEPS.items())
 
 
-def _algo_kwarg(text: str) -> tuple[str, Any]:
-    key, sep, value = text.partition("=")
-    if not sep or not key.strip().isidentifier():
-        raise InvalidInputError(f"--algo-kwarg {text!r}: expected KEY=VALUE, e.g. --algo-kwarg n_steps=256")
-    return key.strip(), parse_value(value)
+def _algo_kwargs(texts: Sequence[str]) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+    """``--algo-kwarg`` options as the keywords of every learned algorithm and those of
+    one algorithm (``ALGO:KEY=VALUE``)."""
+    shared: dict[str, Any] = {}
+    per_algo: dict[str, dict[str, Any]] = {}
+    for text in texts:
+        target, sep, value = text.partition("=")
+        algo, colon, key = target.rpartition(":")
+        algo, key = algo.strip().lower(), key.strip()
+        if not sep or not key.isidentifier() or (colon and algo not in LEARNED):
+            raise InvalidInputError(
+                f"--algo-kwarg {text!r}: expected [ALGO:]KEY=VALUE with ALGO one of {', '.join(LEARNED)}, "
+                "e.g. --algo-kwarg n_steps=256 or --algo-kwarg sac:learning_starts=1000"
+            )
+        (per_algo.setdefault(algo, {}) if colon else shared)[key] = parse_value(value)
+    return shared, per_algo
 
 
 def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
@@ -143,27 +170,33 @@ def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
 
 
 def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from chaincart_env.tools.compare.job import resume_compare, run_compare
+    from chaincart_env.tools.compare.job import DEFAULT_POLICIES, resume_compare, run_compare
 
     try:
         if args.resume is not None:
-            resume_compare(args.resume)
+            resume_compare(args.resume, address=args.address)
             return 0
         config = config_from_options(args)
-        recipe = recipe_for(config.scene, args.algo) if args.trainer == "sb3" else GENERIC
-        hyperparameters = {**recipe.hyperparameters, **dict(_algo_kwarg(text) for text in args.algo_kwargs)}
+        hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
         sweeps = _sweeps(args.sweeps)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
+    if args.policies is not None:
+        policies = [args.policies]
+    elif args.algo is not None:
+        policies = [args.algo, "lqr"]
+    else:
+        policies = list(DEFAULT_POLICIES)
     seeds = args.seeds if args.seeds is not None else [0 if args.seed is None else args.seed]
     try:
-        run_compare(config, out=args.out, algo=args.algo, timesteps=args.timesteps or recipe.timesteps,
-                    seeds=seeds, num_envs=args.num_envs or recipe.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
+        run_compare(config, out=args.out, policies=policies, timesteps=args.timesteps, seeds=seeds,
+                    num_envs=args.num_envs, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
                     sweeps=sweeps, eval_every=args.eval_every, eval_starts=args.eval_starts,
                     checkpoint_every=args.checkpoint_every, progress_bar=not args.no_progress,
-                    torch_threads=args.torch_threads, hyperparameters=hyperparameters, trainer=args.trainer,
-                    rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner,
-                               address=args.address))
+                    torch_threads=args.torch_threads, hyperparameters=hyperparameters,
+                    algo_hyperparameters=algo_hyperparameters, trainer=args.trainer,
+                    rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
+                    address=args.address)
     except ChainCartError as error:
         parser.error(str(error))
     return 0
@@ -174,7 +207,7 @@ def _run_evaluate_command(args: argparse.Namespace, parser: argparse.ArgumentPar
 
     try:
         run_evaluate(args.model, out=args.out, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
-                     torch_threads=args.torch_threads)
+                     torch_threads=args.torch_threads, address=args.address)
     except ChainCartError as error:
         parser.error(str(error))
     return 0
@@ -184,14 +217,17 @@ def add_commands(commands: "argparse._SubParsersAction[argparse.ArgumentParser]"
     """Adds ``compare`` and ``evaluate`` to a subcommand set; each parser's ``handler``
     default runs it as ``args.handler(args, dispatching_parser)``."""
     _configure_compare(commands.add_parser(
-        "compare", help="train an SB3 (or RLlib) agent and compare it with the LQR baseline (the main job)",
-        description="Train a stable-baselines3 agent (or Ray RLlib PPO, on a cluster) on a scene, evaluate it and "
-        "the LQR baseline on the same seeded starts, and write tables, a learning curve, error plots, a filmstrip "
-        "and the model.",
+        "compare", help="train learned agents (SB3 or RLlib) and compare them with model-based controllers (the main "
+        "job)",
+        description="Train each learned policy of --policies (stable-baselines3, or Ray RLlib PPO on a cluster) on a "
+        "scene once per training seed, evaluate the agents and the model-based controllers (the paper's LQR, MPC, "
+        "trajectory tracking, energy shaping) on the same seeded starts and sweeps, and write tables, a verdict, "
+        "learning curves, error plots, a filmstrip and the models.",
     ))
     _configure_evaluate(commands.add_parser(
-        "evaluate", help="re-run the comparison of a model saved by compare",
-        description="Load a model saved by compare and re-run its comparison with the LQR baseline.",
+        "evaluate", help="re-run the comparison of a run saved by compare",
+        description="Load the agents saved by compare and re-run their comparison with the run's model-based "
+        "controllers.",
     ))
 
 
@@ -199,8 +235,8 @@ def compare_main(argv: Optional[Sequence[str]] = None) -> int:
     """The console script ``chaincart-compare``: ``compare`` with its options."""
     parser = argparse.ArgumentParser(
         prog="chaincart-compare",
-        description="Train a stable-baselines3 agent (or Ray RLlib PPO, --trainer rllib) and compare it with the "
-        "LQR baseline.",
+        description="Train learned agents (stable-baselines3, or Ray RLlib PPO with --trainer rllib) and compare them "
+        "with model-based controllers (--policies).",
     )
     _configure_compare(parser)
     args = parser.parse_args(argv)

@@ -32,6 +32,7 @@ __all__ = [
     "rollout",
     "settle_times",
     "summarize",
+    "tabulate",
 ]
 
 
@@ -107,8 +108,15 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
     first_states = [model.to_spatial(batch.states()[0])]
     first_forces: list[np.ndarray] = []
     active = np.ones(n, dtype=bool)
+    # SB3's convention: episode_start marks the observations that begin an episode, so
+    # stateful policies (a clock along a plan, a warm start) reset exactly there.
+    episode_start = np.ones(n, dtype=bool)
+    policy_state = None
     for k in range(horizon):
-        actions = np.asarray(policy.predict(obs, deterministic=True)[0], dtype=np.float32).reshape(n, -1)
+        action_batch, policy_state = policy.predict(
+            obs, state=policy_state, episode_start=episode_start, deterministic=True
+        )
+        actions = np.asarray(action_batch, dtype=np.float32).reshape(n, -1)
         applied = np.clip(actions.astype(np.float64), -1.0, 1.0) * config.max_force
         obs, rewards, terminated_now, _, n_ended = batch.step(actions)
         errors = batch.errors()
@@ -123,6 +131,7 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
             last = batch.final_observations()[0] if ended[0] else batch.states()[0]
             first_states.append(model.to_spatial(np.asarray(last, dtype=np.float64)))
             first_forces.append(_spatial_force(applied[0]))
+        episode_start = np.asarray(ended, dtype=bool).copy()
         just_ended = active & ended
         lengths[just_ended] = k + 1
         success[just_ended] = is_success[just_ended]
@@ -212,8 +221,14 @@ def evaluate_policies(
     tolerances: Optional[tuple[float, float]] = None,
 ) -> tuple[list[Rollouts], list[dict[str, Any]], list[dict[str, Any]]]:
     """Rollouts, per-episode rows and summaries of each ``(name, policy)`` on ``seeds``."""
-    tolerances = config.success_tolerances if tolerances is None else tolerances
     runs = [rollout(policy, name, config, seeds) for name, policy in policies]
+    return (runs, *tabulate(runs, config.success_tolerances if tolerances is None else tolerances))
+
+
+def tabulate(
+    runs: Sequence[Rollouts], tolerances: tuple[float, float]
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Per-episode rows and per-policy summaries of the rollouts of several policies."""
     episodes = [row for run in runs for row in episode_table(run, tolerances)]
     summaries = [summarize([row for row in episodes if row["policy"] == run.policy]) for run in runs]
-    return runs, episodes, summaries
+    return episodes, summaries

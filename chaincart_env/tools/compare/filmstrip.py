@@ -1,5 +1,6 @@
 """A filmstrip PNG: one row of frames per policy, at the same times of the same
-seeded start, drawn by the core's renderer (``_core.render_frame``)."""
+seeded start, drawn by the core's renderer (``_core.render_frame``) in the 3-D view
+with a camera that follows the cart, so that the chain fills most of each frame."""
 
 from __future__ import annotations
 
@@ -13,10 +14,12 @@ from chaincart_env import _core
 from chaincart_env.tools.compare.evaluation import Rollouts
 from chaincart_env.config import ChainCartConfig
 
-__all__ = ["FRAME_SIZE", "LABEL_HEIGHT", "filmstrip", "filmstrip_size", "write_filmstrip"]
+__all__ = ["DEFAULT_FRAMES", "FRAME_SIZE", "LABEL_HEIGHT", "filmstrip", "filmstrip_size", "write_filmstrip"]
 
-#: (width, height) of one frame in pixels.
-FRAME_SIZE = (240, 180)
+#: (width, height) of one frame in pixels: upright, like the chain it shows.
+FRAME_SIZE = (240, 300)
+#: Frames per policy unless asked otherwise.
+DEFAULT_FRAMES = 6
 #: Height of the caption band above each frame.
 LABEL_HEIGHT = 18
 
@@ -30,11 +33,12 @@ def _frame(config: ChainCartConfig, state: np.ndarray, force: np.ndarray) -> np.
     return _core.render_frame(
         list(config.make_model().link_lengths), state, list(force),
         target=list(config.target_signs), max_force=max(config.max_force, 1e-9),
-        track_limit=config.track_limit, width=FRAME_SIZE[0], height=FRAME_SIZE[1], top_view=not config.planar,
+        track_limit=config.track_limit, width=FRAME_SIZE[0], height=FRAME_SIZE[1], view="3d",
+        planar=config.planar, follow=True,
     )
 
 
-def filmstrip(runs: Sequence[Rollouts], config: ChainCartConfig, frames: int = 8) -> np.ndarray:
+def filmstrip(runs: Sequence[Rollouts], config: ChainCartConfig, frames: int = DEFAULT_FRAMES) -> np.ndarray:
     """uint8 image (H, W, 3): row r shows ``runs[r]``'s first episode at ``frames``
     evenly spaced steps of the longest of these episodes (an episode that ended
     earlier shows its last state)."""
@@ -54,6 +58,8 @@ def filmstrip(runs: Sequence[Rollouts], config: ChainCartConfig, frames: int = 8
     return np.asarray(image)
 
 
-def write_filmstrip(path: Path, runs: Sequence[Rollouts], config: ChainCartConfig, frames: int = 8) -> None:
-    """Writes :func:`filmstrip` of ``runs`` to ``path`` (PNG)."""
+def write_filmstrip(
+    path: Path, runs: Sequence[Rollouts], config: ChainCartConfig, frames: int = DEFAULT_FRAMES
+) -> None:
+    """Writes :func:`filmstrip` as a PNG."""
     Image.fromarray(filmstrip(runs, config, frames)).save(path)

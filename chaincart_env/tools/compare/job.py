@@ -1,10 +1,12 @@
-"""The main job: train one agent per training seed, evaluate them and the LQR baseline
-(on the main starts and over the sweeps), report; resume an interrupted run; re-run the
-evaluation of a saved run.
+"""The main job: train every learned policy once per training seed, evaluate the agents
+and the model-based controllers (on the main starts and over the sweeps), report;
+resume an interrupted run; re-run the evaluation of a saved run.
 
 A run directory holds ``config.json``, ``run.json`` (the settings, a ``status`` and
-per-seed progress), one ``seed-<s>/`` folder per training seed (the agent, its best
-model by evaluation, logs, checkpoints) and the study's tables and pictures
+per-training-run progress), one folder per learned algorithm and training seed (the
+agent, its best model by evaluation, logs, checkpoints: ``seed-<s>/`` when one
+algorithm is learned, ``<algo>/seed-<s>/`` when several are; see
+:mod:`~chaincart_env.tools.compare.layout`) and the study's tables and pictures
 (:data:`chaincart_env.tools.compare.study.EVALUATION_FILES`).
 
 ``run.json``'s ``status`` is ``training``, ``evaluating``, ``done``, ``interrupted``
@@ -17,28 +19,38 @@ from __future__ import annotations
 import json
 import platform
 import signal
+import tempfile
 import time
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Optional, Sequence
+from typing import Any, Iterator, Mapping, Optional, Sequence
 
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.learning_curve import (
     LEARNING_CURVE_COLUMNS, learning_curve, read_learning_curve, read_training_episodes,
 )  # fmt: skip
+from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.plots import plot_learning_curve
-from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, load_run, save_run
+from chaincart_env.tools.compare.layout import TrainingRun, training_runs
+from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
+from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, load_run, save_run, write_folder
 from chaincart_env.tools.compare.study import (
-    EVALUATION_FILES, describe, evaluate_study, lqr_baseline, policy_label, seed_directory,
+    EVALUATION_FILES, StudyEvaluation, describe, evaluate_study, lqr_baseline, model_based_sources, policy_label,
 )  # fmt: skip
 from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
 from chaincart_env.tools.compare.tables import write_csv
+from chaincart_env.tools.controllers import LEARNED, parse_controllers
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "StudySettings",
-    "lqr_baseline", "policy_label", "resume_compare", "run_compare", "run_evaluate",
+    "DEFAULT_POLICIES", "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "SeedCell",
+    "SeedTraining", "StudySettings", "cluster_address", "lqr_baseline", "policy_label", "resume_compare",
+    "run_compare", "run_evaluate", "train_seed_cell",
 ]  # fmt: skip
+
+#: The policies of a study unless told otherwise: PPO against the paper's LQR.
+DEFAULT_POLICIES = ("ppo", "lqr")
 
 #: The trainers of compare: stable-baselines3 on one machine, Ray RLlib on a cluster.
 TRAINERS = ("sb3", "rllib")
@@ -52,12 +64,15 @@ SEED_FILES = (
 
 
 class StudySettings(dict):  # type: ignore[type-arg]
-    """The settings of a run as saved in ``run.json`` (a plain dict with checks)."""
+    """The settings of a run as saved in ``run.json`` (a plain dict with checks). Runs
+    saved before several policies could be compared name one ``algo`` (compared with
+    the LQR) and keep its ``timesteps``, ``num_envs`` and ``hyperparameters`` at the top
+    level; they read the same through the methods below."""
 
     @classmethod
     def checked(cls, **settings: Any) -> "StudySettings":
-        """The settings, each checked (seeds, trainer, sweep axes, counts), or an error naming the
-        bad one."""
+        """The settings, each checked (policies, seeds, trainer, sweep axes, counts), or an
+        error naming the bad one."""
         seeds = settings["seeds"]
         if not seeds or len(set(seeds)) != len(seeds) or any(
             isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds
@@ -65,14 +80,46 @@ class StudySettings(dict):  # type: ignore[type-arg]
             raise InvalidInputError(f"seeds = {seeds!r}: expected distinct integers >= 0, at least one")
         if settings["trainer"] not in TRAINERS:
             raise InvalidInputError(f"trainer = {settings['trainer']!r}: expected one of {list(TRAINERS)}")
+        checked = cls(settings)
+        if settings["trainer"] == "rllib" and checked.learned() not in ([], ["ppo"]):
+            raise InvalidInputError(
+                f"--trainer rllib with {', '.join(checked.learned())}: the RLlib trainer offers ppo only"
+            )
         for axis in settings["sweeps"]:
             if axis not in SWEEP_AXES:
                 raise InvalidInputError(f"sweep axis {axis!r}: expected one of {sorted(SWEEP_AXES)}")
-        for key in ("eval_every", "checkpoint_every", "eval_starts", "timesteps"):
-            value = settings[key]
+        address = settings.get("address")
+        if address is not None and (not isinstance(address, str) or not address.strip()):
+            raise InvalidInputError(f"address = {address!r}: expected 'local', 'auto' or HOST:PORT of a Ray cluster")
+        counts = [(key, settings[key]) for key in ("eval_every", "checkpoint_every", "eval_starts")]
+        counts += [(f"{algo} timesteps", checked.training(algo)["timesteps"]) for algo in checked.learned()]
+        counts += [(f"{algo} num_envs", checked.training(algo)["num_envs"]) for algo in checked.learned()]
+        for key, value in counts:
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InvalidInputError(f"{key} = {value!r}: expected an integer >= 1")
-        return cls(settings)
+        return checked
+
+    def policies(self) -> list[str]:
+        """The compared controllers' names, as given."""
+        return list(self.get("policies") or [self["algo"], "lqr"])
+
+    def learned(self) -> list[str]:
+        """The learned algorithms, in the order given."""
+        return [name for name in self.policies() if name in LEARNED]
+
+    def model_based(self) -> list[str]:
+        """The model-based controllers, in the order given."""
+        return [name for name in self.policies() if name not in LEARNED]
+
+    def training(self, algo: str) -> dict[str, Any]:
+        """How ``algo`` trains: ``timesteps``, ``num_envs``, ``hyperparameters``."""
+        if "training" in self:
+            return dict(self["training"][algo])
+        return {key: self[key] for key in ("timesteps", "num_envs", "hyperparameters")}
+
+    def runs(self) -> list[TrainingRun]:
+        """Every training run of the study, algorithm by algorithm."""
+        return training_runs(self.learned(), self["seeds"])
 
 
 def _write_json(path: Path, data: dict[str, Any]) -> None:
@@ -111,26 +158,28 @@ def _set_torch_threads(threads: Optional[int]) -> None:
         torch.set_num_threads(threads)
 
 
-def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySettings, resume: bool) -> dict[str, Any]:
-    """Trains one seed into ``seed-<seed>/`` and saves it; returns its record for run.json."""
-    directory = seed_directory(out, seed)
+def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: StudySettings, resume: bool) -> dict[str, Any]:
+    """Trains one algorithm with one seed into its folder and saves it; returns its
+    record for run.json."""
+    directory = run.directory(out)
     directory.mkdir(parents=True, exist_ok=True)
-    algo, timesteps = settings["algo"], settings["timesteps"]
+    algo, seed, training = run.algo, run.seed, settings.training(run.algo)
+    timesteps = training["timesteps"]
     if settings["trainer"] == "rllib":
-        result, trained = _train_rllib(config, directory, seed, settings)
+        result, trained = _train_rllib(config, directory, seed, settings, resume)
     else:
         from chaincart_env.tools.compare.training import train
 
         eval_starts = list(range(settings["eval_seed"], settings["eval_seed"] + settings["eval_starts"]))
-        print(f"training {algo.upper()} for {timesteps} timesteps on {settings['num_envs']} envs, seed {seed} -> "
+        print(f"training {algo.upper()} for {timesteps} timesteps on {training['num_envs']} envs, seed {seed} -> "
               f"{directory}")
-        result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=settings["num_envs"],
+        result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=training["num_envs"],
                        directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
                        checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
-                       hyperparameters=settings["hyperparameters"], resume=resume)
-        trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=settings["num_envs"],
+                       hyperparameters=training["hyperparameters"], resume=resume)
+        trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations)
-    print(f"seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
+    print(f"{algo.upper()} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
                 hyperparameters=result.hyperparameters, training_wall_time_s=round(result.wall_time_s, 2),
@@ -142,7 +191,10 @@ def _train_seed(config: ChainCartConfig, out: Path, seed: int, settings: StudySe
     return info
 
 
-def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: StudySettings) -> tuple[Any, dict[str, Any]]:
+def _train_rllib(
+    config: ChainCartConfig, directory: Path, seed: int, settings: StudySettings, resume: bool
+) -> tuple[Any, dict[str, Any]]:
+    """Trains PPO with Ray RLlib into ``directory``; returns the result and its record."""
     try:
         import ray.rllib  # noqa: F401
     except ImportError as error:
@@ -151,27 +203,29 @@ def _train_rllib(config: ChainCartConfig, directory: Path, seed: int, settings: 
         ) from None
     from chaincart_env.tools.compare.rllib_training import CHECKPOINT_DIR, train_rllib
 
-    if settings["algo"] != "ppo":
-        raise InvalidInputError(f"--trainer rllib with --algo {settings['algo']}: the RLlib trainer offers ppo only")
-    rllib = settings["rllib"]
+    rllib, training = settings["rllib"], settings.training("ppo")
     runners, per_runner = rllib["num_env_runners"], rllib["envs_per_runner"]
-    print(f"training PPO with RLlib for {settings['timesteps']} timesteps on {runners} env runner(s) x "
+    print(f"training PPO with RLlib for {training['timesteps']} timesteps on {runners} env runner(s) x "
           f"{per_runner} envs, seed {seed} -> {directory}")
-    result = train_rllib(config, timesteps=settings["timesteps"], seed=seed, num_env_runners=runners,
-                         envs_per_runner=per_runner, address=rllib.get("address"),
-                         episodes_csv=directory / "training_episodes.csv", checkpoint=directory / CHECKPOINT_DIR,
-                         progress=settings["progress_bar"], hyperparameters=settings["hyperparameters"])
+    result = train_rllib(config, timesteps=training["timesteps"], seed=seed, num_env_runners=runners,
+                         envs_per_runner=per_runner, address=cluster_address(settings), directory=directory,
+                         checkpoint=directory / CHECKPOINT_DIR, checkpoint_every=settings["checkpoint_every"],
+                         resume=resume, progress=settings["progress_bar"],
+                         hyperparameters=training["hyperparameters"])
     info = dict(timesteps_trained=result.timesteps_trained, num_env_runners=runners, envs_per_runner=per_runner,
-                num_envs=runners * per_runner, training_iterations=result.iterations, cluster=result.cluster)
+                num_envs=runners * per_runner, training_iterations=result.iterations, cluster=result.cluster,
+                runner_nodes=result.runner_nodes, runner_restarts=result.runner_restarts,
+                resumed_from=result.resumed_from)
     return result, info
 
 
 def _training_notes(run: dict[str, Any]) -> list[str]:
     notes = []
-    for seed, info in run["seed_runs"].items():
+    for info in run["seed_runs"].values():
         evaluations = info.get("evaluations") or {}
         best = evaluations.get("best")
-        line = (f"Seed {seed}: {info['timesteps_trained']} timesteps in {info['training_wall_time_s']} s of training "
+        line = (f"{policy_label(str(info['algo']), str(info.get('trainer', 'sb3')))}, seed {info['seed']}: "
+                f"{info['timesteps_trained']} timesteps in {info['training_wall_time_s']} s of training "
                 f"({info['training_episodes']} training episodes)")
         if best:
             line += (f"; best deterministic evaluation at {int(best['timesteps'])} timesteps "
@@ -181,25 +235,99 @@ def _training_notes(run: dict[str, Any]) -> list[str]:
     return notes
 
 
-def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
+def cluster_address(settings: dict[str, Any]) -> Optional[str]:
+    """The Ray cluster a run uses (``None``: none, or for RLlib a local one per seed);
+    runs saved before the study could be distributed kept it with the RLlib settings."""
+    return settings.get("address", settings.get("rllib", {}).get("address"))
+
+
+def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> StudyEvaluation:
     settings = StudySettings(run["settings"])
-    for seed in settings["seeds"]:
-        if str(seed) in run["seed_runs"]:
-            continue  # trained before the interruption
-        _set_status(out, run, "training", training_seed=seed)
-        run["seed_runs"][str(seed)] = _train_seed(config, out, seed, settings, resume)
-        _set_status(out, run, "training")
+    address = cluster_address(settings)
+    if address is None:
+        return _train_and_evaluate(config, out, run, resume, distributed=False)
+    from chaincart_env.tools.compare.cells import ray_cluster
+
+    runners = settings["rllib"]["num_env_runners"] if settings["trainer"] == "rllib" else 1
+    with ray_cluster(address, max(1, runners)) as cluster:
+        print(f"the study's training runs and evaluation cells run as Ray tasks on {cluster}")
+        run["cluster"] = cluster
+        return _train_and_evaluate(config, out, run, resume, distributed=True)
+
+
+def _train_and_evaluate(
+    config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool, distributed: bool
+) -> StudyEvaluation:
+    settings = StudySettings(run["settings"])
+    pending = [r for r in settings.runs() if r.key not in run["seed_runs"]]  # others trained before
+    if distributed and settings["trainer"] == "sb3":
+        _train_runs_as_tasks(config, out, run, pending, resume)
+    else:  # one after the other (RLlib spreads each seed's sampling over the cluster itself)
+        for training in pending:
+            _set_status(out, run, "training", training_seed=training.seed, training_algo=training.algo)
+            run["seed_runs"][training.key] = _train_seed(config, out, training, settings, resume)
+            _set_status(out, run, "training")
     _set_status(out, run, "evaluating")
-    summaries = evaluate_study(out, config, seeds=settings["seeds"], eval_seed=settings["eval_seed"],
-                               eval_episodes=settings["eval_episodes"], sweeps=settings["sweeps"],
-                               training_notes=_training_notes(run))
-    for seed in settings["seeds"]:
-        curve_csv = seed_directory(out, seed) / "learning_curve.csv"
+    evaluation = evaluate_study(out, config, runs=settings.runs(), model_based=settings.model_based(),
+                                eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
+                                sweeps=settings["sweeps"], training_notes=_training_notes(run),
+                                distributed=distributed, torch_threads=settings.get("torch_threads"))
+    for training in settings.runs():
+        directory = training.directory(out)
+        curve_csv = directory / "learning_curve.csv"
         if curve_csv.is_file():
-            plot_learning_curve(seed_directory(out, seed) / "learning_curve.png", read_learning_curve(curve_csv),
-                                policy_label(settings["algo"], settings["trainer"]),
-                                next(s for s in summaries if s["policy"] == "LQR"))
-    return summaries
+            plot_learning_curve(directory / "learning_curve.png", read_learning_curve(curve_csv),
+                                policy_label(training.algo, settings["trainer"]), evaluation.baseline)
+    return evaluation
+
+
+@dataclass(frozen=True)
+class SeedTraining:
+    """What every training-seed task shares: the scene and the run's settings."""
+
+    config: ChainCartConfig
+    settings: StudySettings
+
+
+@dataclass(frozen=True)
+class SeedCell:
+    """One training run as a task: its folder's files so far (a checkpoint to resume
+    from, when ``resume``)."""
+
+    run: TrainingRun
+    resume: bool
+    files: dict[str, bytes]
+
+
+def train_seed_cell(job: SeedTraining, cell: SeedCell) -> tuple[dict[str, Any], dict[str, bytes]]:
+    """Trains one run in a scratch folder (of the machine the task runs on) exactly as
+    the serial study does, and returns its run.json record and its folder's files."""
+    with tempfile.TemporaryDirectory(prefix="chaincart-seed-") as scratch:
+        directory = cell.run.directory(Path(scratch))
+        write_folder(directory, cell.files)
+        info = _train_seed(job.config, Path(scratch), cell.run, job.settings, cell.resume)
+        return info, folder_contents(directory)
+
+
+def _train_runs_as_tasks(
+    config: ChainCartConfig, out: Path, run: dict[str, Any], runs: Sequence[TrainingRun], resume: bool
+) -> None:
+    """SB3 training runs as Ray tasks; each run's folder is written here as it finishes."""
+    settings = StudySettings(run["settings"])
+    job = SeedTraining(config, StudySettings({**settings, "progress_bar": False}))
+    cells = [SeedCell(r, resume, folder_contents(r.directory(out)) if resume else {}) for r in runs]
+
+    def save(index: int, result: tuple[dict[str, Any], dict[str, bytes]]) -> None:
+        info, files = result
+        write_folder(runs[index].directory(out), files)
+        run["seed_runs"][runs[index].key] = info
+        # In the order of the study's runs, as a serial study records them.
+        run["seed_runs"] = {r.key: run["seed_runs"][r.key] for r in settings.runs() if r.key in run["seed_runs"]}
+        _set_status(out, run, "training")
+
+    _set_status(out, run, "training", training_seeds=[r.key for r in runs])
+    map_cells(train_seed_cell, cells, shared=job, distributed=True, torch_threads=settings.get("torch_threads"),
+              on_result=save)
 
 
 def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) -> list[dict[str, Any]]:
@@ -208,7 +336,7 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
     print(describe(config))
     try:
         with _sigterm_as_interrupt():
-            summaries = _study(config, out, run, resume)
+            summaries = _study(config, out, run, resume).summaries
     except KeyboardInterrupt:
         _set_status(out, run, "interrupted", resume_with=f"python -m chaincart_env compare --resume {out}")
         print(f"interrupted: what was produced is in {out}; continue with `compare --resume {out}`")
@@ -219,46 +347,92 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
     total = time.perf_counter() - start
     run["wall_time_s"] = round(run.get("wall_time_s", 0.0) + total, 2)
     _set_status(out, run, "done")
-    print(f"wall time {total:.1f} s; wrote {', '.join(OUTPUT_FILES)} and seed-<s>/ folders in {out}")
+    folders = " and a folder per training run" if StudySettings(run["settings"]).learned() else ""
+    print(f"wall time {total:.1f} s; wrote {', '.join(OUTPUT_FILES)}{folders} in {out}")
     return summaries
+
+
+def _training_settings(
+    config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
+    hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
+) -> dict[str, dict[str, Any]]:
+    """How each learned algorithm trains: its recipe for the scene (SB3's defaults
+    without one, and with RLlib), then the budget, envs and keywords given for every
+    algorithm, then those given for it alone."""
+    unknown = sorted(set(algo_hyperparameters) - set(learned))
+    if unknown:
+        raise InvalidInputError(
+            f"keywords for {', '.join(unknown)}: expected a learned algorithm of the study, one of {list(learned)}"
+        )
+    out = {}
+    for algo in learned:
+        recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
+        keywords = {**recipe.hyperparameters, **hyperparameters, **algo_hyperparameters.get(algo, {})}
+        if trainer == "sb3":
+            from chaincart_env.tools.compare.training import check_keywords
+
+            check_keywords(algo, keywords)
+        out[algo] = dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
+                         num_envs=recipe.num_envs if num_envs is None else num_envs,
+                         hyperparameters=keywords, recipe=recipe.source)
+    return out
 
 
 def run_compare(
     config: ChainCartConfig,
     *,
     out: Path,
+    policies: Optional[Sequence[str]] = None,
     algo: str = "ppo",
-    timesteps: int,
+    timesteps: Optional[int] = None,
     seeds: Sequence[int] = (0,),
-    num_envs: int = 8,
+    num_envs: Optional[int] = None,
     eval_episodes: int = 50,
     eval_seed: int = 1_000_000,
-    sweeps: Optional[dict[str, Sequence[float]]] = None,
+    sweeps: Optional[Mapping[str, Sequence[float]]] = None,
     eval_every: int = 20_000,
     eval_starts: int = 20,
     checkpoint_every: int = 50_000,
     progress_bar: bool = True,
     torch_threads: Optional[int] = None,
-    hyperparameters: Optional[dict[str, Any]] = None,
+    hyperparameters: Optional[Mapping[str, Any]] = None,
+    algo_hyperparameters: Optional[Mapping[str, Mapping[str, Any]]] = None,
     trainer: str = "sb3",
     rllib: Optional[dict[str, Any]] = None,
+    address: Optional[str] = None,
 ) -> list[dict[str, Any]]:
-    """Trains ``algo`` on ``config`` once per training seed, evaluates every agent and
-    the LQR baseline on ``eval_episodes`` seeded starts and over ``sweeps`` (default
-    :data:`DEFAULT_SWEEPS`), and writes the study into ``out``; returns the main
-    comparison's summaries. ``trainer="rllib"`` trains with Ray RLlib (``rllib =
-    {"num_env_runners": ..., "envs_per_runner": ..., "address": ...}``)."""
+    """Trains every learned policy of ``policies`` (names of
+    :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
+    "mpc"]``; default ``[algo, "lqr"]``) on ``config`` once per training seed, evaluates
+    every agent and every model-based controller on ``eval_episodes`` seeded starts and
+    over ``sweeps`` (default :data:`DEFAULT_SWEEPS`), and writes the study into ``out``;
+    returns the main comparison's summaries.
+
+    Each learned algorithm trains with the scene's recipe
+    (:func:`~chaincart_env.tools.compare.recipes.recipe_for`); ``timesteps``,
+    ``num_envs`` and ``hyperparameters`` override it for every algorithm,
+    ``algo_hyperparameters`` (``{"sac": {"learning_starts": 100}}``) for one.
+    ``trainer="rllib"`` trains PPO with Ray RLlib (``rllib = {"num_env_runners": ...,
+    "envs_per_runner": ...}``). ``address``: a Ray cluster (``"local"``: a new one on
+    this machine) on which the study's independent pieces (SB3 training runs,
+    evaluation cells) run as Ray tasks, with the same results as without it; RLlib's
+    env runners run there too."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
+    names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")
+    learned = [name for name in names if name in LEARNED]
+    runners = {"num_env_runners": 2, "envs_per_runner": 4, **(rllib or {})}
+    given = runners.pop("address", None)  # where it was before the study could be distributed
+    chosen_sweeps = {k: list(v) for k, v in (DEFAULT_SWEEPS if sweeps is None else sweeps).items()}
     settings = StudySettings.checked(
-        algo=algo.lower(), timesteps=timesteps, seeds=list(seeds), num_envs=num_envs, eval_episodes=eval_episodes,
-        eval_seed=eval_seed, sweeps={k: list(v) for k, v in (DEFAULT_SWEEPS if sweeps is None else sweeps).items()},
-        eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every,
-        progress_bar=progress_bar, torch_threads=torch_threads, hyperparameters=dict(hyperparameters or {}),
-        trainer=trainer, rllib={"num_env_runners": 2, "envs_per_runner": 4, "address": None, **(rllib or {})},
+        policies=names, seeds=list(seeds), eval_episodes=eval_episodes, eval_seed=eval_seed, sweeps=chosen_sweeps,
+        eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every, progress_bar=progress_bar,
+        torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
+        training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
+                                    dict(algo_hyperparameters or {})),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
-    lqr_baseline(config)  # so does a scene without a baseline
+    model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2) + "\n")
@@ -269,10 +443,12 @@ def run_compare(
     return _run(config, out, run, resume=False)
 
 
-def resume_compare(out: Path) -> list[dict[str, Any]]:
+def resume_compare(out: Path, address: Optional[str] = None) -> list[dict[str, Any]]:
     """Continues the run in ``out`` where it stopped: seeds already trained are kept, an
-    interrupted seed continues from its last checkpoint (ending as it would have without
-    the interruption), the rest train, then the study is evaluated."""
+    interrupted seed continues from its last checkpoint (an SB3 seed ending as it would
+    have without the interruption; an RLlib seed as described in
+    :func:`~chaincart_env.tools.compare.rllib_training.train_rllib`), the rest train, then the
+    study is evaluated. ``address`` replaces the run's Ray cluster (e.g. a new one)."""
     out = Path(out)
     if not (out / RUN_FILE).is_file() or not (out / CONFIG_FILE).is_file():
         raise InvalidInputError(f"--resume {out}: expected a run directory of compare (with {RUN_FILE} and {CONFIG_FILE})")
@@ -280,8 +456,19 @@ def resume_compare(out: Path) -> list[dict[str, Any]]:
     if "settings" not in run or "seed_runs" not in run:
         raise InvalidInputError(f"--resume {out}: {RUN_FILE} is not that of a compare study")
     config = ChainCartConfig(**json.loads((out / CONFIG_FILE).read_text()))
-    print(f"resuming {out} (status {run.get('status')!r}, seeds trained: {sorted(run['seed_runs']) or 'none'})")
+    if address is not None:
+        run["settings"]["address"] = address
+    print(f"resuming {out} (status {run.get('status')!r}, runs trained: {sorted(run['seed_runs']) or 'none'})")
     return _run(config, out, run, resume=True)
+
+
+def _study_directory(seed_folder: Path) -> Optional[Path]:
+    """The run directory a training run's folder belongs to (``seed-<s>/`` or
+    ``<algo>/seed-<s>/`` in it), if any."""
+    for candidate in (seed_folder.parent, seed_folder.parent.parent):
+        if (candidate / RUN_FILE).is_file() and "settings" in json.loads((candidate / RUN_FILE).read_text()):
+            return candidate
+    return None
 
 
 def run_evaluate(
@@ -291,32 +478,47 @@ def run_evaluate(
     eval_episodes: Optional[int] = None,
     eval_seed: Optional[int] = None,
     torch_threads: Optional[int] = None,
+    address: Optional[str] = None,
 ) -> list[dict[str, Any]]:
     """Re-runs the evaluation of a saved run (same starts and sweeps unless told
     otherwise) into ``out`` (default ``<run>/evaluation``): a whole study directory, or
-    one seed's folder or model file (then that agent alone against the LQR)."""
+    one training run's folder or model file (then that agent alone against the study's
+    model-based controllers, on the evaluation starts). ``address``: the evaluation
+    cells run as Ray tasks on that cluster."""
     _set_torch_threads(torch_threads)
     path = Path(path)
     if (path / RUN_FILE).is_file() and "settings" in json.loads((path / RUN_FILE).read_text()):
         run = json.loads((path / RUN_FILE).read_text())
-        settings, directory, home = run["settings"], path, path
+        settings, directory, home = StudySettings(run["settings"]), path, path
         config = ChainCartConfig(**json.loads((path / CONFIG_FILE).read_text()))
-        seeds = [int(s) for s in run["seed_runs"]]
-        if not seeds:
+        runs = [r for r in settings.runs() if r.key in run["seed_runs"]]
+        if settings.learned() and not runs:
             raise InvalidInputError(f"{path} has no trained seed yet (status {run.get('status')!r}): nothing to evaluate")
         sweeps = settings["sweeps"]
     else:
         saved = load_run(path)  # a seed folder, model.zip or RLlib checkpoint
-        directory, config, settings = saved.directory.parent, saved.config, saved.info
-        home, seeds, sweeps = saved.directory, [int(saved.info["seed"])], {}
-        if seed_directory(directory, seeds[0]) != saved.directory:
+        study = _study_directory(saved.directory)
+        if study is None:
             raise InvalidInputError(f"{path}: expected a seed-<s> folder of a compare run, or the run directory")
+        settings = StudySettings(json.loads((study / RUN_FILE).read_text())["settings"])
+        one = TrainingRun(str(saved.info["algo"]), int(saved.info["seed"]), shared=len(settings.learned()) > 1)
+        if one.directory(study) != saved.directory:
+            raise InvalidInputError(f"{path}: expected a seed-<s> folder of a compare run, or the run directory")
+        directory, config, home, runs, sweeps = study, saved.config, saved.directory, [one], {}
     into = home / "evaluation" if out is None else Path(out)
     episodes = int(settings.get("eval_episodes", 50)) if eval_episodes is None else eval_episodes
     first = int(settings.get("eval_seed", 1_000_000)) if eval_seed is None else eval_seed
     print(describe(config))
     print(f"evaluating {directory} -> {into}")
-    summaries = evaluate_study(directory, config, seeds=seeds, eval_seed=first, eval_episodes=episodes,
-                               sweeps=sweeps, into=into)
+    options = dict(runs=runs, model_based=settings.model_based(), eval_seed=first, eval_episodes=episodes,
+                   sweeps=sweeps, into=into)
+    if address is None:
+        evaluation = evaluate_study(directory, config, **options)
+    else:
+        from chaincart_env.tools.compare.cells import ray_cluster
+
+        with ray_cluster(address, 1) as cluster:
+            print(f"the evaluation cells run as Ray tasks on {cluster}")
+            evaluation = evaluate_study(directory, config, distributed=True, torch_threads=torch_threads, **options)
     print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
-    return summaries
+    return evaluation.summaries

@@ -1,19 +1,39 @@
 """Training recipes: the number of envs, the budget and the algorithm's keywords that
-``compare`` uses for a scene unless told otherwise, kept in one table (as the RL
-Baselines3 Zoo keeps hyperparameters per env).
+``compare`` (and the leaderboard) use for a scene unless told otherwise.
 
-A recipe is chosen by the scene's name and the algorithm; a scene without one trains
-with :data:`GENERIC` (SB3's defaults). Command-line options (``--num-envs``,
-``--timesteps``, ``--algo-kwarg``) override a recipe's entries one by one. How each
-recipe was chosen is in ``docs/main-job.md``.
+The recipes are RL Baselines3 Zoo hyperparameter files shipped with the package,
+``chaincart_env/hyperparams/<algo>.yml``: one entry per env id (``ChainCart-<scene>-v0``)
+with the zoo's keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs``) and the
+algorithm's keywords. The same file trains the same agent with the zoo::
+
+    python -m rl_zoo3.train --algo ppo --env ChainCart-swingup-2-v0 \\
+        --gym-packages chaincart_env -conf <the file>
+
+A scene without an entry trains with :data:`GENERIC` (SB3's defaults on 8 envs).
+Command-line options (``--num-envs``, ``--timesteps``, ``--algo-kwarg``) override a
+recipe's entries one by one. Keywords are kept as the file writes them (so that a run's
+``run.json`` records them) and turned into SB3's objects by :func:`sb3_keywords` when the
+agent is built. How each recipe was chosen is in the file's comments and in
+``docs/main-job.md``.
 """
 
 from __future__ import annotations
 
+import ast
+import functools
 from dataclasses import dataclass, field
-from typing import Any
+from importlib import resources
+from typing import Any, Callable, Mapping
 
-__all__ = ["GENERIC", "RECIPES", "TrainingRecipe", "recipe_for"]
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.registration import scene_env_id
+
+__all__ = ["GENERIC", "TrainingRecipe", "hyperparameter_file", "load_recipes", "recipe_for", "sb3_keywords"]
+
+#: Zoo keys a recipe may hold besides the algorithm's keywords.
+ZOO_KEYS = ("n_envs", "n_timesteps", "policy")
+#: Zoo keys that ask for wrappers ``compare`` does not build: refused rather than ignored.
+UNSUPPORTED_ZOO_KEYS = ("normalize", "env_wrapper", "vec_env_wrapper", "frame_stack", "callback", "env_kwargs")
 
 
 @dataclass(frozen=True)
@@ -23,32 +43,111 @@ class TrainingRecipe:
     num_envs: int
     timesteps: int
     hyperparameters: dict[str, Any] = field(default_factory=dict)
-    #: Why these values, in a few words.
-    reason: str = ""
+    #: Where it comes from: ``"ppo.yml: ChainCart-inverted-2-v0"``, or SB3's defaults.
+    source: str = ""
 
 
 #: SB3's defaults on 8 envs: what a scene without a recipe trains with.
 GENERIC = TrainingRecipe(8, 400_000, {}, "SB3's defaults")
 
-#: ``(scene, algorithm) -> recipe``.
-RECIPES: dict[tuple[str, str], TrainingRecipe] = {
-    # The planar double inverted pendulum: 32 envs with short rollouts and large
-    # minibatches make PPO's updates cheap per env step, and a higher learning rate
-    # makes up for the fewer, larger updates; the deterministic policy reaches every
-    # evaluation start at about 140k steps (SB3's defaults on 8 envs: 250-400k).
-    ("inverted-2", "ppo"): TrainingRecipe(
-        32, 200_000, {"n_steps": 64, "batch_size": 512, "learning_rate": 1e-3},
-        "tuned: 32 envs x 64-step rollouts, minibatch 512, learning rate 1e-3",
-    ),
-    # The same chain with masses and lengths redrawn within +-25% at every reset: the
-    # same settings reach every evaluation start at about 210k steps.
-    ("inverted-2-randomized", "ppo"): TrainingRecipe(
-        32, 300_000, {"n_steps": 64, "batch_size": 512, "learning_rate": 1e-3},
-        "as inverted-2, with a budget for the harder, randomised task",
-    ),
-}
+
+def hyperparameter_file(algo: str) -> Any:
+    """The packaged zoo file of ``algo`` (a :class:`importlib.resources` traversable)."""
+    return resources.files("chaincart_env") / "hyperparams" / f"{algo.lower()}.yml"
+
+
+def _recipe(algo: str, env_id: str, entry: Any) -> TrainingRecipe:
+    where = f"{algo}.yml: {env_id}"
+    if not isinstance(entry, Mapping):
+        raise InvalidInputError(f"{where}: expected a mapping of hyperparameters, got {entry!r}")
+    refused = sorted(set(entry) & set(UNSUPPORTED_ZOO_KEYS))
+    if refused:
+        raise InvalidInputError(f"{where}: {refused} are zoo wrappers compare does not build; expected none of them")
+    if entry.get("policy", "MlpPolicy") != "MlpPolicy":
+        raise InvalidInputError(f"{where}: policy {entry['policy']!r}: expected 'MlpPolicy'")
+    try:
+        num_envs, timesteps = int(entry.get("n_envs", 1)), int(float(entry["n_timesteps"]))
+    except (KeyError, TypeError, ValueError):
+        raise InvalidInputError(f"{where}: expected an integer n_envs and a number n_timesteps") from None
+    keywords = {key: value for key, value in entry.items() if key not in ZOO_KEYS}
+    sb3_keywords(keywords, where)  # checked now, so a bad file fails before any training
+    return TrainingRecipe(num_envs, timesteps, keywords, where)
+
+
+@functools.lru_cache(maxsize=None)
+def load_recipes(algo: str) -> dict[str, TrainingRecipe]:
+    """Every recipe of ``algo``'s packaged zoo file, by env id (none without a file)."""
+    import yaml
+
+    algo = algo.lower()
+    path = hyperparameter_file(algo)
+    if not path.is_file():
+        return {}
+    entries = yaml.safe_load(path.read_text()) or {}
+    return {env_id: _recipe(algo, env_id, entry) for env_id, entry in entries.items()}
 
 
 def recipe_for(scene: str, algo: str) -> TrainingRecipe:
     """The recipe of ``scene`` and ``algo`` (any case), or :data:`GENERIC`."""
-    return RECIPES.get((scene, algo.lower()), GENERIC)
+    return load_recipes(algo.lower()).get(scene_env_id(scene), GENERIC)
+
+
+def _linear_schedule(start: float) -> Callable[[float], float]:
+    """SB3's progress runs from 1 to 0: the value falls linearly from ``start`` to 0."""
+    return lambda progress: progress * start
+
+
+def _schedule(key: str, value: Any, where: str) -> Any:
+    if isinstance(value, str):
+        kind, _, number = value.partition("_")
+        try:
+            start = float(number)
+        except ValueError:
+            start = float("nan")
+        if kind != "lin" or not start > 0:
+            raise InvalidInputError(f"{where}: {key} = {value!r}: expected a number or 'lin_<number > 0>'")
+        return _linear_schedule(start)
+    return value
+
+
+def _policy_kwargs(value: Any, where: str) -> dict[str, Any]:
+    """A zoo ``policy_kwargs``: a mapping, or the string ``"dict(key=literal, ...)"`` (read
+    with :mod:`ast`, never evaluated; ``activation_fn=nn.ReLU``/``nn.Tanh`` allowed)."""
+    if isinstance(value, Mapping):
+        return dict(value)
+    bad = InvalidInputError(f"{where}: policy_kwargs = {value!r}: expected dict(key=literal, ...)")
+    try:
+        call = ast.parse(str(value), mode="eval").body
+    except SyntaxError:
+        raise bad from None
+    if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id == "dict" and not call.args):
+        raise bad
+    out: dict[str, Any] = {}
+    for keyword in call.keywords:
+        node = keyword.value
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "nn":
+            import torch.nn
+
+            if node.attr not in ("ReLU", "Tanh", "ELU", "LeakyReLU"):
+                raise bad
+            out[str(keyword.arg)] = getattr(torch.nn, node.attr)
+            continue
+        try:
+            out[str(keyword.arg)] = ast.literal_eval(node)
+        except ValueError:
+            raise bad from None
+    return out
+
+
+def sb3_keywords(hyperparameters: Mapping[str, Any], where: str = "hyperparameters") -> dict[str, Any]:
+    """A recipe's keywords as SB3's constructor takes them: ``lin_<x>`` schedules become
+    functions, a ``policy_kwargs`` string a dict, a ``train_freq`` list a tuple."""
+    out = dict(hyperparameters)
+    for key in ("learning_rate", "clip_range"):
+        if key in out:
+            out[key] = _schedule(key, out[key], where)
+    if "policy_kwargs" in out:
+        out["policy_kwargs"] = _policy_kwargs(out["policy_kwargs"], where)
+    if isinstance(out.get("train_freq"), list):
+        out["train_freq"] = tuple(out["train_freq"])
+    return out

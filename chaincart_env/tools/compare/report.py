@@ -51,17 +51,19 @@ def write_report(
     directory: Path,
     *,
     title: str,
+    verdict: Sequence[str],
     setup: Sequence[str],
     comparison: Sequence[dict[str, Any]],
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
     training: Sequence[str],
     pictures: Sequence[tuple[str, str]],
 ) -> str:
-    """Writes ``report.md`` into ``directory``: the setup, the comparison on the main
-    starts, one table per sweep axis, training notes and the pictures (``(file,
-    caption)``; only files that exist are linked). Returns the text."""
-    parts = [f"# {title}\n\n", *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n",
-             markdown_table(comparison)]
+    """Writes ``report.md`` into ``directory``: the verdict (lines of Markdown), the
+    setup, the comparison on the main starts, one table per sweep axis, training notes
+    and the pictures (``(file, caption)``; only files that exist are linked). Returns
+    the text."""
+    parts = [f"# {title}\n\n", "## Verdict\n\n", *[f"{line}\n" for line in verdict], "\n## Setup\n\n",
+             *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n", markdown_table(comparison)]
     for axis, (label, rows) in sweeps.items():
         parts.append(f"\n## Sweep: {label}\n\n")
         parts.append(sweep_markdown(rows, label))
@@ -80,41 +82,38 @@ def write_report(
 def write_summary_figure(
     path: Path,
     *,
-    curves: dict[str, Sequence[dict[str, Any]]],
-    baseline: dict[str, Any],
+    curves: dict[str, dict[str, Sequence[dict[str, Any]]]],
+    baselines: Sequence[dict[str, Any]],
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
     errors: Sequence[Any],
     tolerances: tuple[float, float],
     filmstrip: Path,
 ) -> None:
-    """One figure: the evaluation learning curve against the baseline, success against
-    each sweep axis with its bands, ``e_q(t)`` of every policy from the first start, and
-    the filmstrip of that start."""
+    """One figure: the evaluation learning curves against the baselines (when something
+    was trained), success against each sweep axis with its bands, ``e_q(t)`` of every
+    policy from the first start, and the filmstrip of that start."""
     from matplotlib.figure import Figure
     from PIL import Image
 
-    from chaincart_env.tools.compare.plots import draw_evaluation_curves, draw_sweep
+    from chaincart_env.tools.compare.plots import draw_errors, draw_evaluation_curves, draw_sweep
 
-    panels = 2 + len(sweeps)
+    panels = (1 if curves else 0) + len(sweeps) + 1
     columns = 2
     rows = (panels + 1) // columns + 1
-    fig = Figure(figsize=(12, 3.6 * rows), dpi=100, layout="constrained")
-    grid = fig.add_gridspec(rows, columns)
+    # The filmstrip's row is taller, so that its chains are large enough to read.
+    strip_height = 5.4
+    fig = Figure(figsize=(12, 3.6 * (rows - 1) + strip_height), dpi=100, layout="constrained")
+    grid = fig.add_gridspec(rows, columns, height_ratios=[3.6] * (rows - 1) + [strip_height])
     axes = [fig.add_subplot(grid[i // columns, i % columns]) for i in range(panels - 1)]
     # The last panel (e_q(t)) takes the rest of its row.
     last = panels - 1
     axes.append(fig.add_subplot(grid[last // columns, last % columns:]))
-    draw_evaluation_curves(axes[0], curves, baseline, "success_rate")
-    for ax, (label, sweep_rows) in zip(axes[1:], sweeps.values()):
+    if curves:
+        draw_evaluation_curves(axes[0], curves, baselines, "success_rate")
+    for ax, (label, sweep_rows) in zip(axes[1 if curves else 0:], sweeps.values()):
         draw_sweep(ax, sweep_rows, label)
-    errors_ax = axes[-1]
-    for run in errors:
-        series = run.e_q[0, : run.lengths[0] + 1]
-        errors_ax.semilogy(np.arange(series.size) * run.dt, np.maximum(series, 1e-8), label=run.policy)
-    errors_ax.axhline(tolerances[0], color="k", ls="--", lw=1, label="success tolerance")
-    errors_ax.set(xlabel="t (s)", ylabel="e_q", title=f"e_q(t) from start seed {int(errors[0].seeds[0])}")
-    errors_ax.grid(alpha=0.3, which="both")
-    errors_ax.legend(loc="best", fontsize="small")
+    draw_errors(axes[-1], errors, "e_q", tolerances[0])
+    axes[-1].set(title=f"e_q(t) from start seed {int(errors[0].seeds[0])}")
     strip_ax = fig.add_subplot(grid[rows - 1, :])
     if Path(filmstrip).is_file():
         strip_ax.imshow(np.asarray(Image.open(filmstrip)))

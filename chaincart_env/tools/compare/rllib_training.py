@@ -11,26 +11,31 @@ iteration), so the learning curve has the resolution of one iteration.
 from __future__ import annotations
 
 import csv
-import logging
-import os
+import json
+import math
+import shutil
 import time
-from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Optional
+from typing import Any, Mapping, Optional
 
 import numpy as np
 
 from chaincart_env._core import ChainCartError
+from chaincart_env.tools.compare.cells import ray_cluster
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.run_files import replace_directory, settled_directory, truncate_csv
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
     "CHECKPOINT_DIR",
     "MODULE_PATH",
+    "RESUME_DIR",
     "RLlibPolicy",
     "RLlibTrainingResult",
-    "ray_cluster",
+    "TrainingProgress",
+    "restore_training",
+    "save_training",
     "record_episode",
     "take_episode_records",
     "train_rllib",
@@ -58,12 +63,17 @@ class RLlibPolicy:
     @classmethod
     def load(cls, checkpoint: Path) -> "RLlibPolicy":
         """The policy in an algorithm checkpoint written by ``compare --trainer rllib``."""
-        from ray.rllib.core.rl_module.rl_module import RLModule
-
         path = Path(checkpoint).resolve().joinpath(*MODULE_PATH)
         if not path.is_dir():
             raise ChainCartError(f"{path} does not exist: expected the RLModule inside an RLlib checkpoint")
-        return cls(RLModule.from_checkpoint(str(path)))
+        return cls.from_module(path)
+
+    @classmethod
+    def from_module(cls, module: Path) -> "RLlibPolicy":
+        """The policy of an RLModule saved in the folder ``module``."""
+        from ray.rllib.core.rl_module.rl_module import RLModule
+
+        return cls(RLModule.from_checkpoint(str(Path(module).resolve())))
 
     def predict(
         self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = False
@@ -110,38 +120,6 @@ def take_episode_records(env_runner: Any) -> list[tuple[float, int, int, int, in
     return records
 
 
-@contextmanager
-def ray_cluster(address: Optional[str], cpus_needed: int) -> Iterator[str]:
-    """Connects to the cluster at ``address`` (``"auto"``: the one this machine is part
-    of), or starts a new local one (even beside a running ``ray start`` cluster) with
-    at least ``cpus_needed`` CPUs, and shuts it down afterwards; a Ray session already
-    started by the caller is used as it is. Yields a description of the cluster; too
-    few CPUs is a ChainCartError."""
-    import ray
-
-    owned = not ray.is_initialized()
-    if owned:
-        if address is None:
-            ray.init(address="local", num_cpus=max(os.cpu_count() or 1, cpus_needed), include_dashboard=False,
-                     logging_level=logging.WARNING)
-        else:
-            ray.init(address=address, logging_level=logging.WARNING)
-    try:
-        cpus = int(ray.cluster_resources().get("CPU", 0))
-        nodes = sum(1 for node in ray.nodes() if node.get("Alive"))
-        local = owned and address is None
-        where = "a local Ray cluster" if local else f"the Ray cluster at {address or 'this session'}"
-        if cpus < cpus_needed:
-            raise ChainCartError(
-                f"{where} has {cpus} CPUs: expected at least {cpus_needed} (one per env runner); "
-                "add machines with `ray start --address=...` or ask for fewer --num-env-runners"
-            )
-        yield f"{where}: {nodes} node(s), {cpus} CPUs"
-    finally:
-        if owned:
-            ray.shutdown()
-
-
 @dataclass(frozen=True)
 class RLlibTrainingResult:
     """What an RLlib training run returns: the policy, wall time, episodes, hyperparameters,
@@ -154,6 +132,12 @@ class RLlibTrainingResult:
     timesteps_trained: int
     iterations: int
     cluster: str
+    #: The Ray node id of each env runner at the end of training.
+    runner_nodes: list[str] = field(default_factory=list)
+    #: Env runners RLlib brought back into service after a failure.
+    runner_restarts: int = 0
+    #: Env steps of the checkpoint the run continued from (0: a fresh start).
+    resumed_from: int = 0
 
 
 def _ppo(config: ChainCartConfig, seed: int, num_env_runners: int, envs_per_runner: int,
@@ -181,49 +165,146 @@ def train_rllib(
     num_env_runners: int = 2,
     envs_per_runner: int = 4,
     address: Optional[str] = None,
-    episodes_csv: Path,
+    directory: Path,
     checkpoint: Path,
+    checkpoint_every: Optional[int] = None,
+    resume: bool = False,
     progress: bool = True,
     hyperparameters: Optional[Mapping[str, Any]] = None,
 ) -> RLlibTrainingResult:
     """Trains RLlib PPO until at least ``timesteps`` env steps were sampled, on
     ``num_env_runners`` runners of ``envs_per_runner`` native envs each (runner ``w``'s
-    env ``i`` starts stream ``(seed + w) * envs_per_runner + i``), and logs the training
-    episodes to ``episodes_csv``; saves the algorithm into ``checkpoint`` and returns
-    the policy loaded back from it (what ``evaluate`` will load)."""
+    env ``i`` starts stream ``(seed + w) * envs_per_runner + i``), logs the training
+    episodes to ``directory/training_episodes.csv``, saves the algorithm into
+    ``checkpoint`` and returns the policy loaded back from it (what ``evaluate`` loads).
+
+    Every ``checkpoint_every`` env steps (after the iteration that passes a multiple)
+    the algorithm is saved into ``directory/checkpoints`` (:func:`save_training`);
+    ``resume=True`` continues from there (:func:`restore_training`, which says what is
+    restored) when it exists, else starts afresh."""
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise ChainCartError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     ppo, settings = _ppo(config, seed, num_env_runners, envs_per_runner, dict(hyperparameters or {}))
+    directory = Path(directory)
     with ray_cluster(address, num_env_runners) as cluster:
         if progress:
             print(f"RLlib on {cluster}")
         algo = ppo.build_algo()
         try:
-            steps, iterations, episodes, wall = _train_loop(algo, timesteps, num_env_runners, episodes_csv, progress)
+            start = TrainingProgress()
+            if resume and (settled_directory(directory / RESUME_DIR) / _STATE).is_file():
+                start = restore_training(algo, directory)
+                print(f"resumed from the checkpoint at {start.steps} env steps (iteration {start.iterations})")
+            done = _train_loop(algo, timesteps, num_env_runners, directory, progress, checkpoint_every, start)
+            nodes = algo.env_runner_group.foreach_env_runner(_node_of, local_env_runner=num_env_runners == 0)
+            restarts = int(algo.env_runner_group.num_remote_worker_restarts())
             algo.save_to_path(str(Path(checkpoint).resolve()))
         finally:
             algo.stop()
     policy = RLlibPolicy.load(checkpoint)
-    return RLlibTrainingResult(policy, wall, episodes, settings, steps, iterations, cluster)
+    return RLlibTrainingResult(policy, done.wall_time_s, done.episodes, settings, done.steps, done.iterations, cluster,
+                               runner_nodes=list(nodes), runner_restarts=restarts, resumed_from=start.steps)
+
+
+def _node_of(env_runner: Any) -> str:
+    """The id of the Ray node a runner runs on (run via ``foreach_env_runner``)."""
+    import ray
+
+    return str(ray.get_runtime_context().get_node_id())
+
+
+@dataclass(frozen=True)
+class TrainingProgress:
+    """Where an RLlib training run stands: env steps sampled, iterations, training
+    episodes logged and wall time spent (over all its sessions)."""
+
+    steps: int = 0
+    iterations: int = 0
+    episodes: int = 0
+    wall_time_s: float = 0.0
+
+
+#: The folder of a run (beside its log) that holds its periodic checkpoint.
+RESUME_DIR = "checkpoints"
+_ALGORITHM, _STATE = "algorithm", "state.json"
+EPISODES_FILE = "training_episodes.csv"
+
+
+def save_training(algo: Any, directory: Path, progress: TrainingProgress) -> None:
+    """Saves the algorithm (RLlib's checkpoint: the learner's RLModule and optimizer
+    states, the env runners' connector states and weights, the metrics with the
+    lifetime step counters, the iteration count) and ``progress`` into
+    ``directory/checkpoints``, swapped in whole."""
+    staging = directory / (RESUME_DIR + ".tmp")
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(parents=True)
+    algo.save_to_path(str((staging / _ALGORITHM).resolve()))
+    (staging / _STATE).write_text(json.dumps(asdict(progress), indent=2) + "\n")
+    replace_directory(staging, directory / RESUME_DIR)
+
+
+def restore_training(algo: Any, directory: Path) -> TrainingProgress:
+    """Puts ``algo`` (built from the run's settings) back where ``directory``'s
+    checkpoint left it, cuts the episode log back to it, and returns the progress saved
+    with it.
+
+    Restored exactly: the policy and value networks and the optimizer's state (so the
+    next update starts from the same parameters and Adam moments), the weights every
+    env runner acts with, the connector states, the lifetime counters (env steps
+    sampled, hence the budget still to go) and the iteration count; the episode log
+    and the wall time continue from the checkpoint.
+
+    Not restored: the envs' episodes in progress and their random streams (the
+    runners are new processes: runner ``w``'s env ``i`` starts its stream
+    ``(seed + w) * n + i`` again from its first episode), and the random state of the
+    runners' exploration and of the learner's minibatch shuffling (seeded again from
+    the run's seed). A resumed run therefore samples other episodes than the
+    uninterrupted run would have after the checkpoint: it is reproducible, but not
+    equal to the uninterrupted run bit for bit (an SB3 run is)."""
+    checkpoint = Path(directory) / RESUME_DIR
+    progress = TrainingProgress(**json.loads((checkpoint / _STATE).read_text()))
+    algo.restore_from_path(str((checkpoint / _ALGORITHM).resolve()))
+    # RLlib (2.60) sends the restored weights to the remote runners without waiting
+    # for them, and the runners were seen sampling with their initial weights after a
+    # restore: send them again, and wait until every runner has them.
+    algo.env_runner_group.sync_weights(
+        from_worker_or_learner_group=algo.learner_group, inference_only=True, timeout_seconds=_SYNC_TIMEOUT_S
+    )
+    truncate_csv(Path(directory) / EPISODES_FILE, progress.episodes)
+    return progress
+
+
+#: How long a restore waits for the runners to take the restored weights.
+_SYNC_TIMEOUT_S = 300.0
 
 
 def _train_loop(
-    algo: Any, timesteps: int, num_env_runners: int, episodes_csv: Path, progress: bool
-) -> tuple[int, int, int, float]:
-    """Trains until ``timesteps`` env steps were sampled; returns the steps, iterations,
-    episodes and wall time."""
+    algo: Any,
+    timesteps: int,
+    num_env_runners: int,
+    directory: Path,
+    progress: bool,
+    checkpoint_every: Optional[int],
+    start: TrainingProgress,
+) -> TrainingProgress:
+    """Trains from ``start`` until ``timesteps`` env steps were sampled, checkpointing
+    every ``checkpoint_every`` env steps; returns where it ended."""
     from ray.rllib.utils.metrics import NUM_ENV_STEPS_SAMPLED_LIFETIME
 
-    steps = iterations = episodes = 0
-    start = time.perf_counter()
-    with Path(episodes_csv).open("w", newline="") as file:
+    steps, iterations, episodes = start.steps, start.iterations, start.episodes
+    clock = time.perf_counter() - start.wall_time_s
+    every = checkpoint_every or math.inf
+    next_checkpoint = (steps // every + 1) * every
+    resumed = start != TrainingProgress()
+    with (directory / EPISODES_FILE).open("a" if resumed else "w", newline="") as file:
         writer = csv.writer(file)
-        writer.writerow(TRAINING_EPISODE_COLUMNS)
+        if not resumed:
+            writer.writerow(TRAINING_EPISODE_COLUMNS)
         while steps < timesteps:
             result = algo.train()
             iterations += 1
             steps = int(result[NUM_ENV_STEPS_SAMPLED_LIFETIME])
-            elapsed = time.perf_counter() - start
+            elapsed = time.perf_counter() - clock
             batches = algo.env_runner_group.foreach_env_runner(
                 take_episode_records, local_env_runner=num_env_runners == 0
             )
@@ -237,4 +318,7 @@ def _train_loop(
                 mean = f"{np.mean(returns):.1f}" if returns else "-"
                 print(f"iteration {iterations}: {steps} env steps, {len(returns)} episodes, mean return {mean}, "
                       f"{elapsed:.1f} s")
-    return steps, iterations, episodes, time.perf_counter() - start
+            if next_checkpoint <= steps < timesteps:
+                save_training(algo, directory, TrainingProgress(steps, iterations, episodes, elapsed))
+                next_checkpoint = (steps // every + 1) * every
+    return TrainingProgress(steps, iterations, episodes, time.perf_counter() - clock)

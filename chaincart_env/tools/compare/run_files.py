@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,8 @@ from chaincart_env.config import ChainCartConfig
 
 __all__ = [
     "BEST_MODEL_FILE", "CONFIG_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "MODEL_FILE", "RUN_FILE", "SavedRun",
-    "load_run", "read_evaluations", "save_run",
+    "folder_contents", "load_run", "read_evaluations", "read_json_object", "replace_directory", "save_run",
+    "settled_directory", "truncate_csv", "write_folder",
 ]  # fmt: skip
 
 MODEL_FILE = "model.zip"
@@ -49,7 +51,8 @@ def save_run(directory: Path, model: Any, config: ChainCartConfig, info: dict[st
     (directory / RUN_FILE).write_text(json.dumps(info, indent=2, default=repr) + "\n")
 
 
-def _json(path: Path) -> dict[str, Any]:
+def read_json_object(path: Path) -> dict[str, Any]:
+    """A run's JSON file (``run.json``, ``config.json``), which must exist and hold an object."""
     if not path.is_file():
         raise InvalidInputError(f"{path} does not exist: expected the {path.name} that compare writes beside the model")
     data = json.loads(path.read_text())
@@ -70,7 +73,7 @@ def load_run(path: Path) -> SavedRun:
         from chaincart_env.tools.compare.rllib_training import RLlibPolicy
 
         directory = path
-        info = _json(directory / RUN_FILE)
+        info = read_json_object(directory / RUN_FILE)
         model: Any = RLlibPolicy.load(directory / CHECKPOINT_DIR)
     else:
         if path.is_dir():
@@ -83,11 +86,11 @@ def load_run(path: Path) -> SavedRun:
             )
         if not model_path.is_file():
             raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
-        info = _json(directory / RUN_FILE)
+        info = read_json_object(directory / RUN_FILE)
         from chaincart_env.tools.compare.algorithms import algorithm_class
 
         model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
-    config = ChainCartConfig(**_json(directory / CONFIG_FILE))
+    config = ChainCartConfig(**read_json_object(directory / CONFIG_FILE))
     return SavedRun(model=model, config=config, info=info, directory=directory)
 
 
@@ -105,3 +108,48 @@ def read_evaluations(path: Path) -> list[dict[str, float]]:
     """The rows of an ``evaluations.csv`` as numbers."""
     with Path(path).open(newline="") as file:
         return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(file)]
+
+
+def replace_directory(staging: Path, final: Path) -> None:
+    """Swaps the finished folder ``staging`` in as ``final`` (the previous ``final``
+    stays whole until the new one is in place; :func:`settled_directory` finds it
+    after an interruption between the two renames), e.g. a checkpoint written by parts."""
+    old = final.with_name(final.name + ".old")
+    shutil.rmtree(old, ignore_errors=True)
+    if final.exists():
+        final.rename(old)
+    staging.rename(final)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def folder_contents(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` by its path relative to it (empty if it is missing):
+    a run folder as data, to send from one machine to another."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return {}
+    return {path.relative_to(folder).as_posix(): path.read_bytes() for path in sorted(folder.rglob("*")) if path.is_file()}
+
+
+def write_folder(folder: Path, contents: dict[str, bytes]) -> None:
+    """Writes :func:`folder_contents` back under ``folder`` (replacing files of the same name)."""
+    for name, data in contents.items():
+        path = Path(folder) / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+
+
+def truncate_csv(path: Path, rows: int) -> None:
+    """Keeps the header and the first ``rows`` data rows of a CSV file."""
+    lines = Path(path).read_text().splitlines(keepends=True)
+    Path(path).write_text("".join(lines[: rows + 1]))
+
+
+def settled_directory(final: Path) -> Path:
+    """``final`` as :func:`replace_directory` leaves it, also when it was interrupted
+    after moving the previous version aside and before moving the new one in (the
+    previous one is then put back)."""
+    old = final.with_name(final.name + ".old")
+    if not final.exists() and old.is_dir():
+        old.rename(final)
+    return final

@@ -15,7 +15,7 @@ import json
 from typing import Any, Optional, Sequence
 
 from chaincart_env import _core
-from chaincart_env.config import ChainCartConfig
+from chaincart_env.config import ChainCartConfig, unknown_keyword_message
 from chaincart_env.tools.config_docs import option_help
 from chaincart_env.errors import InvalidInputError
 
@@ -46,7 +46,7 @@ def parse_assignment(text: str) -> tuple[str, Any]:
     if not sep or not key:
         raise InvalidInputError(f"--set {text!r}: expected key=value, e.g. --set start_noise=0.1")
     if key not in CONFIG_KEYS:
-        raise InvalidInputError(f"unknown scene key {key!r} in --set {text!r}: expected one of {list(CONFIG_KEYS)}")
+        raise InvalidInputError(f"--set {text!r}: {unknown_keyword_message(key)}")
     return key, parse_value(value)
 
 

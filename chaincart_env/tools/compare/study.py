@@ -1,27 +1,34 @@
 """Evaluation of a study: every trained agent (the final and the best-by-evaluation
-model of each training seed) and the LQR baseline, on the main evaluation starts and
-over every sweep axis, with the tables, pictures, ``report.md`` and ``summary.png``."""
+model of each learned algorithm and training seed) and every model-based controller
+(with the oracle LQR where the true system can differ from the model), on the main
+evaluation starts and over every sweep axis, with the tables, pictures, ``report.md``
+and ``summary.png``."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional, Sequence
+from typing import Any, Mapping, Optional, Sequence
 
-from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, evaluate_policies, evaluation_seeds
-from chaincart_env.tools.compare.filmstrip import write_filmstrip
-from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
-from chaincart_env.tools.compare.report import SUMMARY_FIGURE, write_report, write_summary_figure
-from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, EVALUATIONS_FILE, load_run, read_evaluations
-from chaincart_env.tools.compare.statistics import aggregate_over_seeds
-from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, run_sweep, summarize_sweep
-from chaincart_env.tools.compare.tables import write_csv, write_markdown
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.tools.compare.cells import map_cells
+from chaincart_env.tools.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, Rollouts, evaluation_seeds, rollout, tabulate
+from chaincart_env.tools.compare.filmstrip import write_filmstrip
+from chaincart_env.tools.compare.layout import TrainingRun, seed_directory
+from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
+from chaincart_env.tools.compare.policy_sources import PolicySource
+from chaincart_env.tools.compare.report import SUMMARY_FIGURE, write_report, write_summary_figure
+from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, read_evaluations, read_json_object
+from chaincart_env.tools.compare.statistics import aggregate_over_seeds
+from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, summarize_sweep, sweep_rows
+from chaincart_env.tools.compare.tables import write_csv, write_markdown
+from chaincart_env.tools.compare.verdict import Standing, main_starts_rate, study_verdict
+from chaincart_env.tools.controllers import build_model_based, label_of
 
 __all__ = [
-    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TrainedPolicy", "describe", "evaluate_study", "lqr_baseline",
-    "policy_label", "seed_directory", "trained_policies",
+    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES", "EvaluationCell", "StudyEvaluation",
+    "SweepPoint", "TrainedPolicy", "describe", "evaluate_cell", "evaluate_study", "lqr_baseline",
+    "model_based_sources", "policy_label", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
 #: What the evaluation of a study writes.
@@ -29,16 +36,15 @@ EVALUATION_FILES = (
     "comparison.csv", "comparison.md", "episodes.csv", "seeds.csv", "errors.png", "filmstrip.png",
     "sweeps.csv", "sweep_summary.csv", "evaluation_curve.png", "report.md", SUMMARY_FIGURE,
 )
+#: The files of :data:`EVALUATION_FILES` that only a study with a learned policy writes.
+TRAINING_EVALUATION_FILES = ("seeds.csv", "evaluation_curve.png")
 #: Columns of ``seeds.csv``: each trained policy's numbers aggregated over training seeds.
 AGGREGATE_COLUMNS = (
     "policy", "seeds", "success_mean", "success_ci_low", "success_ci_high", "return_mean", "return_ci_low",
     "return_ci_high",
 )
-
-
-def seed_directory(out: Path, seed: int) -> Path:
-    """Where training seed ``seed`` of a study keeps its agent and logs."""
-    return Path(out) / f"seed-{seed}"
+#: The oracle LQR's name in the tables.
+ORACLE = "LQR oracle"
 
 
 def policy_label(algo: str, trainer: str = "sb3") -> str:
@@ -60,16 +66,10 @@ def lqr_baseline(config: ChainCartConfig, oracle: bool = False) -> Any:
     model; ``oracle=True``: per episode on the true parameters of the batch it is
     evaluated on); a scene it cannot serve (e.g. no force) is an InvalidInputError
     naming it."""
-    from chaincart_env.env import ChainCartEnv
-    from chaincart_env.lqr import LQRPolicy
-
-    try:
-        return LQRPolicy.from_env(ChainCartEnv(config), oracle=oracle)
-    except ValueError as error:
-        raise InvalidInputError(f"no LQR baseline for scene {config.scene!r}: {error}") from None
+    return build_model_based("lqr", config, oracle=oracle)
 
 
-def _has_parameter_gap(config: ChainCartConfig, sweeps: dict[str, Sequence[float]]) -> bool:
+def _has_parameter_gap(config: ChainCartConfig, sweeps: Mapping[str, Sequence[float]]) -> bool:
     return config.has_param_gap or any(v > 0 for v in sweeps.get("mismatch", ()))
 
 
@@ -79,7 +79,7 @@ class TrainedPolicy:
 
     label: str
     seed: int
-    policy: Any
+    source: PolicySource
 
     @property
     def name(self) -> str:
@@ -87,20 +87,37 @@ class TrainedPolicy:
         return f"{self.label} (seed {self.seed})"
 
 
-def trained_policies(out: Path, seeds: Sequence[int]) -> list[TrainedPolicy]:
-    """The final model of each seed, then each seed's best model by training-time
-    evaluation (where one was kept)."""
-    finals, bests = [], []
-    for seed in seeds:
-        run = load_run(seed_directory(out, seed))
-        label = policy_label(str(run.info["algo"]), str(run.info.get("trainer", "sb3")))
-        finals.append(TrainedPolicy(label, seed, run.model))
-        best = seed_directory(out, seed) / BEST_MODEL_FILE
-        if best.is_file():
-            from chaincart_env.tools.compare.algorithms import algorithm_class
+def trained_policies(out: Path, runs: Sequence[TrainingRun]) -> list[TrainedPolicy]:
+    """The trained agents of ``runs``, algorithm by algorithm: the final model of each
+    seed, then each seed's best model by training-time evaluation (where one was kept)."""
+    policies: list[TrainedPolicy] = []
+    for algo in dict.fromkeys(run.algo for run in runs):
+        finals, bests = [], []
+        for run in (r for r in runs if r.algo == algo):
+            directory = run.directory(out)
+            info = read_json_object(directory / RUN_FILE)
+            label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
+            finals.append(TrainedPolicy(label, run.seed, PolicySource.of_run(directory)))
+            best = PolicySource.best_of_run(directory)
+            if best is not None:
+                bests.append(TrainedPolicy(f"{label} best", run.seed, best))
+        policies += finals + bests
+    return policies
 
-            bests.append(TrainedPolicy(f"{label} best", seed, algorithm_class(str(run.info["algo"])).load(best, device="cpu")))
-    return finals + bests
+
+def model_based_sources(
+    config: ChainCartConfig, controllers: Sequence[str], sweeps: Mapping[str, Sequence[float]]
+) -> dict[str, PolicySource]:
+    """The model-based controllers of a study by their name in the tables, each built
+    once here so that one that cannot serve the scene fails before anything runs; with
+    the LQR, the oracle LQR where the true system can differ from the model."""
+    sources: dict[str, PolicySource] = {}
+    for name in controllers:
+        build_model_based(name, config)
+        sources[label_of(name)] = PolicySource.model_based(name, config)
+    if "lqr" in controllers and _has_parameter_gap(config, sweeps):
+        sources[ORACLE] = PolicySource.lqr(config, oracle=True)
+    return sources
 
 
 def _aggregate_rows(summaries: Sequence[dict[str, Any]], trained: Sequence[TrainedPolicy]) -> list[dict[str, Any]]:
@@ -118,46 +135,168 @@ def _aggregate_rows(summaries: Sequence[dict[str, Any]], trained: Sequence[Train
     return rows
 
 
-def _sweep(
-    trained: Sequence[TrainedPolicy], baselines: Sequence[tuple[str, Any]], config: ChainCartConfig, axis: str,
-    values: Sequence[float], seeds: Sequence[int],
+@dataclass(frozen=True)
+class EvaluationCell:
+    """One policy (by its name in the tables) on one scene variant, from the study's
+    seeded starts: an independent piece of the evaluation."""
+
+    policy: str
+    config: ChainCartConfig
+    seeds: tuple[int, ...]
+
+
+def evaluate_cell(sources: Mapping[str, PolicySource], cell: EvaluationCell) -> Rollouts:
+    """The rollouts of one :class:`EvaluationCell` (``sources``: the policies by name)."""
+    return rollout(sources[cell.policy].load(), cell.policy, cell.config, cell.seeds)
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One value of a sweep axis and the scene variant it makes."""
+
+    axis: str
+    value: float
+    config: ChainCartConfig
+
+
+def _sweep_points(config: ChainCartConfig, sweeps: Mapping[str, Sequence[float]]) -> list[SweepPoint]:
+    return [
+        SweepPoint(axis, value, SWEEP_AXES[axis].apply(config, float(value)))
+        for axis, values in sweeps.items() for value in values
+    ]
+
+
+def _sweep_rows(
+    points: Sequence[SweepPoint], runs: Sequence[Rollouts], trained: Sequence[TrainedPolicy]
 ) -> list[dict[str, Any]]:
-    named = [(t.name, t.policy) for t in trained] + list(baselines)
-    rows = run_sweep(named, config, axis, values, seeds)
+    """The rows of every sweep point (``runs``: every policy at each point in turn),
+    trained policies labelled by their label and seed."""
+    per_point = len(runs) // max(1, len(points))
     owner = {t.name: t for t in trained}
+    rows: list[dict[str, Any]] = []
+    for k, point in enumerate(points):
+        rows.extend(sweep_rows(point.axis, point.value, runs[k * per_point:(k + 1) * per_point],
+                               point.config.success_tolerances))
     for row in rows:
         if row["policy"] in owner:
             row["seed"], row["policy"] = owner[row["policy"]].seed, owner[row["policy"]].label
     return rows
 
 
+def _seed_line(row: dict[str, Any]) -> str:
+    """A trained policy's numbers over its training seeds (an interval only with several)."""
+    if row["seeds"] < 2:
+        return (f"{row['policy']}, one training seed: success {row['success_mean']:.2f}, return "
+                f"{row['return_mean']:.1f}. One seed gives no interval over seeds (train several with --seeds).")
+    return (
+        f"{row['policy']} over {row['seeds']} training seeds: success {row['success_mean']:.2f} "
+        f"[{row['success_ci_low']:.2f}, {row['success_ci_high']:.2f}], return {row['return_mean']:.1f} "
+        f"[{row['return_ci_low']:.1f}, {row['return_ci_high']:.1f}] (mean over seeds, 95% percentile bootstrap "
+        "interval over seeds)."
+    )
+
+
+def _standings(
+    trained: Sequence[TrainedPolicy], model_based: Sequence[str], summaries: Sequence[dict[str, Any]],
+    aggregates: Sequence[dict[str, Any]],
+) -> tuple[list[Standing], list[Standing]]:
+    """The learned policies (their final models, over seeds) and the model-based
+    controllers (the oracle apart) as the verdict weighs them."""
+    by_name = {s["policy"]: s for s in summaries}
+    learned = []
+    for aggregate in aggregates:
+        if aggregate["policy"].endswith(" best"):
+            continue
+        first_seed = next(t for t in trained if t.label == aggregate["policy"])
+        rate = main_starts_rate(by_name[first_seed.name], aggregate)
+        learned.append(Standing(aggregate["policy"], int(aggregate["seeds"]), rate, aggregate["return_mean"]))
+    designed = [
+        Standing(name, 0, main_starts_rate(by_name[name]), by_name[name]["return_mean"])
+        for name in model_based if name != ORACLE
+    ]
+    return learned, designed
+
+
+def _evaluation_curves(out: Path, runs: Sequence[TrainingRun]) -> dict[str, dict[str, Sequence[dict[str, Any]]]]:
+    """The training-time evaluations of every run that logged them, by trained policy's
+    label and then by seed."""
+    curves: dict[str, dict[str, Sequence[dict[str, Any]]]] = {}
+    for run in runs:
+        log = run.directory(out) / EVALUATIONS_FILE
+        if log.is_file():
+            info = read_json_object(run.directory(out) / RUN_FILE)
+            label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
+            curves.setdefault(label, {})[str(run.seed)] = read_evaluations(log)
+    return curves
+
+
+@dataclass(frozen=True)
+class StudyEvaluation:
+    """What :func:`evaluate_study` found: the summaries of the main comparison (one per
+    policy and seed) and, when the verdict's baseline is model-based, its summary."""
+
+    summaries: list[dict[str, Any]]
+    baseline: Optional[dict[str, Any]]
+
+
+def _title(contenders: Sequence[str], baseline: str) -> str:
+    against = "the paper's LQR" if baseline == "LQR" else baseline
+    return f"{' and '.join(contenders)} vs {against}" if contenders else baseline
+
+
 def evaluate_study(
     out: Path,
     config: ChainCartConfig,
     *,
-    seeds: Sequence[int],
+    runs: Sequence[TrainingRun],
+    model_based: Sequence[str],
     eval_seed: int,
     eval_episodes: int,
-    sweeps: dict[str, Sequence[float]],
+    sweeps: Mapping[str, Sequence[float]],
     into: Optional[Path] = None,
     training_notes: Sequence[str] = (),
-) -> list[dict[str, Any]]:
-    """Evaluates the study in ``out`` (its seeds' agents and the LQR baseline) and writes
-    :data:`EVALUATION_FILES` into ``into`` (default ``out``); returns the summaries of
-    the main comparison (one per policy and seed, then the LQR, then the oracle LQR
-    where the true system can differ from the model)."""
+    distributed: bool = False,
+    torch_threads: Optional[int] = None,
+) -> StudyEvaluation:
+    """Evaluates the study in ``out`` (the agents of its training ``runs`` and the
+    ``model_based`` controllers, by name) and writes :data:`EVALUATION_FILES` into
+    ``into`` (default ``out``; :data:`TRAINING_EVALUATION_FILES` only with a trained
+    agent). The main comparison has one summary per trained policy and seed, then one
+    per model-based controller, then the oracle LQR where the true system can differ
+    from the model. Every policy on every scene variant is one :class:`EvaluationCell`;
+    ``distributed``: the cells run as Ray tasks on the connected cluster
+    (:func:`~chaincart_env.tools.compare.cells.map_cells`), with the same results."""
     into = Path(out) if into is None else Path(into)
     into.mkdir(parents=True, exist_ok=True)
-    starts = evaluation_seeds(eval_seed, eval_episodes)
-    trained, baseline = trained_policies(out, seeds), lqr_baseline(config)
-    oracle = [("LQR oracle", lqr_baseline(config, oracle=True))] if _has_parameter_gap(config, sweeps) else []
-    baselines = [("LQR", baseline)] + oracle
-    policies = [(t.name, t.policy) for t in trained] + baselines
-    runs, episodes, summaries = evaluate_policies(policies, config, starts)
+    starts = tuple(evaluation_seeds(eval_seed, eval_episodes))
+    designed = model_based_sources(config, model_based, sweeps)  # a controller that cannot serve fails here
+    trained = trained_policies(out, runs)
+    sources = {**{t.name: t.source for t in trained}, **designed}
+    points = _sweep_points(config, sweeps)
+    cells = [EvaluationCell(name, variant, starts) for variant in [config] + [p.config for p in points]
+             for name in sources]
+    all_runs = map_cells(evaluate_cell, cells, shared=sources, distributed=distributed, torch_threads=torch_threads)
+    runs_here = all_runs[: len(sources)]
+    episodes, summaries = tabulate(runs_here, config.success_tolerances)
     write_csv(into / "comparison.csv", summaries, METRIC_COLUMNS)
     write_csv(into / "episodes.csv", episodes, EPISODE_COLUMNS)
     aggregates = _aggregate_rows(summaries, trained)
-    write_csv(into / "seeds.csv", aggregates, AGGREGATE_COLUMNS)
+    if trained:
+        write_csv(into / "seeds.csv", aggregates, AGGREGATE_COLUMNS)
+
+    rows = _sweep_rows(points, all_runs[len(sources):], trained)
+    summaries_by_axis: dict[str, tuple[str, Sequence[dict[str, Any]]]] = {}
+    for axis in sweeps:
+        summary = summarize_sweep([row for row in rows if row["axis"] == axis])
+        summaries_by_axis[axis] = (SWEEP_AXES[axis].label, summary)
+        plot_sweep(into / f"sweep_{axis}.png", summary, SWEEP_AXES[axis].label)
+    write_csv(into / "sweeps.csv", rows, ("seed",) + SWEEP_COLUMNS)
+    write_csv(into / "sweep_summary.csv", [r for _, rows in summaries_by_axis.values() for r in rows],
+              SWEEP_SUMMARY_COLUMNS)
+
+    learned, model = _standings(trained, list(designed), summaries, aggregates)
+    verdict = study_verdict(learned, model, summaries_by_axis, eval_episodes)
+    title = _title(verdict.contenders, verdict.baseline.label)
     tol_q, tol_w = config.success_tolerances
     notes = [
         describe(config),
@@ -166,43 +305,31 @@ def evaluate_study(
         f"Success: the episode reaches the time limit with e_q <= {tol_q} and e_w <= {tol_w}. Time to settle: the "
         "first time after which e_q and e_w stay within these tolerances to the end (successful episodes only).",
     ]
-    print(write_markdown(into / "comparison.md", f"{trained[0].label} vs LQR", summaries, notes))
-    first_and_lqr = [runs[0], runs[len(trained)]]
-    plot_errors(into / "errors.png", first_and_lqr, config.success_tolerances)
-    write_filmstrip(into / "filmstrip.png", first_and_lqr, config)
+    print(write_markdown(into / "comparison.md", title, summaries, notes))
+    # One start, one row per policy: the first seed's final agent of each learned policy, each design.
+    first_seed = runs[0].seed if runs else None
+    shown = [t.name for t in trained if not t.label.endswith(" best") and t.seed == first_seed]
+    shown += [name for name in designed if name != ORACLE]
+    first_runs = [run for run in runs_here if run.policy in shown]
+    plot_errors(into / "errors.png", first_runs, config.success_tolerances)
+    write_filmstrip(into / "filmstrip.png", first_runs, config)
 
-    sweep_rows, summaries_by_axis = [], {}
-    for axis, values in sweeps.items():
-        rows = _sweep(trained, baselines, config, axis, values, starts)
-        sweep_rows.extend(rows)
-        summary = summarize_sweep(rows)
-        summaries_by_axis[axis] = (SWEEP_AXES[axis].label, summary)
-        plot_sweep(into / f"sweep_{axis}.png", summary, SWEEP_AXES[axis].label)
-    write_csv(into / "sweeps.csv", sweep_rows, ("seed",) + SWEEP_COLUMNS)
-    write_csv(into / "sweep_summary.csv", [r for _, rows in summaries_by_axis.values() for r in rows],
-              SWEEP_SUMMARY_COLUMNS)
-
-    curves = {
-        str(seed): read_evaluations(seed_directory(out, seed) / EVALUATIONS_FILE)
-        for seed in seeds if (seed_directory(out, seed) / EVALUATIONS_FILE).is_file()
-    }
-    lqr_summary = summaries[len(trained)]
-    plot_evaluation_curves(into / "evaluation_curve.png", curves, lqr_summary)
-    write_summary_figure(into / SUMMARY_FIGURE, curves=curves, baseline=lqr_summary, sweeps=summaries_by_axis,
-                         errors=first_and_lqr, tolerances=config.success_tolerances, filmstrip=into / "filmstrip.png")
-    seed_lines = [
-        f"{row['policy']} over {row['seeds']} training seed(s): success {row['success_mean']:.2f}"
-        + (f" [{row['success_ci_low']:.2f}, {row['success_ci_high']:.2f}]" if row["seeds"] > 1 else "")
-        + f", return {row['return_mean']:.1f}"
-        + (f" [{row['return_ci_low']:.1f}, {row['return_ci_high']:.1f}]" if row["seeds"] > 1 else "")
-        + " (mean over seeds, 95% percentile bootstrap interval over seeds)." for row in aggregates
-    ]
+    curves = _evaluation_curves(out, runs)
+    by_name = {s["policy"]: s for s in summaries}
+    references = [by_name[name] for name in designed if name != ORACLE]
+    if trained:  # (an RLlib run logs no evaluations during training: the baselines alone)
+        plot_evaluation_curves(into / "evaluation_curve.png", curves, references)
+    write_summary_figure(into / SUMMARY_FIGURE, curves=curves, baselines=references, sweeps=summaries_by_axis,
+                         errors=first_runs, tolerances=config.success_tolerances, filmstrip=into / "filmstrip.png")
+    print("\n".join(["", "Verdict:", *verdict.lines]))
     write_report(
-        into, title=f"{trained[0].label} vs the paper's LQR", setup=notes + seed_lines, comparison=summaries,
+        into, title=title, verdict=verdict.lines,
+        setup=notes + [_seed_line(row) for row in aggregates], comparison=summaries,
         sweeps=summaries_by_axis, training=training_notes,
         pictures=[(SUMMARY_FIGURE, "summary"), ("evaluation_curve.png", "deterministic evaluation during training"),
                   *[(f"sweep_{axis}.png", f"success vs {SWEEP_AXES[axis].label}") for axis in sweeps],
                   ("errors.png", "e_q(t) and e_w(t) from the first start"),
                   ("filmstrip.png", "the first start, one row per policy")],
     )
-    return summaries
+    baseline = verdict.baseline
+    return StudyEvaluation(summaries, by_name.get(baseline.label) if baseline.seeds == 0 else None)

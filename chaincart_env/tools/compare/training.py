@@ -21,6 +21,7 @@ from chaincart_env.config import ChainCartConfig
 from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
+    "check_keywords",
     "steps_trained",
     "TRAINING_EPISODE_COLUMNS",
     "EpisodeCsvLogger",
@@ -103,10 +104,35 @@ class TrainingResult:
 EPISODES_FILE = "training_episodes.csv"
 
 
+#: Constructor arguments the trainer sets itself.
+_SET_BY_TRAINER = ("self", "policy", "env", "seed", "device", "verbose", "_init_setup_model")
+
+
+def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
+    """Checks, before anything trains, that ``hyperparameters`` are keywords of
+    ``algo``'s constructor (an InvalidInputError naming the others) and that their
+    values are what :func:`~chaincart_env.tools.compare.recipes.sb3_keywords` reads."""
+    import inspect
+
+    from chaincart_env.tools.compare.recipes import sb3_keywords
+
+    cls = algorithm_class(algo)
+    accepted = sorted(set(inspect.signature(cls.__init__).parameters) - set(_SET_BY_TRAINER))
+    unknown = sorted(set(hyperparameters) - set(accepted))
+    if unknown:
+        raise InvalidInputError(
+            f"{algo} keywords {unknown}: not keywords of {cls.__name__}; expected some of {', '.join(accepted)}"
+        )
+    sb3_keywords(hyperparameters, f"{algo} keywords")
+
+
 def _new_agent(algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any]) -> BaseAlgorithm:
+    from chaincart_env.tools.compare.recipes import sb3_keywords
+
+    keywords = sb3_keywords(kwargs)  # checked before the envs are built
     venv = VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed))
     try:
-        return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
+        return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
     except TypeError as error:  # an unknown or ill-typed keyword
         raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
 
@@ -150,6 +176,7 @@ def train(
     ends as the uninterrupted run would)."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
+    from chaincart_env.tools.compare.run_files import settled_directory
 
     cls = algorithm_class(algo)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
@@ -157,7 +184,7 @@ def train(
     kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    resuming = resume and (directory / CHECKPOINT_DIR).is_dir()
+    resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs)
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)

@@ -55,9 +55,12 @@ def run_together(a: gym.vector.VectorEnv, b: gym.vector.VectorEnv, mode: Autores
     return ends
 
 
+@pytest.mark.parametrize("diagnostics", [False, True])
 @pytest.mark.parametrize("mode", MODES)
-def test_native_equals_sync_vector_env(mode: AutoresetMode) -> None:
-    envs, reference = native(mode), sync(mode)
+def test_native_equals_sync_vector_env(mode: AutoresetMode, diagnostics: bool) -> None:
+    # With diagnostics, an env's reset step (next-step) carries none, and an ended
+    # env's (same-step) are in final_info, as SyncVectorEnv gathers them.
+    envs, reference = native(mode, diagnostics=diagnostics), sync(mode, diagnostics=diagnostics)
     assert envs.observation_space == reference.observation_space
     assert envs.single_observation_space == reference.single_observation_space
     assert envs.action_space == reference.action_space and envs.single_action_space == reference.single_action_space
@@ -92,6 +95,27 @@ def test_stepping_before_the_first_reset_raises(make: Callable) -> None:
         envs.step(envs.action_space.sample())
     envs.reset(seed=0)
     envs.step(envs.action_space.sample())
+
+
+@pytest.mark.parametrize("make", [native, sync], ids=["native", "sync"])
+@pytest.mark.parametrize("actions", [0, 0.5, np.float32(0.1), np.array(0.3), None, True], ids=repr)
+def test_a_scalar_action_is_a_type_error_like_sync(make: Callable, actions: Any) -> None:
+    envs = make()
+    envs.reset(seed=0)
+    with pytest.raises(TypeError):
+        envs.step(actions)
+
+
+def test_a_scalar_action_names_the_value_and_moves_no_env() -> None:
+    envs, twin = native(), native()
+    envs.reset(seed=0)
+    twin.reset(seed=0)
+    with pytest.raises(InvalidTypeError, match=r"actions = 0: expected an array of shape \(4, 1\), not a scalar"):
+        envs.step(0)
+    with pytest.raises(ValueError):  # an InvalidTypeError is an InvalidInputError too
+        envs.step(0.5)
+    zeros = np.zeros((N, 1), np.float32)
+    assert data_equivalence(envs.step(zeros), twin.step(zeros), exact=True)
 
 
 def test_reset_options_have_gymnasiums_exception_types() -> None:

@@ -3,8 +3,10 @@ extras into a fresh venv (numpy and gymnasium only), used from a directory outsi
 the source tree. Every command either works or says which extra to install.
 
 The wheel is built with ``maturin build --release`` in the source tree's cargo target
-directory, so it reuses the release build of ``scripts/setup.sh`` (with the same
-CARGO_PROFILE_* variables, e.g. the faster dev settings of HELPERS-style builds)."""
+directory for this interpreter, as ``scripts/setup.sh`` builds the extension (it runs
+``maturin develop --release`` with the same python, whose path maturin hands to PyO3's
+build script as PYO3_PYTHON): cargo finds the release build of set-up fresh, and
+neither command invalidates the other's build."""
 
 from __future__ import annotations
 
@@ -30,10 +32,14 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     assert (ROOT / "Cargo.toml").is_file(), "the wheel test runs from a source checkout"
     wheels = tmp_path_factory.mktemp("wheels")
     build = subprocess.run(
-        [sys.executable, "-m", "maturin", "build", "--release", "--quiet", "-o", str(wheels)],
+        [sys.executable, "-m", "maturin", "build", "--release", "--interpreter", sys.executable, "-o", str(wheels)],
         cwd=ROOT, capture_output=True, text=True, env=clean_environ(), timeout=1500,
     )  # fmt: skip
     assert build.returncode == 0, build.stderr[-3000:]
+    # Only a change of the Rust sources since set-up may compile anything here (the
+    # chaincart crate); PyO3's crates recompile when the interpreter or environment
+    # differs from set-up's, and then the two commands rebuild each other.
+    assert "Compiling pyo3" not in build.stderr, build.stderr[-3000:]
     (wheel,) = wheels.glob("chaincart_env-*.whl")
     env_dir = tmp_path_factory.mktemp("venv")
     venv.EnvBuilder(with_pip=True).create(env_dir)
@@ -78,6 +84,8 @@ def test_bench_quick_runs_every_section_without_cargo(installed: Path, tmp_path:
     [
         (["compare", "--timesteps", "10"], "sb3,plot"),
         (["evaluate", "runs/none"], "sb3,plot"),
+        (["compare", "--address", "auto"], "sb3,plot,rllib"),  # a Ray cluster needs Ray
+        (["evaluate", "runs/none", "--address", "local"], "sb3,plot,rllib"),
         (["figures"], "plot"),
         (["roa", "--starts", "2"], "plot"),
         (["animate"], "plot"),

@@ -271,3 +271,11 @@ def test_vec_video_recorder_records_the_tiled_envs(tmp_path: Path) -> None:
     recorder.close()
     videos = list(tmp_path.glob("chain-step-0-to-step-10.mp4"))
     assert len(videos) == 1 and videos[0].stat().st_size > 1000
+
+
+@pytest.mark.parametrize("make", [lambda: ChainCartVecEnv(N, **CONFIG), reference], ids=["native", "dummy"])
+def test_a_scalar_action_is_a_type_error_like_dummy_vec_env(make: Any) -> None:
+    venv = make()
+    venv.reset()
+    with pytest.raises(TypeError):
+        venv.step(0)

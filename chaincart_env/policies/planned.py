@@ -1,0 +1,127 @@
+"""The episode bookkeeping the plan-following policies share: per env, a clock along
+its plan and a controller; plans cached per (start equilibrium, target); the target
+read from the observation in goal-conditioned scenes."""
+
+from __future__ import annotations
+
+from typing import Any, Optional
+
+import numpy as np
+
+from chaincart_env.errors import InvalidInputError, PlanningError
+from chaincart_env.policies.settings import EnvSettings, env_settings, goal_signs, nearest_equilibrium
+
+__all__ = ["PlannedPolicy"]
+
+Pair = tuple[tuple[int, ...], tuple[int, ...]]
+
+
+class PlannedPolicy:
+    """Base class: subclasses say what controller follows a plan (:meth:`_controller`)
+    and how it computes a force (:meth:`_force`).
+
+    An env's episode begins where ``episode_start`` is true (SB3's convention; on the
+    first call every env begins), or where the observed target changes. Its start
+    equilibrium is the one nearest to the first observation; the plan from it to the
+    target is computed once and cached (:meth:`plan`), so a seeded start near an
+    equilibrium reuses the same plan and the feedback absorbs the difference.
+    """
+
+    def __init__(self, settings: EnvSettings, duration: Optional[float] = None, **plan_options: Any) -> None:
+        self.settings = settings
+        self.duration = duration
+        self.plan_options = plan_options
+        self._plans: dict[Pair, Any] = {}
+        self._clock = np.zeros(0, dtype=np.int64)
+        self._pairs: list[Optional[Pair]] = []
+        self._controllers: list[Any] = []
+
+    @classmethod
+    def from_env(cls, env: Any, *, oracle: bool = False, duration: Optional[float] = None, **options: Any) -> Any:
+        """For a ``ChainCartEnv``, its vector envs or SB3 VecEnv: the env's nominal model
+        (``oracle=True``: its true parameters), force limit, track, control period and
+        target (or, in goal-conditioned scenes, the target in each observation).
+        ``duration`` (s) and the other keywords go to ``ChainCart.plan``."""
+        return cls(env_settings(env, oracle), duration=duration, **options)
+
+    def plan(self, start: tuple[int, ...], target: tuple[int, ...]) -> Any:
+        """The plan from equilibrium ``start`` to ``target`` (cached); raises
+        :class:`~chaincart_env.errors.PlanningError` if it does not reach the target."""
+        key = (tuple(start), tuple(target))
+        plan = self._plans.get(key)
+        if plan is None:
+            s = self.settings
+            plan = s.model.plan(
+                list(start), list(target), max_force=s.max_force, track_limit=s.track_limit,
+                duration=self.duration, dt=s.dt, substeps=s.substeps, **self.plan_options,
+            )
+            if not plan.converged:
+                raise PlanningError(f"no plan from {list(start)} to {list(target)}: {plan.report['reason']}")
+            self._plans[key] = plan
+        return plan
+
+    def reset(self) -> None:
+        """Forgets every env's episode (the next call begins new ones)."""
+        self._clock = np.zeros(0, dtype=np.int64)
+        self._pairs, self._controllers = [], []
+
+    def _controller(self, plan: Any, previous: Any) -> Any:
+        raise NotImplementedError
+
+    def _force(self, controller: Any, step: int, state: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _resize(self, n: int) -> None:
+        if n != len(self._pairs):
+            self._clock = np.zeros(n, dtype=np.int64)
+            self._pairs, self._controllers = [None] * n, [None] * n
+
+    def _split(self, observation: Any) -> tuple[np.ndarray, bool]:
+        obs = np.asarray(observation, dtype=np.float64)
+        batch = np.atleast_2d(obs)
+        width = self.settings.obs_dim
+        if batch.ndim != 2 or batch.shape[1] != width:
+            raise InvalidInputError(f"observation has shape {obs.shape}: expected ({width},) or (N, {width})")
+        if not np.all(np.isfinite(batch)):
+            raise InvalidInputError("observation has non-finite entries: expected finite states")
+        return batch, obs.ndim == 1
+
+    def forces(self, observation: Any, episode_start: Optional[Any] = None) -> np.ndarray:
+        """Forces in newtons, shape (N, force_dim), advancing each env's clock."""
+        batch, _ = self._split(observation)
+        n, s = batch.shape[0], self.settings
+        self._resize(n)
+        starts = np.ones(n, dtype=bool) if episode_start is None else np.asarray(episode_start, dtype=bool).reshape(-1)
+        if starts.shape[0] != n:
+            raise InvalidInputError(f"episode_start has {starts.shape[0]} entries: expected {n}")
+        out = np.zeros((n, s.model.force_dim))
+        for i in range(n):
+            state = batch[i, : s.state_dim]
+            target = goal_signs(batch[i], s.n_links) if s.goal_observation else s.target
+            pair = self._pairs[i]
+            begins = starts[i] if episode_start is not None else pair is None
+            if begins or pair is None or pair[1] != target:
+                start = nearest_equilibrium(s.model, state)
+                self._controllers[i] = self._controller(self.plan(start, target), self._controllers[i])
+                self._pairs[i], self._clock[i] = (start, target), 0
+            out[i] = self._force(self._controllers[i], int(self._clock[i]), state)
+            self._clock[i] += 1
+        return out
+
+    def predict(
+        self,
+        observation: Any,
+        state: Optional[Any] = None,
+        episode_start: Optional[Any] = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Optional[Any]]:
+        """Actions in the env's normalised space, clipped to [-1, 1], for one observation
+        or a batch. Without ``episode_start`` an env's episode begins on its first call
+        (and when its target changes); call :meth:`reset` between episodes then."""
+        single = np.asarray(observation).ndim == 1
+        forces = self.forces(observation, episode_start)
+        actions = np.clip(forces / self.settings.max_force, -1.0, 1.0).astype(np.float32)
+        return (actions[0] if single else actions), state
+
+    def __call__(self, observation: Any) -> np.ndarray:
+        return self.predict(observation)[0]

@@ -1,0 +1,90 @@
+"""What a model-based policy reads from an env: the nominal (or true) model, the force
+limit, the track, the control period and the goal convention."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Optional
+
+import numpy as np
+
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.model import ChainCart
+
+__all__ = ["EnvSettings", "env_settings", "goal_signs", "nearest_equilibrium"]
+
+
+@dataclass(frozen=True)
+class EnvSettings:
+    """The task as a controller sees it."""
+
+    model: ChainCart
+    max_force: float
+    track_limit: float
+    dt: float
+    substeps: int
+    target: tuple[int, ...]
+    #: The observation ends with the target's n signs (goal-conditioned scenes).
+    goal_observation: bool
+
+    @property
+    def n_links(self) -> int:
+        return int(self.model.n_links)
+
+    @property
+    def state_dim(self) -> int:
+        return int(self.model.state_dim)
+
+    @property
+    def obs_dim(self) -> int:
+        return self.state_dim + (self.n_links if self.goal_observation else 0)
+
+
+def env_settings(env: Any, oracle: bool = False) -> EnvSettings:
+    """The settings of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (anything that
+    exposes the config through ``unwrapped`` or ``config``). ``oracle=True`` takes the
+    true parameters of the env (or of its first env) instead of the nominal model."""
+    base = getattr(env, "unwrapped", env)
+    config = getattr(base, "config", None)
+    if config is None:
+        raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+    model = base.model if hasattr(base, "model") else config.make_model()
+    if oracle:
+        from chaincart_env.lqr import _true_param_rows
+
+        p = _true_param_rows(env)[0]
+        model = ChainCart(
+            config.n_links, p["cart_mass"], p["link_masses"], p["link_lengths"], p["gravity"], config.planar
+        )
+    if config.integrator != "rk4":
+        raise InvalidInputError(
+            f"integrator = {config.integrator!r}: the planner's model steps with 'rk4'; expected an rk4 scene"
+        )
+    return EnvSettings(
+        model=model,
+        max_force=float(config.max_force),
+        track_limit=float(config.track_limit),
+        dt=float(config.dt),
+        substeps=int(config.substeps),
+        target=tuple(int(s) for s in config.target_signs),
+        goal_observation=bool(getattr(config, "goal_observation", False)),
+    )
+
+
+def nearest_equilibrium(model: ChainCart, state: np.ndarray) -> tuple[int, ...]:
+    """The equilibrium whose links point the way the state's do: ``s_i = +1`` where link
+    ``i`` points down (``q_i . e3 >= 0``), ``-1`` where it points up."""
+    start, stop = model.state_layout["q"]
+    per_link = (stop - start) // model.n_links
+    q = np.asarray(state[start:stop]).reshape(model.n_links, per_link)
+    return tuple(1 if v >= 0.0 else -1 for v in q[:, -1])
+
+
+def goal_signs(tail: np.ndarray, n: int) -> Optional[tuple[int, ...]]:
+    """The target read from an observation's last ``n`` entries (+1/-1 each)."""
+    signs = np.asarray(tail[-n:], dtype=np.float64)
+    if not np.all(np.abs(np.abs(signs) - 1.0) < 1e-6):
+        raise InvalidInputError(
+            f"observation ends with {signs.tolist()}: expected the target's {n} signs +1/-1 (goal observation)"
+        )
+    return tuple(int(round(v)) for v in signs)

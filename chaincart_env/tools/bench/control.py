@@ -1,0 +1,64 @@
+"""Bench section ``control``: planning the swing-ups and the receding-horizon
+controller's time per control step, from Python (the GIL released inside each call)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from chaincart_env.tools.bench.context import BenchContext
+from chaincart_env.model import ChainCart
+
+__all__ = ["control_section"]
+
+#: (name, links, planar, plan duration in s): the swing-up scenes' systems.
+SWINGUPS = (("swingup-2", 2, True, 3.0), ("swingup-3", 3, True, 4.0), ("spatial-swingup-2", 2, False, 3.0))
+
+
+def _mpc_step_times(model: ChainCart, plan, steps: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """Seconds of each MPC control step along the plan and one second beyond, from a
+    start 1 cm off, the model stepping in between."""
+    mpc = plan.mpc()
+    y = np.array(plan.states[0])
+    y[0] += 0.01
+    times = np.empty(steps)
+    for k in range(steps):
+        began = time.perf_counter()
+        u = mpc.force(k, y)
+        times[k] = time.perf_counter() - began
+        y = model.step(y, u, plan.dt, "rk4", plan.substeps)
+    return times
+
+
+def control_section(ctx: BenchContext) -> None:
+    ctx.report.heading("Large motions: planning and MPC")
+    repeats = ctx.settings.repeats
+    rows, results = [], {}
+    for name, n, planar, duration in SWINGUPS:
+        model = ChainCart(n, 1.0, 0.1, 0.5, planar=planar)
+        plans = [model.plan("hanging", "inverted", max_force=20.0, duration=duration) for _ in range(repeats)]
+        plan_seconds = min(p.report["seconds"] for p in plans)
+        plan = plans[0]
+        steps = plan.forces.shape[0] + int(round(1.0 / plan.dt))
+        step_times = min((_mpc_step_times(model, plan, steps) for _ in range(repeats)), key=np.mean)
+        mean, worst = float(np.mean(step_times)), float(np.max(step_times))
+        results[name] = {"plan_s": plan_seconds, "mpc_mean_s": mean, "mpc_max_s": worst}
+        rows.append([
+            name, "yes" if plan.converged else "no", f"{plan_seconds:.3f}", str(plan.report["iterations"]),
+            f"{mean * 1e3:.2f}", f"{np.percentile(step_times, 99) * 1e3:.2f}", f"{worst * 1e3:.2f}",
+            f"{plan.dt / mean:.0f}x",
+        ])
+    ctx.results["control"] = results
+    ctx.report.paragraph(
+        "Default scene physics (1 kg cart, 0.1 kg at the end of each 0.5 m link), 20 N, 2.4 m track, "
+        "20 ms control period with 2 RK4 substeps. Planning: `ChainCart.plan('hanging', 'inverted')` on "
+        "one core (best of the repeats). MPC: `Plan.mpc()` (40 steps ahead, at most 2 iLQR iterations and "
+        "2 ms per step) along the plan and one second beyond from a start 1 cm off; real-time factor = "
+        "control period / mean step time."
+    )
+    ctx.report.table(
+        ["scene", "planned", "planning (s)", "iterations", "MPC mean (ms)", "MPC p99 (ms)", "MPC max (ms)",
+         "real-time factor"],
+        rows, 2,
+    )

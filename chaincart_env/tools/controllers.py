@@ -1,0 +1,153 @@
+"""The controllers that the study (``compare --policies``) and the leaderboard
+(``leaderboard --policies``) compare, by name: one table saying what each name is, the
+label it has in tables and pictures, and where its class lives.
+
+* Learned: ``ppo``, ``sac``, ``td3`` (stable-baselines3's ``PPO``, ``SAC``, ``TD3``),
+  trained on the scene with its packaged recipe.
+* Model-based, designed on the scene's nominal model with their class's ``from_env``:
+  ``lqr`` (:class:`~chaincart_env.LQRPolicy`), ``mpc``, ``trajectory`` and ``energy``
+  (``MPCPolicy``, ``TrajectoryPolicy``, ``EnergyPolicy`` of ``chaincart_env.policies``).
+
+Classes are imported by name when a controller is built, so that listing or checking
+names imports nothing heavy, and a class that this installation lacks is a clear error
+naming it. How each controller is drawn is in :mod:`chaincart_env.tools.compare.styles`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import re
+from dataclasses import dataclass
+from typing import Any, Optional
+
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.errors import InvalidInputError
+
+__all__ = [
+    "CONTROLLERS",
+    "LEARNED",
+    "MODEL_BASED",
+    "Controller",
+    "NotApplicable",
+    "build_model_based",
+    "controller_class",
+    "controller_of_label",
+    "label_of",
+    "parse_controllers",
+]
+
+
+@dataclass(frozen=True)
+class Controller:
+    """One controller: its ``--policies`` name, its label in tables and legends, the
+    class that implements it (``module``, ``attribute``) and whether it is learned."""
+
+    name: str
+    label: str
+    module: str
+    attribute: str
+    learned: bool
+
+
+#: Every controller, in the order the help lists them.
+CONTROLLERS: dict[str, Controller] = {
+    controller.name: controller
+    for controller in (
+        Controller("ppo", "PPO", "stable_baselines3", "PPO", learned=True),
+        Controller("sac", "SAC", "stable_baselines3", "SAC", learned=True),
+        Controller("td3", "TD3", "stable_baselines3", "TD3", learned=True),
+        Controller("lqr", "LQR", "chaincart_env.lqr", "LQRPolicy", learned=False),
+        Controller("mpc", "MPC", "chaincart_env.policies", "MPCPolicy", learned=False),
+        Controller("trajectory", "Trajectory", "chaincart_env.policies", "TrajectoryPolicy", learned=False),
+        Controller("energy", "Energy", "chaincart_env.policies", "EnergyPolicy", learned=False),
+    )
+}
+#: The learned controllers (stable-baselines3 algorithms).
+LEARNED: tuple[str, ...] = tuple(name for name, c in CONTROLLERS.items() if c.learned)
+#: The model-based controllers.
+MODEL_BASED: tuple[str, ...] = tuple(name for name, c in CONTROLLERS.items() if not c.learned)
+
+
+class NotApplicable(InvalidInputError):
+    """The controller cannot serve this scene (the message says why): the energy
+    controller on a chain of two links, the LQR on a scene without force, ..."""
+
+
+def _closest(name: str) -> str:
+    close = difflib.get_close_matches(name, list(CONTROLLERS), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def parse_controllers(text: str, option: str = "--policies") -> list[str]:
+    """``"ppo,lqr"`` (any case) into checked names, in the given order: each known,
+    none twice, at least one."""
+    names = [name.strip().lower() for name in str(text).split(",") if name.strip()]
+    expected = f"expected distinct names among {', '.join(CONTROLLERS)}, separated by commas"
+    if not names:
+        raise InvalidInputError(f"{option} {text!r}: {expected}")
+    for name in names:
+        if name not in CONTROLLERS:
+            raise InvalidInputError(f"{option} {text!r}: unknown controller {name!r}{_closest(name)}: {expected}")
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise InvalidInputError(f"{option} {text!r}: {', '.join(repeated)} given twice: {expected}")
+    return names
+
+
+def controller_class(name: str) -> Any:
+    """The class of controller ``name`` (imported now); an InvalidInputError when the
+    name is unknown or this installation does not have the class."""
+    if name not in CONTROLLERS:
+        raise InvalidInputError(f"controller {name!r}{_closest(str(name))}: expected one of {list(CONTROLLERS)}")
+    controller = CONTROLLERS[name]
+    try:
+        return getattr(importlib.import_module(controller.module), controller.attribute)
+    except (ImportError, AttributeError) as error:
+        raise InvalidInputError(
+            f"controller {name!r} needs {controller.module}.{controller.attribute}, which cannot be imported here "
+            f"({error})"
+        ) from None
+
+
+def build_model_based(name: str, config: ChainCartConfig, oracle: bool = False) -> Any:
+    """Model-based controller ``name`` for ``config``'s scene, built by its class's
+    ``from_env`` on the nominal model (``oracle=True``: on the true parameters of
+    the batch it is evaluated on, where the class offers that); :class:`NotApplicable`
+    when it cannot serve the scene."""
+    from chaincart_env.env import ChainCartEnv
+
+    if name not in MODEL_BASED:
+        raise InvalidInputError(f"controller {name!r}: expected a model-based one among {list(MODEL_BASED)}")
+    policy_class = controller_class(name)
+    options = {"oracle": True} if oracle else {}
+    try:
+        return policy_class.from_env(ChainCartEnv(config), **options)
+    except (ValueError, NotImplementedError) as error:
+        raise NotApplicable(f"{name} cannot serve scene {config.scene!r}: {error}") from None
+
+
+def label_of(name: str) -> str:
+    """The label of controller ``name`` in tables and legends (``"PPO"``, ``"MPC"``)."""
+    return CONTROLLERS[name].label
+
+
+_SEED = re.compile(r" \(seed \d+\)$")
+#: Words a table adds after a label: the best model of a training run, the oracle
+#: design on the true parameters, the RLlib trainer.
+VARIANTS = ("best", "oracle")
+
+
+def controller_of_label(text: str) -> tuple[Optional[str], str]:
+    """The controller and variant a table's policy name shows: ``"PPO best (seed 3)"``
+    -> ``("ppo", "best")``, ``"LQR oracle"`` -> ``("lqr", "oracle")``, ``"PPO (RLlib)"``
+    and ``"ppo"`` -> ``("ppo", "")``; ``(None, "")`` for a name of no controller."""
+    base = _SEED.sub("", text).replace(" (RLlib)", "").strip()
+    variant = ""
+    for word in VARIANTS:
+        if base.endswith(" " + word):
+            base, variant = base[: -len(word) - 1].strip(), word
+            break
+    by_label = {c.label.lower(): c.name for c in CONTROLLERS.values()}
+    name = by_label.get(base.lower())
+    return (name, variant) if name is not None else (None, "")

@@ -1,0 +1,93 @@
+"""The controllers of a leaderboard: the model-based ones built with their class's
+``from_env`` (:mod:`chaincart_env.tools.controllers`, the registry the main job uses
+too), and the learned ones (``ppo``, ``sac``, ``td3``) trained on the scene with its
+packaged recipe (:mod:`chaincart_env.tools.compare.recipes`), one agent per seed, kept
+in the run directory and reused when the leaderboard runs again.
+
+A controller that cannot serve a scene (the energy controller on a chain of two links,
+say) is reported as such, not scored as a failure.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, Optional, Sequence
+
+import numpy as np
+
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.errors import InvalidInputError
+
+__all__ = ["TINY_TRAINING", "TimedPolicy", "seeds_checked", "train_agent"]
+
+
+#: A tiny run's training settings on top of a recipe: rollouts and warm-up short enough
+#: that a budget of a few thousand steps is several updates, not one oversized rollout.
+TINY_TRAINING: dict[str, tuple[int, dict[str, Any]]] = {
+    "ppo": (4, {"n_steps": 128, "batch_size": 128}),
+    "sac": (4, {"learning_starts": 256, "buffer_size": 10_000}),
+    "td3": (4, {"learning_starts": 256, "buffer_size": 10_000}),
+}
+
+
+def train_agent(
+    name: str, config: ChainCartConfig, seed: int, directory: Path, *, timesteps: Optional[int] = None,
+    progress_bar: bool = False, tiny: bool = False,
+) -> None:
+    """Trains the agent ``name`` on ``config`` with seed ``seed`` into ``directory``
+    (the scene's packaged recipe; ``timesteps`` overrides its budget; ``tiny``:
+    :data:`TINY_TRAINING` on top) and saves it as ``model.zip``; a run that was cut short
+    resumes from its checkpoint. The leaderboard reuses an agent whose ``model.zip``
+    exists."""
+    from chaincart_env.tools.compare.recipes import recipe_for
+    from chaincart_env.tools.compare.training import train
+
+    directory = Path(directory)
+    recipe = recipe_for(config.scene, name)
+    budget = recipe.timesteps if timesteps is None else timesteps
+    num_envs, hyperparameters = recipe.num_envs, dict(recipe.hyperparameters)
+    if tiny:
+        num_envs, small = TINY_TRAINING[name]
+        hyperparameters.update(small)
+    result = train(
+        config, algo=name, timesteps=budget, seed=seed, num_envs=num_envs, directory=directory,
+        eval_seeds=[10_000_000 + seed * 1000 + i for i in range(8)], eval_every=max(budget // 10, 1),
+        checkpoint_every=max(budget // 5, 1), progress_bar=progress_bar, hyperparameters=hyperparameters,
+        resume=True,
+    )
+    result.model.save(directory / "model.zip")
+
+
+class TimedPolicy:
+    """A policy whose ``predict`` time is summed, per env-step served."""
+
+    def __init__(self, policy: Any) -> None:
+        self.policy = policy
+        self.seconds = 0.0
+        self.env_steps = 0
+
+    def predict(
+        self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = True
+    ) -> tuple[np.ndarray, Any]:
+        """The wrapped policy's ``predict``, timed."""
+        start = time.perf_counter()
+        out = self.policy.predict(observation, state=state, episode_start=episode_start, deterministic=deterministic)
+        self.seconds += time.perf_counter() - start
+        self.env_steps += int(np.atleast_2d(np.asarray(observation)).shape[0])
+        return out
+
+    def __getattr__(self, name: str) -> Any:  # bind() of oracle policies and the like
+        return getattr(self.policy, name)
+
+    def microseconds_per_step(self) -> float:
+        """Mean compute time per env-step, microseconds (NaN before any step)."""
+        return 1e6 * self.seconds / self.env_steps if self.env_steps else float("nan")
+
+
+def seeds_checked(seeds: Sequence[int]) -> list[int]:
+    """Distinct integers >= 0, at least one."""
+    out = list(seeds)
+    if not out or len(set(out)) != len(out) or any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in out):
+        raise InvalidInputError(f"seeds = {seeds!r}: expected distinct integers >= 0, at least one")
+    return out

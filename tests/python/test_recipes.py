@@ -1,0 +1,83 @@
+"""Training recipes: the packaged RL Baselines3 Zoo files, read by ``compare`` and run by
+the zoo itself."""
+
+from __future__ import annotations
+
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.registration import scene_env_id
+from chaincart_env.tools.compare.recipes import (
+    GENERIC,
+    _recipe,
+    hyperparameter_file,
+    load_recipes,
+    recipe_for,
+    sb3_keywords,
+)
+
+
+def test_every_packaged_recipe_names_a_registered_scene_and_builds_its_keywords():
+    import gymnasium as gym
+
+    for algo in ("ppo", "sac", "td3"):
+        for env_id, recipe in load_recipes(algo).items():
+            assert env_id in gym.registry, env_id
+            assert recipe.num_envs >= 1 and recipe.timesteps >= 1
+            assert "n_envs" not in recipe.hyperparameters and "policy" not in recipe.hyperparameters
+            sb3_keywords(recipe.hyperparameters)
+
+
+def test_the_file_entry_is_the_recipe_and_a_scene_without_one_is_generic():
+    import yaml
+
+    entry = yaml.safe_load(hyperparameter_file("ppo").read_text())[scene_env_id("inverted-2")]
+    recipe = recipe_for("inverted-2", "PPO")
+    assert recipe.num_envs == entry["n_envs"] and recipe.timesteps == entry["n_timesteps"]
+    assert recipe.hyperparameters == {k: v for k, v in entry.items() if k not in ("n_envs", "n_timesteps", "policy")}
+    assert recipe_for("paper-fig1", "ppo") is GENERIC and recipe_for("inverted-2", "a2c") is GENERIC
+
+
+def test_zoo_values_become_sb3_objects():
+    import torch
+
+    keywords = sb3_keywords({
+        "learning_rate": "lin_3e-4", "policy_kwargs": "dict(net_arch=[64, 64], activation_fn=nn.Tanh, log_std_init=-1)",
+        "train_freq": [1, "episode"], "gamma": 0.98,
+    })
+    assert keywords["learning_rate"](1.0) == pytest.approx(3e-4) and keywords["learning_rate"](0.5) == pytest.approx(1.5e-4)
+    assert keywords["policy_kwargs"] == {"net_arch": [64, 64], "activation_fn": torch.nn.Tanh, "log_std_init": -1}
+    assert keywords["train_freq"] == (1, "episode") and keywords["gamma"] == 0.98
+
+
+@pytest.mark.parametrize(
+    "entry, message",
+    [
+        ({"n_timesteps": 10, "normalize": True}, "['normalize'] are zoo wrappers"),
+        ({"n_timesteps": 10, "policy": "CnnPolicy"}, "policy 'CnnPolicy'"),
+        ({"n_envs": 4}, "number n_timesteps"),
+        ({"n_timesteps": 10, "learning_rate": "exp_1e-3"}, "learning_rate = 'exp_1e-3'"),
+        ({"n_timesteps": 10, "policy_kwargs": "dict(net_arch=__import__('os'))"}, "policy_kwargs"),
+        ({"n_timesteps": 10, "policy_kwargs": "dict(activation_fn=nn.Softmax)"}, "policy_kwargs"),
+    ],
+)
+def test_a_bad_recipe_is_refused_with_its_place_and_value(entry, message):
+    with pytest.raises(InvalidInputError, match=r"ppo.yml: ChainCart-x-v0: .*" + message.replace("[", r"\[").replace("]", r"\]").replace("(", r"\(")):
+        _recipe("ppo", "ChainCart-x-v0", entry)
+
+
+def test_the_zoo_trains_a_packaged_recipe(tmp_path: pathlib.Path):
+    hyperparams = pathlib.Path(str(hyperparameter_file("ppo")))
+    command = [
+        sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "ChainCart-inverted-2-v0",
+        "--gym-packages", "chaincart_env", "-conf", str(hyperparams), "-n", "2048", "--eval-freq", "-1",
+        "-f", str(tmp_path / "logs"), "--seed", "0", "--device", "cpu",
+    ]
+    done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    saved = list((tmp_path / "logs" / "ppo").glob("ChainCart-inverted-2-v0_*/ChainCart-inverted-2-v0.zip"))
+    assert saved, sorted(str(p) for p in (tmp_path / "logs").rglob("*"))[:20]
