@@ -11,11 +11,11 @@
 //!   iterations at most) along the swing-up, with the model stepping in between; the
 //!   scene's control period is 20 ms, so the real-time factor is 20 ms / this time.
 
+use chaincart::control::chart::ChartPoint;
 use chaincart::control::dynamics::{ScalarChain, ScalarWorkspace};
 use chaincart::control::jacobian::StepModel;
 use chaincart::control::mpc::MpcOptions;
 use chaincart::control::planner::{PlanOptions, Planner};
-use chaincart::control::chart::ChartPoint;
 use chaincart::control::vector::{ScalarGeometry, Vect};
 use chaincart::geometry::Vector;
 use chaincart::integrate::{Method, StepOptions, Stepper};
@@ -30,7 +30,9 @@ fn chain<G: ScalarGeometry>(n: usize) -> Chain<G> {
 
 /// A moving state: links tilted by growing angles from hanging, spinning.
 fn moving<G: ScalarGeometry>(c: &Chain<G>) -> Vec<f64> {
-    let mut y: Vec<f64> = (0..c.state_dim()).map(|k| 0.3 + 0.1 * (k as f64).sin()).collect();
+    let mut y: Vec<f64> = (0..c.state_dim())
+        .map(|k| 0.3 + 0.1 * (k as f64).sin())
+        .collect();
     c.project(&mut y);
     y
 }
@@ -114,7 +116,9 @@ fn mpc<G: ScalarGeometry>(crit: &mut Criterion, name: &str, n: usize) {
                 mpc.reset();
             }
             mpc.force(k, &y, &mut u);
-            stepper.step(&c, &mut y, G::Cart::load(&u), 0.02, &opts).unwrap();
+            stepper
+                .step(&c, &mut y, G::Cart::load(&u), 0.02, &opts)
+                .unwrap();
             k += 1;
         })
     });

@@ -25,9 +25,16 @@ fn options(duration: f64) -> PlanOptions {
 }
 
 /// Steps `y` with the model's RK4 under `force`.
-fn step<G: ScalarGeometry>(chain: &Chain<G>, stepper: &mut Stepper<G>, y: &mut [f64], force: &[f64]) {
+fn step<G: ScalarGeometry>(
+    chain: &Chain<G>,
+    stepper: &mut Stepper<G>,
+    y: &mut [f64],
+    force: &[f64],
+) {
     let opts = StepOptions::new(Method::Rk4, 2).unwrap();
-    stepper.step(chain, y, G::Cart::load(force), 0.02, &opts).unwrap();
+    stepper
+        .step(chain, y, G::Cart::load(force), 0.02, &opts)
+        .unwrap();
 }
 
 fn within_tolerance<G: ScalarGeometry>(chain: &Chain<G>, y: &[f64], target: &[f64]) -> bool {
@@ -36,8 +43,16 @@ fn within_tolerance<G: ScalarGeometry>(chain: &Chain<G>, y: &[f64], target: &[f6
 }
 
 /// A start `noise` away from `y` in every component (then projected).
-fn perturbed<G: ScalarGeometry>(chain: &Chain<G>, y: &[f64], noise: f64, rng: &mut impl Rng) -> Vec<f64> {
-    let mut y: Vec<f64> = y.iter().map(|v| v + rng.random_range(-noise..noise)).collect();
+fn perturbed<G: ScalarGeometry>(
+    chain: &Chain<G>,
+    y: &[f64],
+    noise: f64,
+    rng: &mut impl Rng,
+) -> Vec<f64> {
+    let mut y: Vec<f64> = y
+        .iter()
+        .map(|v| v + rng.random_range(-noise..noise))
+        .collect();
     chain.project(&mut y);
     y
 }
@@ -48,12 +63,28 @@ fn replays_open_loop<G: ScalarGeometry>(chain: &Chain<G>, plan: &Plan) {
     let mut y = plan.states[..dim].to_vec();
     let mut stepper = Stepper::new(chain);
     for k in 0..plan.forces.len() / nu {
-        step(chain, &mut stepper, &mut y, &plan.forces[k * nu..(k + 1) * nu]);
+        step(
+            chain,
+            &mut stepper,
+            &mut y,
+            &plan.forces[k * nu..(k + 1) * nu],
+        );
         let planned = &plan.states[(k + 1) * dim..(k + 2) * dim];
-        let gap = y.iter().zip(planned).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        assert!(gap < 1e-9, "step {k}: the model departs from the plan by {gap:e}");
+        let gap = y
+            .iter()
+            .zip(planned)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            gap < 1e-9,
+            "step {k}: the model departs from the plan by {gap:e}"
+        );
     }
-    assert!(within_tolerance(chain, &y, &plan.target), "{:?}", chain.errors(&y, &plan.target));
+    assert!(
+        within_tolerance(chain, &y, &plan.target),
+        "{:?}",
+        chain.errors(&y, &plan.target)
+    );
 }
 
 #[test]
@@ -103,7 +134,11 @@ fn every_transition_of_the_planar_double_pendulum_is_planned() {
         for target in all.iter().filter(|t| *t != start) {
             let mut planner = Planner::new(&chain, target, &options(3.0)).unwrap();
             let plan = planner.plan(&chain.equilibrium(start).unwrap()).unwrap();
-            assert!(plan.converged, "{start:?} -> {target:?}: {}", plan.report.reason);
+            assert!(
+                plan.converged,
+                "{start:?} -> {target:?}: {}",
+                plan.report.reason
+            );
             replays_open_loop(&chain, &plan);
         }
     }
@@ -114,7 +149,12 @@ fn the_spatial_double_pendulum_swings_up_from_an_out_of_plane_start() {
     let chain = chain::<Spatial>(2);
     let mut planner = Planner::new(&chain, &[-1.0, -1.0], &options(3.0)).unwrap();
     let mut rng = rand::rngs::StdRng::seed_from_u64(9);
-    let start = perturbed(&chain, &chain.equilibrium(&[1.0, 1.0]).unwrap(), 0.05, &mut rng);
+    let start = perturbed(
+        &chain,
+        &chain.equilibrium(&[1.0, 1.0]).unwrap(),
+        0.05,
+        &mut rng,
+    );
     let plan = planner.plan(&start).unwrap();
     assert!(plan.converged, "{}", plan.report.reason);
     replays_open_loop(&chain, &plan);
@@ -126,7 +166,11 @@ fn the_spatial_double_pendulum_swings_up_from_an_out_of_plane_start() {
         tracker.force(k, &y, &mut u);
         step(&chain, &mut stepper, &mut y, &u);
     }
-    assert!(within_tolerance(&chain, &y, &[-1.0, -1.0]), "{:?}", chain.errors(&y, &[-1.0, -1.0]));
+    assert!(
+        within_tolerance(&chain, &y, &[-1.0, -1.0]),
+        "{:?}",
+        chain.errors(&y, &[-1.0, -1.0])
+    );
 }
 
 #[test]
@@ -135,9 +179,15 @@ fn a_horizon_too_short_is_reported_not_hidden() {
     let mut short = options(0.4);
     short.max_time = 5.0;
     let mut planner = Planner::new(&chain, &[-1.0, -1.0], &short).unwrap();
-    let plan = planner.plan(&chain.equilibrium(&[1.0, 1.0]).unwrap()).unwrap();
+    let plan = planner
+        .plan(&chain.equilibrium(&[1.0, 1.0]).unwrap())
+        .unwrap();
     assert!(!plan.converged);
-    assert!(plan.report.reason.contains("duration = 0.4"), "{}", plan.report.reason);
+    assert!(
+        plan.report.reason.contains("duration = 0.4"),
+        "{}",
+        plan.report.reason
+    );
 }
 
 #[test]
@@ -148,9 +198,27 @@ fn bad_input_is_named() {
         Err(ChainError::Input(InputError::InvalidParameter { name, .. })) => name,
         other => panic!("expected an invalid parameter, got {:?}", other.err()),
     };
-    assert_eq!(name(PlanOptions { max_force: 0.0, ..options(3.0) }), "max_force");
-    assert_eq!(name(PlanOptions { duration: 0.02, ..options(3.0) }), "duration");
-    assert_eq!(name(PlanOptions { max_time: 0.0, ..options(3.0) }), "max_time");
+    assert_eq!(
+        name(PlanOptions {
+            max_force: 0.0,
+            ..options(3.0)
+        }),
+        "max_force"
+    );
+    assert_eq!(
+        name(PlanOptions {
+            duration: 0.02,
+            ..options(3.0)
+        }),
+        "duration"
+    );
+    assert_eq!(
+        name(PlanOptions {
+            max_time: 0.0,
+            ..options(3.0)
+        }),
+        "max_time"
+    );
     assert!(matches!(
         Planner::new(&chain, &[-1.0, 0.5], &options(3.0)),
         Err(ChainError::Input(InputError::InvalidSign { index: 1, .. }))
@@ -160,16 +228,31 @@ fn bad_input_is_named() {
     start[3] = f64::NAN;
     assert!(matches!(
         planner.plan(&start),
-        Err(ChainError::Input(InputError::NonFinite { name: "start", index: 3, .. }))
+        Err(ChainError::Input(InputError::NonFinite {
+            name: "start",
+            index: 3,
+            ..
+        }))
     ));
-    let plan = planner.plan(&chain.equilibrium(&[1.0, 1.0]).unwrap()).unwrap();
+    let plan = planner
+        .plan(&chain.equilibrium(&[1.0, 1.0]).unwrap())
+        .unwrap();
     let reference = planner.reference().unwrap();
-    let budget = MpcOptions { budget: 0.0, ..MpcOptions::default() };
+    let budget = MpcOptions {
+        budget: 0.0,
+        ..MpcOptions::default()
+    };
     assert!(matches!(
         planner.mpc_from(reference.clone(), budget),
-        Err(ChainError::Input(InputError::InvalidParameter { name: "budget", .. }))
+        Err(ChainError::Input(InputError::InvalidParameter {
+            name: "budget",
+            ..
+        }))
     ));
-    let zero_iterations = MpcOptions { iterations: 0, ..MpcOptions::default() };
+    let zero_iterations = MpcOptions {
+        iterations: 0,
+        ..MpcOptions::default()
+    };
     assert!(planner.mpc_from(reference, zero_iterations).is_err());
     assert!(plan.converged);
 }

@@ -26,7 +26,12 @@ pub struct PlanParts<G: super::vector::ScalarGeometry> {
 }
 
 impl<G: super::vector::ScalarGeometry> PlanParts<G> {
-    fn new(chain: &crate::model::Chain<G>, start: &[f64], target: &[f64], options: &PlanOptions) -> Result<Self> {
+    fn new(
+        chain: &crate::model::Chain<G>,
+        start: &[f64],
+        target: &[f64],
+        options: &PlanOptions,
+    ) -> Result<Self> {
         let mut planner = Planner::new(chain, target, options)?;
         let plan = planner.plan(start)?;
         let reference = planner.reference()?;
@@ -64,10 +69,19 @@ pub enum AnyEnergy {
 
 impl AnyPlan {
     /// Plans for `chain` from `start` (a full state) to equilibrium `target`.
-    pub fn new(chain: &AnyChain, start: &[f64], target: &[f64], options: &PlanOptions) -> Result<Self> {
+    pub fn new(
+        chain: &AnyChain,
+        start: &[f64],
+        target: &[f64],
+        options: &PlanOptions,
+    ) -> Result<Self> {
         Ok(match chain {
-            AnyChain::Spatial(c) => AnyPlan::Spatial(Box::new(PlanParts::new(c, start, target, options)?)),
-            AnyChain::Planar(c) => AnyPlan::Planar(Box::new(PlanParts::new(c, start, target, options)?)),
+            AnyChain::Spatial(c) => {
+                AnyPlan::Spatial(Box::new(PlanParts::new(c, start, target, options)?))
+            }
+            AnyChain::Planar(c) => {
+                AnyPlan::Planar(Box::new(PlanParts::new(c, start, target, options)?))
+            }
         })
     }
 
@@ -152,8 +166,12 @@ impl AnyEnergy {
     pub fn new(chain: &AnyChain, max_force: f64, options: EnergyOptions) -> Result<Self> {
         let weights = PlanOptions::default().weights;
         Ok(match chain {
-            AnyChain::Spatial(c) => AnyEnergy::Spatial(EnergyController::new(c, max_force, options, &weights)?),
-            AnyChain::Planar(c) => AnyEnergy::Planar(EnergyController::new(c, max_force, options, &weights)?),
+            AnyChain::Spatial(c) => {
+                AnyEnergy::Spatial(EnergyController::new(c, max_force, options, &weights)?)
+            }
+            AnyChain::Planar(c) => {
+                AnyEnergy::Planar(EnergyController::new(c, max_force, options, &weights)?)
+            }
         })
     }
     /// The force in `state` (checked).

@@ -17,6 +17,7 @@ pub mod energy;
 pub mod ilqr;
 pub mod jacobian;
 pub mod mpc;
+pub mod plan;
 pub mod planner;
 pub mod tvlqr;
 pub mod vector;

@@ -23,6 +23,7 @@ use super::cost::{target_lqr, Cost, CostWeights};
 use super::ilqr::{Ilqr, IlqrOptions, SolveStatus, Trajectory};
 use super::jacobian::StepModel;
 use super::mpc::{Mpc, MpcOptions, Reference};
+pub use super::plan::{Plan, PlanReport};
 use super::tvlqr::Tracker;
 use super::vector::ScalarGeometry;
 use crate::analysis::Linearization;
@@ -122,62 +123,6 @@ impl PlanOptions {
     pub fn knots(&self) -> usize {
         (self.duration / self.dt).round() as usize
     }
-}
-
-/// How a plan turned out.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlanReport {
-    /// Final cost.
-    pub cost: f64,
-    /// iLQR iterations over all guesses.
-    pub iterations: usize,
-    /// Wall time, s.
-    pub seconds: f64,
-    /// Guesses tried, and the index of the one kept.
-    pub guesses_tried: usize,
-    /// See `guesses_tried`.
-    pub best_guess: usize,
-    /// How the last solve stopped.
-    pub status: SolveStatus,
-    /// The paper's `e_q = sum |q_i - s_i e3|` at the end of the plan.
-    pub e_q: f64,
-    /// The paper's `e_w = sum |w_i|` at the end of the plan.
-    pub e_w: f64,
-    /// Largest `|u|` component, N.
-    pub peak_force: f64,
-    /// Root mean square of the force, N.
-    pub rms_force: f64,
-    /// Largest `|x_c|`, m.
-    pub max_cart: f64,
-    /// Largest angular speed, rad/s.
-    pub max_spin: f64,
-    /// The end of the plan is within the tolerances.
-    pub reaches_target: bool,
-    /// The cart stays within the track.
-    pub within_track: bool,
-    /// The first time after which the plan stays within the tolerances, s.
-    pub time_to_reach: Option<f64>,
-    /// Why the plan is not converged, or "" if it is.
-    pub reason: String,
-}
-
-/// A plan: states at `times`, forces held over each interval.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Plan {
-    /// Number of links, and whether the chain is planar.
-    pub n_links: usize,
-    /// `K + 1` instants, s.
-    pub times: Vec<f64>,
-    /// `K + 1` states in the model's layout, flat (row-major).
-    pub states: Vec<f64>,
-    /// `K` forces (`force_dim` each), flat.
-    pub forces: Vec<f64>,
-    /// The target's sign tuple.
-    pub target: Vec<f64>,
-    /// The plan reaches the target within the tolerances and the track.
-    pub converged: bool,
-    /// Cost and feasibility.
-    pub report: PlanReport,
 }
 
 /// A planning problem, ready to solve or to re-solve from other guesses.
@@ -315,13 +260,20 @@ impl<G: ScalarGeometry> Planner<G> {
                 continue;
             }
             let pump = index - 2;
-            let omega = omegas[pump % omegas.len()] * [1.0, 0.8, 1.25][(pump / omegas.len() / 2) % 3];
-            let phase = if (pump / omegas.len()) % 2 == 0 { 0.0 } else { std::f64::consts::PI };
+            let omega =
+                omegas[pump % omegas.len()] * [1.0, 0.8, 1.25][(pump / omegas.len() / 2) % 3];
+            let phase = if (pump / omegas.len()) % 2 == 0 {
+                0.0
+            } else {
+                std::f64::consts::PI
+            };
             let amplitude = [0.5, 0.8, 0.3][(pump / (2 * omegas.len() * 3)) % 3];
             for step in 0..k {
                 let t = step as f64 * dt;
-                forces[step * nu] =
-                    amplitude * self.options.max_force * (omega * t + phase).sin() * taper(t / t_end);
+                forces[step * nu] = amplitude
+                    * self.options.max_force
+                    * (omega * t + phase).sin()
+                    * taper(t / t_end);
             }
             out.push(forces);
         }
@@ -343,7 +295,10 @@ impl<G: ScalarGeometry> Planner<G> {
             if Instant::now() >= deadline || iterations >= self.options.max_iterations {
                 break;
             }
-            let budget = self.options.probe_iterations.min(self.options.max_iterations - iterations);
+            let budget = self
+                .options
+                .probe_iterations
+                .min(self.options.max_iterations - iterations);
             status = self.polish(start, guess, budget, deadline, &mut iterations);
             probes.push((self.solver.nominal.clone(), index));
             // A guess that already ends well inside the tolerances is finished at once.
@@ -378,7 +333,13 @@ impl<G: ScalarGeometry> Planner<G> {
         let (trajectory, best_guess, status) = best.expect("at least one guess is tried");
         self.solver.clear_policy();
         self.solver.rollout(start, &trajectory.forces);
-        Ok(self.result(iterations, began.elapsed().as_secs_f64(), tried, best_guess, status))
+        Ok(self.result(
+            iterations,
+            began.elapsed().as_secs_f64(),
+            tried,
+            best_guess,
+            status,
+        ))
     }
 
     /// Rolls `forces` out from `start` and runs at most `budget` iterations on it.

@@ -15,7 +15,7 @@
 use super::chart::{local, ChartPoint};
 use super::cost::{diagonal_weights, target_lqr, CostWeights};
 use super::jacobian::{StepModel, StepWorkspace};
-use super::planner::Plan;
+use super::plan::Plan;
 use super::vector::ScalarGeometry;
 use crate::error::{check_len, ChainError, Result};
 use crate::model::Chain;

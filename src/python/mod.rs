@@ -8,6 +8,7 @@
 mod config;
 mod control;
 mod convert;
+mod energy;
 mod env;
 mod model;
 mod reality;
@@ -55,7 +56,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<control::Plan>()?;
     m.add_class::<control::TrajectoryTracker>()?;
     m.add_class::<control::MpcController>()?;
-    m.add_class::<control::EnergyController>()?;
+    m.add_class::<energy::EnergyController>()?;
     m.add_function(wrap_pyfunction!(num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(time_scaling, m)?)?;
     m.add("MAX_LINKS", crate::limits::MAX_LINKS)?;
