@@ -10,8 +10,8 @@ mod common;
 
 use chaincart::batch::MIN_LANE_ENVS;
 use chaincart::env::{
-    event, AutoresetMode, Distribution, EnvBatch, PaperFigure, ParamRandomization, Real, Start,
-    StepOutputs, TaskConfig,
+    event, AutoresetMode, Distribution, Ends, EnvBatch, PaperFigure, ParamRandomization, Real,
+    RewardKind, Start, StepOutputs, TaskConfig, Transitions,
 };
 use chaincart::lanes::Kernel;
 use chaincart::lanes::LaneScene;
@@ -200,7 +200,7 @@ fn trace<G: Spin>(
                 b.set_precision(precision).unwrap();
             }
         }
-        let (d, f) = (b.state_dim(), b.force_dim());
+        let (f, od) = (b.force_dim(), b.obs_dim());
         if let Some(env) = blow_up {
             // Spins far beyond what a 10 ms step resolves: the guard must flag it.
             let y = G::spun_up(chain, b.state(env), 1e4);
@@ -208,7 +208,7 @@ fn trace<G: Spin>(
         }
         let mut rng = ChaCha8Rng::seed_from_u64(run.action_seed);
         let first = run.first_env * f;
-        let mut o = Outputs::<f64>::new(n, d);
+        let mut o = Outputs::<f64>::new(n, od);
         let mut t = Trace {
             per_step: vec![],
             events: vec![],
@@ -222,11 +222,11 @@ fn trace<G: Spin>(
             for k in 0..n {
                 let flags = [o.terminated[k], o.truncated[k]].map(|x| x as u8 as f64);
                 let env_rows: [&[f64]; 7] = [
-                    &o.obs[k * d..(k + 1) * d],
+                    &o.obs[k * od..(k + 1) * od],
                     &[o.rewards[k]],
                     &flags,
                     &b.errors()[2 * k..2 * k + 2],
-                    &b.final_states()[k * d..(k + 1) * d],
+                    &b.final_states()[k * od..(k + 1) * od],
                     &b.diagnostics()[5 * k..5 * k + 5],
                     b.state(k),
                 ];
@@ -240,7 +240,29 @@ fn trace<G: Spin>(
 }
 
 fn lanes_match_env_by_env<G: Spin>(n: usize, reality: bool, mode: AutoresetMode) -> Trace {
-    let (chain, task) = (chain::<G>(n), task(n, reality));
+    lanes_match_env_by_env_on(chain::<G>(n), task(n, reality), reality, mode)
+}
+
+/// [`task`] made goal-conditioned: every reset draws one of all the transitions, the
+/// target's signs observed, the bounded reward, success held for 3 steps.
+fn goal_task(n: usize, reality: bool) -> TaskConfig {
+    let mut t = task(n, reality);
+    t.transitions = Some(Transitions::between(n, Ends::Any, Ends::Any, false).unwrap());
+    t.start = Start::Equilibrium(t.transitions.as_ref().unwrap().start(0).to_vec());
+    t.goal_observation = true;
+    t.reward_kind = RewardKind::Tolerance;
+    t.success_hold = 0.05;
+    t.max_episode_steps = 6;
+    t
+}
+
+fn lanes_match_env_by_env_on<G: Spin>(
+    chain: Chain<G>,
+    task: TaskConfig,
+    reality: bool,
+    mode: AutoresetMode,
+) -> Trace {
+    let n = chain.n_links();
     let num_envs = 37; // two chunks, the second not a whole lane group
     let run = Run {
         num_envs,
@@ -298,6 +320,63 @@ fn both_autoreset_modes_match_with_the_reality_gap_on() {
     for mode in [AutoresetMode::NextStep, AutoresetMode::SameStep] {
         lanes_match_env_by_env::<Spatial>(5, true, mode);
         lanes_match_env_by_env::<Planar>(2, true, mode);
+    }
+}
+
+#[test]
+fn goal_conditioned_tasks_step_bit_for_bit_like_env_by_env() {
+    let mut pairs_seen = std::collections::BTreeSet::new();
+    for (n, mode) in [
+        (1, AutoresetMode::SameStep),
+        (2, AutoresetMode::NextStep),
+        (3, AutoresetMode::SameStep),
+    ] {
+        for reality in [false, true] {
+            let t =
+                lanes_match_env_by_env_on(chain::<Planar>(n), goal_task(n, reality), reality, mode);
+            assert!(t.count(event::ENDED) > 0);
+            lanes_match_env_by_env_on(chain::<Spatial>(n), goal_task(n, reality), reality, mode);
+        }
+        // The observation's tail is the episode's target, and the draws reach every pair.
+        let task = goal_task(n, false);
+        let pairs = task.transitions.clone().unwrap();
+        let mut b = EnvBatch::new(
+            chain::<Planar>(n),
+            task,
+            64,
+            5,
+            AutoresetMode::NextStep,
+            false,
+        )
+        .unwrap();
+        let (d, od) = (b.state_dim(), b.obs_dim());
+        assert_eq!(od, d + n);
+        let mut obs = vec![0.0f64; 64 * od];
+        for round in 0..4u64 {
+            let seeds: Vec<Option<u64>> = (0..64).map(|k| Some(round * 100 + k)).collect();
+            b.reset::<f64>(Some(&seeds), None, &mut obs).unwrap();
+            let lay = b.chain().layout();
+            for k in 0..64 {
+                let target = b.env_target(k).unwrap().to_vec();
+                assert_eq!(&obs[k * od + d..(k + 1) * od], &target[..]);
+                let goal = (0..pairs.len()).find(|&g| {
+                    pairs.target(g) == target && {
+                        let y = b.state(k);
+                        // The start is near the pair's start: every link within the noise of it.
+                        let start = pairs.start(g);
+                        (0..n).all(|i| y[lay.q(i) + 1] * start[i] > 0.0)
+                    }
+                });
+                assert!(goal.is_some(), "env {k}: target {target:?} not a pair's");
+                pairs_seen.insert((n, goal.unwrap()));
+            }
+        }
+        assert_eq!(
+            pairs_seen.iter().filter(|(m, _)| *m == n).count(),
+            pairs.len(),
+            "every one of the {} pairs drawn for n = {n}",
+            pairs.len()
+        );
     }
 }
 

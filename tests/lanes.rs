@@ -645,8 +645,10 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
     n: usize,
     precision: Precision,
     kernel: Kernel,
+    kind: chaincart::env::RewardKind,
+    per_env_targets: bool,
 ) {
-    use chaincart::env::measure::{measure, MeasureInto, MeasureTask, Measures};
+    use chaincart::env::measure::{measure, MeasureInto, RewardSpec};
     use chaincart::env::RewardWeights;
     use chaincart::lanes::{chunk_lanes, room, ChunkSpec};
     let num_envs = 29;
@@ -683,14 +685,27 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
         u: 0.7,
     };
     let a2: Vec<f64> = (0..room(num_envs)).map(|k| (k % 5) as f64 * 0.4).collect();
-    let mut into = MeasureInto {
-        task: MeasureTask {
-            target: target.clone(),
-            weights,
-            a2: a2.clone(),
-        },
-        out: Measures::new(num_envs),
+    // Tolerances and track of the size of the random states' errors and offsets.
+    let spec = RewardSpec {
+        kind,
+        weights,
+        inv_tolerance: [1.0 / (0.5 * n as f64), 1.0 / (3.0 * n as f64)],
+        inv_track2: 1.0 / 4.0,
+        inv_4n: 1.0 / (4.0 * n as f64),
     };
+    let mut into = MeasureInto::new(&target, spec, num_envs, per_env_targets);
+    into.task.a2.copy_from_slice(&a2);
+    // Goal-conditioned: each env its own target (env k flips link k % n).
+    let env_target = |k: usize| -> Vec<f64> {
+        let mut t = target.clone();
+        if per_env_targets {
+            t[k % n] = -t[k % n];
+        }
+        t
+    };
+    for k in 0..num_envs {
+        into.set_target(k, &env_target(k));
+    }
     let stepped: Vec<bool> = (0..num_envs).map(|k| k != 4).collect();
     lanes.step(
         &mut states,
@@ -709,7 +724,10 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
             continue;
         }
         let y = &states[k * d..(k + 1) * d];
-        let scalar = measure(chain.layout(), y, &target, &weights, a2[k]);
+        let scalar = measure(chain.layout(), y, &env_target(k), &spec, a2[k]);
+        if kind == chaincart::env::RewardKind::Tolerance {
+            assert!((0.0..=1.0).contains(&scalar.reward), "{}", scalar.reward);
+        }
         let lane = out.get(k);
         let fields = |m: &chaincart::env::measure::StateMeasure| {
             bits(&[m.q2, m.w2, m.e_q, m.e_w, m.x2, m.v2, m.reward])
@@ -733,8 +751,11 @@ fn lanes_measure_each_stepped_state_as_the_scalar_code_does() {
     for kernel in available_kernels() {
         for precision in [Precision::F64, Precision::F32] {
             for n in [1, 2, 5] {
-                lane_measures_match::<Spatial>(n, precision, kernel);
-                lane_measures_match::<Planar>(n, precision, kernel);
+                use chaincart::env::RewardKind::{Exp, Tolerance};
+                for (kind, per_env) in [(Exp, false), (Tolerance, false), (Tolerance, true)] {
+                    lane_measures_match::<Spatial>(n, precision, kernel, kind, per_env);
+                    lane_measures_match::<Planar>(n, precision, kernel, kind, per_env);
+                }
             }
         }
     }

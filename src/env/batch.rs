@@ -14,11 +14,13 @@
 //! env-by-env path; [`EnvBatch::set_precision`] trades that for f32 lanes.
 
 use super::config::{AutoresetMode, Start, TaskConfig};
-use super::measure::MeasureInto;
+use super::measure::{MeasureInto, RewardSpec};
 use super::outputs::{event, Real, StepOutputs, DIAGNOSTICS};
 use super::reality::{EnvParams, NOISE_STREAM, PARAM_STREAM};
 use super::start::base_state;
-use super::step::{reset_env, run_chunk, sense, write_obs, Ctx, EnvData, Pass, Slot, Widths};
+use super::step::{
+    reset_env, run_chunk, sense, write_goal, write_obs, Ctx, EnvData, Pass, Slot, Widths,
+};
 use crate::batch::{Engine, Shared, StateHome, CHUNK};
 use crate::error::{InputError, Result};
 use crate::lanes::{Kernel, LaneScene, Precision};
@@ -40,6 +42,10 @@ pub struct Snapshot {
     pub steps: Vec<u64>,
     /// Per env: the episode has ended and awaits its reset.
     pub ended: Vec<bool>,
+    /// Per env: consecutive steps within the success tolerances.
+    pub held: Vec<u32>,
+    /// Per env: the episode's (start, target) pair of a goal-conditioned task.
+    pub goal: Vec<u16>,
     /// Per env, the parameter and observation-noise streams (empty when off).
     pub param_rng: Vec<[u8; RNG_BYTES]>,
     /// Per env: the observation-noise stream (same layout as `rng`).
@@ -87,7 +93,9 @@ pub struct EnvBatch<G: LaneScene> {
     /// randomisation, the centre each env's parameters are drawn around.
     engine: Engine<G, MeasureInto>,
     task: TaskConfig,
+    /// The start state before noise (goal-conditioned: one per pair).
     base: Vec<f64>,
+    reward: RewardSpec,
     mode: AutoresetMode,
     diagnostics: bool,
     num_envs: usize,
@@ -112,6 +120,8 @@ macro_rules! ctx {
             truth: $b.engine.chain().params(),
             task: &$b.task,
             base: &$b.base,
+            reward: $b.reward,
+            hold_steps: $b.task.hold_steps(),
             mode: $b.mode,
             diagnostics: $b.diagnostics,
             widths: $b.widths,
@@ -148,14 +158,15 @@ impl<G: LaneScene> EnvBatch<G> {
     ) -> Result<Self> {
         let (true_chain, base) = check_task(&chain, &task)?;
         let d = chain.state_dim();
-        let widths = Widths::new(&chain, &task.reality);
+        let widths = Widths::new(&chain, &task);
+        let reward = RewardSpec::of(&task, chain.n_links());
         let shared = Shared {
             chain: true_chain,
             dt: task.dt,
             opts: task.step_options,
             guard: task.guard,
         };
-        let hook = MeasureInto::new(&task.target, task.reward, CHUNK);
+        let hook = MeasureInto::new(&task.target, reward, CHUNK, task.transitions.is_some());
         let per_env = widths.param_scalars == 1;
         let engine = Engine::new(
             shared,
@@ -188,6 +199,7 @@ impl<G: LaneScene> EnvBatch<G> {
         let mut batch = Self {
             task,
             base,
+            reward,
             mode,
             diagnostics,
             num_envs,
@@ -195,7 +207,7 @@ impl<G: LaneScene> EnvBatch<G> {
             data,
             events: vec![0; num_envs],
             errors: vec![0.0; 2 * num_envs],
-            finals: vec![0.0; num_envs * d],
+            finals: vec![0.0; num_envs * widths.obs],
             diag: vec![0.0; DIAGNOSTICS.len() * num_envs],
             chain,
             engine,
@@ -326,17 +338,38 @@ impl<G: LaneScene> EnvBatch<G> {
         self.lane_params_stale = true;
     }
 
+    /// Numbers per observation: the state, then the target's signs when the task
+    /// observes them.
+    pub fn obs_dim(&self) -> usize {
+        self.widths.obs
+    }
+
     /// Writes every env's current observation (its state cast to `T`, or its last
-    /// noisy reading when sensor noise is on) into `obs`.
+    /// noisy reading when sensor noise is on, then the target's signs when observed)
+    /// into `obs`.
     pub fn write_obs<T: Real>(&self, obs: &mut [T]) -> Result<()> {
-        check_size("obs", obs.len(), self.data.states.len())?;
-        let current = if self.widths.noisy > 0 {
+        let (n, w) = (self.num_envs, &self.widths);
+        check_size("obs", obs.len(), n * w.obs)?;
+        let current = if w.noisy > 0 {
             &self.data.noisy_obs
         } else {
             &self.data.states
         };
-        write_obs(current, obs);
+        if w.obs == w.state {
+            write_obs(current, obs);
+            return Ok(());
+        }
+        for (k, o) in obs.chunks_exact_mut(w.obs).enumerate() {
+            write_obs(&current[k * w.state..(k + 1) * w.state], &mut o[..w.state]);
+            write_goal(&self.task, self.data.slots[k].goal, &mut o[w.state..]);
+        }
         Ok(())
+    }
+
+    /// The target of env `env`'s episode (goal-conditioned tasks draw it at reset).
+    pub fn env_target(&self, env: usize) -> Result<&[f64]> {
+        self.check_env(env)?;
+        Ok(self.task.target_of(self.data.slots[env].goal))
     }
 
     fn check_env(&self, env: usize) -> Result<()> {
@@ -392,7 +425,7 @@ impl<G: LaneScene> EnvBatch<G> {
         if let Some(m) = mask {
             check_size("reset_mask", m.len(), n)?;
         }
-        check_size("obs", obs.len(), self.data.states.len())?;
+        check_size("obs", obs.len(), n * self.widths.obs)?;
         for env in 0..n {
             if mask.is_some_and(|m| !m[env]) {
                 continue;
@@ -456,7 +489,7 @@ impl<G: LaneScene> EnvBatch<G> {
         out: StepOutputs<'_, T>,
     ) -> Result<usize> {
         self.check_actions(actions)?;
-        let (n, d) = (self.num_envs, self.state_dim());
+        let (n, d) = (self.num_envs, self.widths.obs);
         check_size("obs", out.obs.len(), n * d)?;
         check_size("rewards", out.rewards.len(), n)?;
         check_size("terminated", out.terminated.len(), n)?;
@@ -471,7 +504,7 @@ impl<G: LaneScene> EnvBatch<G> {
             &mut self.diag,
             self.widths,
         );
-        let (task, base, mode) = (&self.task, &self.base[..], self.mode);
+        let (task, base, mode, reward) = (&self.task, &self.base[..], self.mode, self.reward);
         let (diagnostics, widths, reload_params) =
             (self.diagnostics, self.widths, self.lane_params_stale);
         self.engine.run_chunks(pass, |shared, pass, worker| {
@@ -480,6 +513,8 @@ impl<G: LaneScene> EnvBatch<G> {
                 truth: shared.chain.params(),
                 task,
                 base,
+                reward,
+                hold_steps: task.hold_steps(),
                 mode,
                 diagnostics,
                 widths,
@@ -503,6 +538,8 @@ impl<G: LaneScene> EnvBatch<G> {
             rng: d.start_rngs.iter().map(rng_to_bytes).collect(),
             steps: d.slots.iter().map(|s| s.steps).collect(),
             ended: d.slots.iter().map(|s| s.ended).collect(),
+            held: d.slots.iter().map(|s| s.held).collect(),
+            goal: d.slots.iter().map(|s| s.goal).collect(),
             param_rng: d.param_rngs.iter().map(rng_to_bytes).collect(),
             noise_rng: d.noise_rngs.iter().map(rng_to_bytes).collect(),
             params: d.params.clone(),
@@ -520,11 +557,13 @@ impl<G: LaneScene> EnvBatch<G> {
         // Each part of the snapshot against the batch: name, length given, length
         // expected (one line each, which rustfmt would spread over five).
         #[rustfmt::skip]
-        let sizes: [(&'static str, usize, usize); 10] = [
+        let sizes: [(&'static str, usize, usize); 12] = [
             ("snapshot states", snap.states.len(), d.states.len()),
             ("snapshot rng", snap.rng.len(), n),
             ("snapshot steps", snap.steps.len(), n),
             ("snapshot ended", snap.ended.len(), n),
+            ("snapshot held", snap.held.len(), n),
+            ("snapshot goal", snap.goal.len(), n),
             ("snapshot param_rng", snap.param_rng.len(), d.param_rngs.len()),
             ("snapshot noise_rng", snap.noise_rng.len(), d.noise_rngs.len()),
             ("snapshot params", snap.params.num_envs(), d.params.num_envs()),
@@ -544,6 +583,8 @@ impl<G: LaneScene> EnvBatch<G> {
             d.start_rngs[k] = rng_from_bytes(&snap.rng[k]);
             slot.steps = snap.steps[k];
             slot.ended = snap.ended[k];
+            slot.held = snap.held[k];
+            slot.goal = snap.goal[k];
         }
         for (r, b) in d.param_rngs.iter_mut().zip(&snap.param_rng) {
             *r = rng_from_bytes(b);
@@ -585,6 +626,16 @@ pub fn check_task<G: LaneScene>(
     task.validate(chain.n_links())?;
     task.reality.validate(chain.n_links(), chain.state_dim())?;
     let true_chain = Chain::new(task.reality.true_params(chain.params())?);
-    let base = base_state(chain, task)?;
+    let base = match &task.transitions {
+        None => base_state(chain, task)?,
+        Some(pairs) => {
+            // One start state per pair, drawn from at each reset.
+            let mut bases = Vec::with_capacity(pairs.len() * chain.state_dim());
+            for k in 0..pairs.len() {
+                bases.extend(chain.equilibrium(pairs.start(k))?);
+            }
+            bases
+        }
+    };
     Ok((true_chain, base))
 }

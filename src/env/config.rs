@@ -1,9 +1,10 @@
 //! The task: which equilibrium to reach, where episodes start, how they are scored
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
+use super::goals::Transitions;
 use super::keys::{
     DEFAULT_MAX_EPISODE_STEPS, DEFAULT_REWARD_WEIGHTS, DEFAULT_START_NOISE,
-    DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT, START_NAMES, TARGET_NAMES,
+    DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT, REWARD_NAMES, START_NAMES, TARGET_NAMES,
 };
 use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
@@ -220,6 +221,36 @@ impl SuccessTolerances {
     }
 }
 
+/// The per-step reward of a task.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RewardKind {
+    /// `exp(-c)` with the quadratic cost `c` of [`RewardWeights`]: sharp near the
+    /// target, next to nothing far from it.
+    #[default]
+    Exp,
+    /// A bounded reward in [0, 1] for large motions, the same scale in every scene:
+    /// `(upright + near) / 2 * centred * gentle` (see [`super::measure::tolerance_reward`]).
+    Tolerance,
+}
+
+impl RewardKind {
+    /// The accepted names.
+    pub const NAMES: [&'static str; 2] = REWARD_NAMES;
+    /// The kind with this name, or an error listing the names.
+    pub fn from_name(name: &str) -> Result<Self> {
+        match name {
+            "exp" => Ok(Self::Exp),
+            "tolerance" => Ok(Self::Tolerance),
+            _ => Err(InputError::UnknownName {
+                kind: "reward",
+                name: name.to_string(),
+                expected: &Self::NAMES,
+            }
+            .into()),
+        }
+    }
+}
+
 /// How a vector of envs restarts episodes (Gymnasium's `AutoresetMode`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum AutoresetMode {
@@ -284,8 +315,18 @@ pub struct TaskConfig {
     pub max_episode_steps: u64,
     /// Weights of the reward.
     pub reward: RewardWeights,
+    /// Which reward: the quadratic cost's `exp(-c)` or the bounded tolerance reward.
+    pub reward_kind: RewardKind,
     /// When an episode that reaches its time limit is a success.
     pub success: SuccessTolerances,
+    /// Seconds the errors must have stayed within the tolerances at the end of an
+    /// episode for a success (0: the last step alone).
+    pub success_hold: f64,
+    /// Goal-conditioned tasks: the (start, target) pairs every reset draws from (the
+    /// `target` and `start` fields then hold the first pair's).
+    pub transitions: Option<Transitions>,
+    /// The observation ends with the target's signs (one per link).
+    pub goal_observation: bool,
     /// When a step counts as a numerical failure.
     pub guard: Guard,
     /// Parameter mismatch and randomisation, sensor noise, delay and rate limit
@@ -311,8 +352,12 @@ impl TaskConfig {
             track_limit: DEFAULT_TRACK_LIMIT,
             max_episode_steps: DEFAULT_MAX_EPISODE_STEPS as u64,
             reward: RewardWeights::default(),
+            reward_kind: RewardKind::Exp,
             guard: Guard::default(),
             success: SuccessTolerances::default(),
+            success_hold: 0.0,
+            transitions: None,
+            goal_observation: false,
             reality: RealityGap::default(),
             precision: Precision::F64,
         }
@@ -367,7 +412,36 @@ impl TaskConfig {
         self.reward.validate()?;
         check_positive("success_tolerances.e_q", self.success.e_q)?;
         check_positive("success_tolerances.e_w", self.success.e_w)?;
+        check_non_negative("success_hold", self.success_hold)?;
         check_precision(self.precision, self.step_options.method, &self.guard)
+    }
+}
+
+impl TaskConfig {
+    /// Consecutive steps within the tolerances that end a successful episode: the
+    /// hold time in control periods (rounded up), at least the last step.
+    pub fn hold_steps(&self) -> u32 {
+        let periods = (self.success_hold / self.dt - 1e-9).ceil();
+        periods.clamp(1.0, u32::MAX as f64) as u32
+    }
+
+    /// The target of pair `goal` of a goal-conditioned task, else the target.
+    #[inline(always)]
+    pub fn target_of(&self, goal: u16) -> &[f64] {
+        match &self.transitions {
+            Some(t) => t.target(goal as usize),
+            None => &self.target,
+        }
+    }
+
+    /// Numbers per observation: the state, then the target's signs if observed.
+    pub fn obs_dim(&self, state_dim: usize) -> usize {
+        state_dim
+            + if self.goal_observation {
+                self.target.len()
+            } else {
+                0
+            }
     }
 }
 

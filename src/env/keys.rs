@@ -63,6 +63,8 @@ pub enum KeyKind {
     Numbers(&'static [&'static str]),
     /// A reality-gap keyword, read by the reality-gap conversion.
     RealityGap,
+    /// A list of (start, target) pairs of equilibria, each a name or a sign tuple.
+    Transitions,
 }
 
 /// One configuration key.
@@ -102,6 +104,13 @@ pub const START_NAMES: [&str; 8] = {
     }
     names
 };
+
+/// The name, for `target` or `start`, of a draw at every reset among all equilibria
+/// (other than the other end).
+pub const ANY: &str = "any";
+
+/// Names of the rewards (`RewardKind`).
+pub const REWARD_NAMES: [&str; 2] = ["exp", "tolerance"];
 
 /// Names of the observation dtypes.
 pub const OBS_DTYPE_NAMES: [&str; 2] = ["float32", "float64"];
@@ -178,19 +187,21 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         name: "target",
         kind: KeyKind::Equilibrium,
         default: KeyValue::Name("inverted"),
-        expected: "a name (hanging, inverted, folded, folded_up, paper-fig1..3) or one sign \
-                   +1/-1 per link",
+        expected: "a name (hanging, inverted, folded, folded_up, paper-fig1..3, any) or one \
+                   sign +1/-1 per link",
         help: "the equilibrium to reach: a name or a sign tuple (+1 hanging, -1 upright \
-               link; on the command line --target=-1,1)",
+               link; on the command line --target=-1,1); any: drawn at every reset among all \
+               2^n (n <= 8)",
     },
     ConfigKey {
         name: "start",
         kind: KeyKind::Start,
         default: KeyValue::Name("target"),
-        expected: "a name (target, hanging, inverted, folded, folded_up, paper-fig1..3), \
-                   one sign +1/-1 per link, or a full state",
+        expected: "a name (target, hanging, inverted, folded, folded_up, paper-fig1..3, \
+                   any), one sign +1/-1 per link, or a full state",
         help: "where episodes start: target, an equilibrium name or sign tuple, \
-               paper-fig1..3, or a full state",
+               paper-fig1..3, a full state, or any: drawn at every reset among the \
+               equilibria other than the target",
     },
     ConfigKey {
         name: "start_noise",
@@ -252,6 +263,16 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "reward weights q, w, x, v, u (a mapping such as {\"q\": 2}, or five numbers)",
     },
     ConfigKey {
+        name: "reward",
+        kind: KeyKind::Choice(&REWARD_NAMES),
+        default: KeyValue::Name("exp"),
+        expected: "'exp' or 'tolerance'",
+        help: "per-step reward: exp (exp(-c), c the weighted quadratic cost of reward_weights) \
+               or tolerance (bounded in [0, 1] for large motions: the mean of the links' \
+               alignment with the target and a closeness within the success tolerances, times \
+               a centring and a force factor)",
+    },
+    ConfigKey {
         name: "scene",
         kind: KeyKind::Scene,
         default: KeyValue::Name(DEFAULT_SCENE),
@@ -271,6 +292,30 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Floats(&DEFAULT_SUCCESS_TOLERANCES),
         expected: "two numbers (e_q, e_w), each a finite number > 0",
         help: "e_q, e_w bounds of a success at the time limit (is_success)",
+    },
+    ConfigKey {
+        name: "success_hold",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(0.0),
+        expected: "a finite number >= 0",
+        help: "s the errors must have stayed within success_tolerances at the end of an episode \
+               for a success (0: the last step alone)",
+    },
+    ConfigKey {
+        name: "transitions",
+        kind: KeyKind::Transitions,
+        default: KeyValue::None,
+        expected: "a list of (start, target) pairs, each end a name or one sign +1/-1 per link",
+        help: "goal-conditioned tasks: the (start, target) equilibria every reset draws one \
+               pair from (overrides start and target; none: from start and target, where \
+               any draws)",
+    },
+    ConfigKey {
+        name: "goal_observation",
+        kind: KeyKind::Flag,
+        default: KeyValue::Bool(false),
+        expected: "True or False",
+        help: "observations end with the target's n signs (goal-conditioned policies)",
     },
     ConfigKey {
         name: "diagnostics",

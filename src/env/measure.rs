@@ -9,7 +9,7 @@
 // Index loops on purpose: they must inline into the dispatched kernels.
 #![allow(clippy::needless_range_loop)]
 
-use super::config::RewardWeights;
+use super::config::{RewardKind, RewardWeights, TaskConfig};
 use crate::geometry::{Geometry, Layout, Vector};
 use crate::lanes::exp::exp;
 use crate::lanes::simd::{LaneReal, Lanes};
@@ -33,8 +33,85 @@ pub struct StateMeasure {
     pub v2: f64,
     /// The largest `|x_k|` over the cart's axes.
     pub x_max: f64,
-    /// The reward of a step that reached this state ([`reward`]).
+    /// The reward of a step that reached this state ([`step_reward`]).
     pub reward: f64,
+}
+
+/// What a step's reward reads besides the measures of the state it reached.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RewardSpec {
+    /// Which reward.
+    pub kind: RewardKind,
+    /// The quadratic cost's weights ([`RewardKind::Exp`]).
+    pub weights: RewardWeights,
+    /// `1 / e_q` and `1 / e_w` of the success tolerances ([`RewardKind::Tolerance`]).
+    pub inv_tolerance: [f64; 2],
+    /// `1 / track_limit^2`.
+    pub inv_track2: f64,
+    /// `1 / (4 n)`: `q2` is at most `4 n`.
+    pub inv_4n: f64,
+}
+
+impl RewardSpec {
+    /// The reward of `task` for a chain of `n` links.
+    pub fn of(task: &TaskConfig, n: usize) -> Self {
+        Self {
+            kind: task.reward_kind,
+            weights: task.reward,
+            inv_tolerance: [1.0 / task.success.e_q, 1.0 / task.success.e_w],
+            inv_track2: 1.0 / (task.track_limit * task.track_limit),
+            inv_4n: 1.0 / (4.0 * n.max(1) as f64),
+        }
+    }
+
+    /// The quadratic reward with these weights (the other fields unused).
+    pub fn exp(weights: RewardWeights) -> Self {
+        Self {
+            kind: RewardKind::Exp,
+            weights,
+            inv_tolerance: [1.0; 2],
+            inv_track2: 0.0,
+            inv_4n: 1.0,
+        }
+    }
+}
+
+/// The reward of a step that reached a state with these measures by an action of
+/// squared norm `a2`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn step_reward(
+    spec: &RewardSpec,
+    q2: f64,
+    w2: f64,
+    e_q: f64,
+    e_w: f64,
+    x2: f64,
+    v2: f64,
+    a2: f64,
+) -> f64 {
+    match spec.kind {
+        RewardKind::Exp => reward(&spec.weights, q2, w2, x2, v2, a2),
+        RewardKind::Tolerance => tolerance_reward(spec, q2, e_q, e_w, x2, a2),
+    }
+}
+
+/// The bounded reward `(upright + near) / 2 * centred * gentle`, each factor in
+/// [0, 1]: `upright = 1 - q2 / (4 n)` (1 at the target's directions, 0 with every
+/// link opposite: a slope all the way from the start of a large motion),
+/// `near = 10^(-(z_q^2 + z_w^2) / 4)` with `z = e / tolerance` (1 at rest on the target,
+/// a tenth at twice the tolerance: the precision the success asks for),
+/// `centred = (1 + 10^(-x2 / track^2)) / 2` (0.55 at the track's end) and
+/// `gentle = 0.8 + 0.2 max(0, 1 - a2)` (a full push costs a fifth).
+#[inline(always)]
+pub fn tolerance_reward(spec: &RewardSpec, q2: f64, e_q: f64, e_w: f64, x2: f64, a2: f64) -> f64 {
+    const LN10: f64 = std::f64::consts::LN_10;
+    let upright = (1.0 - q2 * spec.inv_4n).max(0.0);
+    let (z_q, z_w) = (e_q * spec.inv_tolerance[0], e_w * spec.inv_tolerance[1]);
+    let near = exp(-0.25 * LN10 * (z_q * z_q + z_w * z_w));
+    let centred = 0.5 * (1.0 + exp(-LN10 * x2 * spec.inv_track2));
+    let gentle = 0.8 + 0.2 * (1.0 - a2).max(0.0);
+    0.5 * (upright + near) * centred * gentle
 }
 
 /// The reward `exp(-(w_q q2 + w_w w2 + w_x x2 + w_v v2 + w_u a2))` of a state with these
@@ -110,13 +187,13 @@ impl Measures {
 }
 
 /// The measures of state `y` for the target signs `s` (one per link), reached by an
-/// action of squared norm `a2`, rewarded with weights `w`.
+/// action of squared norm `a2`, rewarded as `w` says.
 #[inline(always)]
 pub fn measure<G: Geometry>(
     lay: Layout<G>,
     y: &[f64],
     s: &[f64],
-    w: &RewardWeights,
+    w: &RewardSpec,
     a2: f64,
 ) -> StateMeasure {
     let (mut q2, mut w2, mut e_q, mut e_w) = (0.0, 0.0, 0.0, 0.0);
@@ -139,7 +216,7 @@ pub fn measure<G: Geometry>(
         x2,
         v2,
         x_max: x.iter().fold(0.0, |m: f64, v| m.max(v.abs())),
-        reward: reward(w, q2, w2, x2, v2, a2),
+        reward: step_reward(w, q2, w2, e_q, e_w, x2, v2, a2),
     }
 }
 
@@ -184,7 +261,16 @@ fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     let (mut q2, mut w2, mut e_q, mut e_w) = (zero, zero, zero, zero);
     for (i, &si) in s.iter().enumerate() {
         let q = G::LinkL::load_with(lay.q(i), &component);
-        let dq = (q - G::lanes_down_unit() * Lanes::splat(si)).norm_squared();
+        // Goal-conditioned: each env's own target sign (the same value as a splat).
+        let si = match &task.env_targets {
+            None => Lanes::splat(si),
+            Some(t) => {
+                let mut v = zero;
+                v.0.copy_from_slice(&t[i * task.room + first..][..LANES]);
+                v
+            }
+        };
+        let dq = (q - G::lanes_down_unit() * si).norm_squared();
         let dw = G::SpinL::load_with(lay.w(i), &component).norm_squared();
         q2 = q2 + dq;
         w2 = w2 + dw;
@@ -202,7 +288,16 @@ fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     let a2 = &task.a2[first..first + LANES];
     let mut rewards = zero;
     for k in 0..LANES {
-        rewards.0[k] = reward(&task.weights, q2.0[k], w2.0[k], x2.0[k], v2.0[k], a2[k]);
+        rewards.0[k] = step_reward(
+            &task.reward,
+            q2.0[k],
+            w2.0[k],
+            e_q.0[k],
+            e_w.0[k],
+            x2.0[k],
+            v2.0[k],
+            a2[k],
+        );
     }
     out.put(first, [&q2, &w2, &e_q, &e_w, &x2, &v2, &x_max, &rewards]);
 }
@@ -212,10 +307,15 @@ fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
 pub struct MeasureTask {
     /// The target signs, one per link.
     pub target: Vec<f64>,
-    /// The reward's weights.
-    pub weights: RewardWeights,
+    /// The reward.
+    pub reward: RewardSpec,
     /// Each env's squared applied action, with [`room`].
     pub a2: Vec<f64>,
+    /// Goal-conditioned tasks: each env's target signs, link-major (`room` per link),
+    /// written before the step; `None`: every env has `target`.
+    pub env_targets: Option<Vec<f64>>,
+    /// Envs per link in `env_targets` (the [`room`] of the chunk).
+    pub room: usize,
 }
 
 /// The task's hook on the lanes: measures every stepped group (see
@@ -229,15 +329,29 @@ pub struct MeasureInto {
 }
 
 impl MeasureInto {
-    /// Room for `num_envs` envs measured against `target` with `weights` (actions zero).
-    pub fn new(target: &[f64], weights: RewardWeights, num_envs: usize) -> Self {
+    /// Room for `num_envs` envs measured against `target` and rewarded by `reward`
+    /// (actions zero); `per_env_targets`: each env's target is written before a step.
+    pub fn new(target: &[f64], reward: RewardSpec, num_envs: usize, per_env_targets: bool) -> Self {
+        let room = room(num_envs);
         Self {
             task: MeasureTask {
                 target: target.to_vec(),
-                weights,
-                a2: vec![0.0; room(num_envs)],
+                reward,
+                a2: vec![0.0; room],
+                env_targets: per_env_targets.then(|| vec![0.0; room * target.len()]),
+                room,
             },
             out: Measures::new(num_envs),
+        }
+    }
+
+    /// Sets env `k`'s target signs (goal-conditioned tasks; else does nothing).
+    #[inline(always)]
+    pub fn set_target(&mut self, k: usize, signs: &[f64]) {
+        if let Some(t) = self.task.env_targets.as_mut() {
+            for (i, &s) in signs.iter().enumerate() {
+                t[i * self.task.room + k] = s;
+            }
         }
     }
 }

@@ -38,6 +38,7 @@
 
 pub mod batch;
 pub mod config;
+pub mod goals;
 pub mod keys;
 pub mod measure;
 pub mod outputs;
@@ -48,8 +49,10 @@ mod step;
 
 pub use batch::{check_task, EnvBatch, Snapshot, RNG_BYTES};
 pub use config::{
-    target_signs, AutoresetMode, PaperFigure, RewardWeights, Start, SuccessTolerances, TaskConfig,
+    target_signs, AutoresetMode, PaperFigure, RewardKind, RewardWeights, Start, SuccessTolerances,
+    TaskConfig,
 };
+pub use goals::{Ends, Transitions, MAX_DRAWN_LINKS};
 pub use keys::{config_key, ConfigKey, KeyKind, KeyValue, CONFIG_KEYS};
 pub use outputs::{event, EpisodeEnds, Real, StepOutputs, DIAGNOSTICS};
 pub use reality::{

@@ -10,7 +10,7 @@
 //! so the phase order gives each env exactly the bits of the env-by-env order.
 
 use super::config::{AutoresetMode, TaskConfig};
-use super::measure::{measure, MeasureInto, StateMeasure};
+use super::measure::{measure, MeasureInto, RewardSpec, StateMeasure};
 use super::outputs::{event, Real, DIAGNOSTICS};
 use super::reality::{EnvParams, ParamRow, RealityGap};
 use super::start::perturb;
@@ -30,6 +30,10 @@ use rand_distr::StandardNormal;
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Slot {
     pub steps: u64,
+    /// Consecutive steps up to now within the success tolerances.
+    pub held: u32,
+    /// Goal-conditioned tasks: the episode's (start, target) pair.
+    pub goal: u16,
     /// The episode has ended and the env has not been reset since.
     pub ended: bool,
 }
@@ -37,8 +41,10 @@ pub(super) struct Slot {
 /// Numbers per env of each per-env array (0 for a feature that is off).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Widths {
-    /// State (and observation) length.
+    /// State length.
     pub state: usize,
+    /// Observation length: the state, then the target's signs if observed.
+    pub obs: usize,
     /// Action length.
     pub force: usize,
     /// Links stored per env in [`EnvParams`] (0: parameters shared).
@@ -58,7 +64,8 @@ pub(super) struct Widths {
 }
 
 impl Widths {
-    pub fn new<G: Geometry>(chain: &Chain<G>, reality: &RealityGap) -> Self {
+    pub fn new<G: Geometry>(chain: &Chain<G>, task: &TaskConfig) -> Self {
+        let reality = &task.reality;
         let (d, f) = (chain.state_dim(), chain.force_dim());
         let randomized = !reality.randomize.is_off();
         let noise = reality.has_obs_noise();
@@ -66,6 +73,7 @@ impl Widths {
         let last_force = if reality.has_rate_limit() { f } else { 0 };
         Self {
             state: d,
+            obs: task.obs_dim(d),
             force: f,
             param_links: if randomized { chain.n_links() } else { 0 },
             param_scalars: randomized as usize,
@@ -268,13 +276,13 @@ impl<'a, T: Real, A: Real> OutRange<'a, T, A> {
         let (actions, actions2) = self
             .actions
             .split_at((at * w.force).min(self.actions.len()));
-        let (obs, obs2) = cut(self.obs, at, w.state);
+        let (obs, obs2) = cut(self.obs, at, w.obs);
         let (rewards, rewards2) = cut(self.rewards, at, 1);
         let (terminated, terminated2) = cut(self.terminated, at, 1);
         let (truncated, truncated2) = cut(self.truncated, at, 1);
         let (events, events2) = cut(self.events, at, 1);
         let (errors, errors2) = cut(self.errors, at, 2);
-        let (finals, finals2) = cut(self.finals, at, w.state);
+        let (finals, finals2) = cut(self.finals, at, w.obs);
         let (diag, diag2) = cut(self.diag, at, DIAGNOSTICS.len());
         (
             Self {
@@ -307,13 +315,13 @@ impl<'a, T: Real, A: Real> OutRange<'a, T, A> {
         let nd = DIAGNOSTICS.len();
         EnvOut {
             action: &self.actions[k * w.force..(k + 1) * w.force],
-            obs: row(self.obs, k, w.state),
+            obs: row(self.obs, k, w.obs),
             reward: &mut self.rewards[k],
             terminated: &mut self.terminated[k],
             truncated: &mut self.truncated[k],
             event: &mut self.events[k],
             errors: row(self.errors, k, 2),
-            finals: row(self.finals, k, w.state),
+            finals: row(self.finals, k, w.obs),
             diag: row(self.diag, k, nd),
         }
     }
@@ -339,7 +347,12 @@ pub(super) struct Ctx<'a, G: Geometry> {
     /// The true parameters randomisation draws around.
     pub truth: &'a ChainParams,
     pub task: &'a TaskConfig,
+    /// The state episodes start from before noise; goal-conditioned, one per pair.
     pub base: &'a [f64],
+    /// The reward of the task on this chain.
+    pub reward: RewardSpec,
+    /// [`TaskConfig::hold_steps`].
+    pub hold_steps: u32,
     pub mode: AutoresetMode,
     pub diagnostics: bool,
     pub widths: Widths,
@@ -468,6 +481,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
             continue;
         }
         l.hook.task.a2[k] = actuate(task, &mut e, o.action, &mut l.forces[k * f..(k + 1) * f]);
+        l.hook.set_target(k, task.target_of(e.slot.goal));
     }
     let plan = StepPlan {
         dt: task.dt,
@@ -475,7 +489,8 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         guard: &task.guard,
     };
     l.step(&mut data.states[..num_envs * w.state], num_envs, f, plan);
-    let noisy = w.noisy > 0;
+    // Without noise or an observed goal, observations are the state rows.
+    let rows_are_obs = w.noisy == 0 && w.obs == w.state;
     for k in 0..num_envs {
         if !l.stepped[k] {
             continue;
@@ -493,8 +508,8 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
             measure(
                 ctx.chain.layout(),
                 e.y,
-                &task.target,
-                &task.reward,
+                task.target_of(e.slot.goal),
+                &ctx.reward,
                 l.hook.task.a2[k],
             )
         } else {
@@ -502,14 +517,14 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         };
         let mut o = out.env(k, w);
         let reset = finish_step(ctx, chain, &mut e, &mut o, status, &m);
-        if noisy {
-            emit_obs(&task.reality, &mut e, o.obs);
+        if !rows_are_obs {
+            emit_obs(task, &mut e, o.obs);
         }
         if reset {
             load_lane_params(scratch, l, k, &data.env(k, w).params);
         }
     }
-    if !noisy {
+    if rows_are_obs {
         // Every env's observation is its state: one pass over the chunk's rows.
         write_obs(
             &data.states[..num_envs * w.state],
@@ -554,14 +569,25 @@ fn env_chain<'c, G: Geometry>(
 /// Starts a new episode in env `e`: the start state (stream 0, as always), new
 /// parameters (randomisation on), an empty delay line and zero last force.
 pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
+    let base = match &ctx.task.transitions {
+        None => ctx.base,
+        Some(t) => {
+            // The pair first, from the start stream: a fixed task draws nothing here.
+            let goal = e.start_rng.random_range(0..t.len());
+            e.slot.goal = goal as u16;
+            let d = ctx.widths.state;
+            &ctx.base[goal * d..(goal + 1) * d]
+        }
+    };
     perturb(
         ctx.chain.layout(),
-        ctx.base,
+        base,
         ctx.task.start_noise,
         e.start_rng,
         e.y,
     );
     e.slot.steps = 0;
+    e.slot.held = 0;
     e.slot.ended = false;
     if let (Some(p), Some(rng)) = (e.params.as_mut(), e.param_rng.as_deref_mut()) {
         p.sample(&ctx.task.reality.randomize, ctx.truth, rng);
@@ -586,13 +612,24 @@ pub(super) fn sense(reality: &RealityGap, e: &mut EnvMut<'_>) {
     }
 }
 
-/// Writes env `e`'s observation: its state, or a fresh noisy reading of it.
-pub(super) fn emit_obs<T: Real>(reality: &RealityGap, e: &mut EnvMut<'_>, obs: &mut [T]) {
+/// Writes env `e`'s observation: its state, or a fresh noisy reading of it, then the
+/// target's signs when the task observes them.
+pub(super) fn emit_obs<T: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, obs: &mut [T]) {
+    let d = e.y.len();
     if e.noise_rng.is_some() {
-        sense(reality, e);
-        write_obs(e.noisy_obs, obs);
+        sense(&task.reality, e);
+        write_obs(e.noisy_obs, &mut obs[..d]);
     } else {
-        write_obs(e.y, obs);
+        write_obs(e.y, &mut obs[..d]);
+    }
+    write_goal(task, e.slot.goal, &mut obs[d..]);
+}
+
+/// The target's signs at the end of an observation (nothing when not observed).
+#[inline(always)]
+pub(super) fn write_goal<T: Real>(task: &TaskConfig, goal: u16, tail: &mut [T]) {
+    if task.goal_observation {
+        write_obs(task.target_of(goal), tail);
     }
 }
 
@@ -663,7 +700,7 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
     o: EnvOut<'_, T, A>,
 ) {
     reset_env(ctx, &mut e);
-    emit_obs(&ctx.task.reality, &mut e, o.obs);
+    emit_obs(ctx.task, &mut e, o.obs);
     *o.reward = 0.0;
     *o.terminated = false;
     *o.truncated = false;
@@ -671,8 +708,8 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
     let m = measure(
         ctx.chain.layout(),
         e.y,
-        &ctx.task.target,
-        &ctx.task.reward,
+        ctx.task.target_of(e.slot.goal),
+        &ctx.reward,
         0.0,
     );
     o.errors.copy_from_slice(&[m.e_q, m.e_w]);
@@ -688,10 +725,11 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
 fn score<G: Geometry>(
     ctx: &Ctx<'_, G>,
     m: &StateMeasure,
-    steps: u64,
+    slot: &mut Slot,
     failed: bool,
     o: &mut EnvOut<'_, impl Real, impl Real>,
 ) -> u8 {
+    let steps = slot.steps;
     let task = ctx.task;
     let off_track = !failed && m.x_max > task.track_limit;
     let terminated = failed || off_track;
@@ -700,10 +738,16 @@ fn score<G: Geometry>(
     *o.terminated = terminated;
     *o.truncated = truncated;
     o.errors.copy_from_slice(&[m.e_q, m.e_w]);
+    let within = m.e_q <= task.success.e_q && m.e_w <= task.success.e_w;
+    slot.held = if within {
+        slot.held.saturating_add(1)
+    } else {
+        0
+    };
     let mut ev = 0;
     if terminated || truncated {
         ev |= event::ENDED;
-        if !terminated && m.e_q <= task.success.e_q && m.e_w <= task.success.e_w {
+        if !terminated && slot.held >= ctx.hold_steps {
             ev |= event::SUCCESS;
         }
     }
@@ -746,10 +790,16 @@ fn step_env<G: Geometry, T: Real, A: Real>(
         &task.step_options,
         &task.guard,
     );
-    let m = measure(chain.layout(), e.y, &task.target, &task.reward, a2);
+    let m = measure(
+        chain.layout(),
+        e.y,
+        task.target_of(e.slot.goal),
+        &ctx.reward,
+        a2,
+    );
     let mut o = o;
     finish_step(ctx, chain, &mut e, &mut o, status, &m);
-    emit_obs(&task.reality, &mut e, o.obs);
+    emit_obs(task, &mut e, o.obs);
 }
 
 /// After env `e`'s physics (status `status`, measures `m` of the state it holds and
@@ -768,7 +818,7 @@ fn finish_step<G: Geometry, T: Real, A: Real>(
 ) -> bool {
     let task = ctx.task;
     e.slot.steps += 1;
-    let ev = score(ctx, m, e.slot.steps, status.is_failure(), o);
+    let ev = score(ctx, m, e.slot, status.is_failure(), o);
     *o.event = ev;
     if ctx.diagnostics {
         write_diagnostics(chain, e.y, o.diag);
@@ -780,10 +830,12 @@ fn finish_step<G: Geometry, T: Real, A: Real>(
         e.slot.ended = true;
         return false;
     }
+    let d = e.y.len();
     match e.noise_rng.as_deref_mut() {
-        None => o.finals.copy_from_slice(e.y),
-        Some(rng) => add_noise(&task.reality, e.y, rng, o.finals),
+        None => o.finals[..d].copy_from_slice(e.y),
+        Some(rng) => add_noise(&task.reality, e.y, rng, &mut o.finals[..d]),
     }
+    write_goal(task, e.slot.goal, &mut o.finals[d..]);
     reset_env(ctx, e);
     true
 }

@@ -9,10 +9,10 @@ use super::convert::{error, signs, type_error};
 use super::model::ChainCart;
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::any::AnyChain;
-use crate::env::keys::{config_key, KEY_NAMES};
+use crate::env::keys::{config_key, ANY, KEY_NAMES};
 use crate::env::{
-    check_task, ConfigKey, KeyKind, KeyValue, RewardWeights, Scene, Start, SuccessTolerances,
-    TaskConfig, CONFIG_KEYS, SCENES,
+    check_task, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Start,
+    SuccessTolerances, TaskConfig, Transitions, CONFIG_KEYS, SCENES,
 };
 use crate::error::{quoted, InputError};
 use crate::integrate::{Method, StepOptions};
@@ -63,6 +63,26 @@ impl ResolvedConfig {
     #[getter]
     fn force_dim(&self) -> usize {
         self.chain().force_dim()
+    }
+    /// The target's signs (for a goal-conditioned task, the first pair's).
+    #[getter]
+    fn target(&self) -> Vec<f64> {
+        self.task.target.clone()
+    }
+    /// The (start, target) sign lists a goal-conditioned task draws from, or `None`.
+    #[getter]
+    fn pairs(&self) -> Option<Vec<(Vec<f64>, Vec<f64>)>> {
+        self.task.transitions.as_ref().map(|t| {
+            (0..t.len())
+                .map(|k| (t.start(k).to_vec(), t.target(k).to_vec()))
+                .collect()
+        })
+    }
+    /// Length of an observation: `state_dim`, plus `n_links` target signs when the task
+    /// observes its goal (`goal_observation`).
+    #[getter]
+    fn obs_dim(&self) -> usize {
+        self.task.obs_dim(self.chain().state_dim())
     }
     /// Pickled as its canonical values, resolved again when loaded.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
@@ -266,6 +286,35 @@ fn per_link<'py>(name: &str, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, P
     float_tuple(value.py(), numbers)
 }
 
+/// `transitions`: a tuple of `(start, target)` pairs, each end a name or a tuple of
+/// floats.
+fn transition_pairs<'py>(
+    key: &ConfigKey,
+    value: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let py = value.py();
+    if value.is_instance_of::<PyString>() {
+        return Err(wrong_type(key.name, value, key.expected));
+    }
+    let items: Vec<Bound<'py, PyAny>> = value
+        .extract()
+        .map_err(|_| wrong_type(key.name, value, key.expected))?;
+    let mut pairs = Vec::with_capacity(items.len());
+    for item in &items {
+        let ends: Vec<Bound<'py, PyAny>> = match item.extract() {
+            Ok(ends) if !item.is_instance_of::<PyString>() => ends,
+            _ => return Err(wrong_type(key.name, item, "a (start, target) pair")),
+        };
+        if ends.len() != 2 {
+            return Err(wrong_value(key.name, item, "a (start, target) pair"));
+        }
+        let start = name_or_numbers("transitions start", &ends[0])?;
+        let target = name_or_numbers("transitions target", &ends[1])?;
+        pairs.push(PyTuple::new(py, [start, target])?);
+    }
+    Ok(PyTuple::new(py, pairs)?.into_any())
+}
+
 /// `target`/`start`: a name, or a tuple of floats.
 fn name_or_numbers<'py>(name: &str, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
     if value.is_instance_of::<PyString>() {
@@ -365,6 +414,7 @@ fn canonical<'py>(key: &ConfigKey, value: &Bound<'py, PyAny>) -> PyResult<Bound<
             integer(key.name, value)?.into_pyobject(py)?.into_any()
         }
         KeyKind::RealityGap => value.clone(),
+        KeyKind::Transitions => transition_pairs(key, value)?,
     })
 }
 
@@ -450,6 +500,53 @@ fn start(value: &Bound<'_, PyAny>, n: usize, state_dim: usize) -> PyResult<Start
     }
 }
 
+/// Whether `value` is the name `any`.
+fn is_any(value: &Bound<'_, PyAny>) -> bool {
+    value.extract::<String>().is_ok_and(|s| s == ANY)
+}
+
+/// The pairs a goal-conditioned task draws from: the `transitions` list, or the pairs
+/// `start` and `target` allow when either is `any`; `None` for a fixed task.
+fn transitions(
+    values: &Bound<'_, PyDict>,
+    target: &Bound<'_, PyAny>,
+    start_value: &Bound<'_, PyAny>,
+    chain: &AnyChain,
+) -> PyResult<Option<Transitions>> {
+    let n = chain.n_links();
+    let list = get(values, "transitions");
+    if !list.is_none() {
+        let mut pairs = Vec::new();
+        for pair in list.try_iter()? {
+            let pair = pair?;
+            pairs.push((signs(&pair.get_item(0)?, n)?, signs(&pair.get_item(1)?, n)?));
+        }
+        return Ok(Some(Transitions::from_pairs(n, &pairs)?));
+    }
+    if !is_any(target) && !is_any(start_value) {
+        return Ok(None);
+    }
+    let target_signs = (!is_any(target)).then(|| signs(target, n)).transpose()?;
+    let target_end = target_signs.as_deref().map_or(Ends::Any, Ends::One);
+    let at_target = start_value.extract::<String>().is_ok_and(|s| s == "target");
+    let start_signs = match () {
+        _ if is_any(start_value) || at_target => None,
+        _ => match start(start_value, n, chain.state_dim())? {
+            Start::Equilibrium(s) => Some(s),
+            _ => {
+                return Err(error(format!(
+                    "start = {}: expected an equilibrium (a name or a sign tuple), \"target\" or \"any\" when the target is \"any\"",
+                    start_value.repr()?
+                )))
+            }
+        },
+    };
+    let start_end = start_signs.as_deref().map_or(Ends::Any, Ends::One);
+    Ok(Some(Transitions::between(
+        n, start_end, target_end, at_target,
+    )?))
+}
+
 /// The task of canonical values on `chain`.
 fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
     let f = |name: &str| get(values, name).extract::<f64>();
@@ -457,19 +554,31 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
     let method = Method::from_name(&get(values, "integrator").extract::<String>()?)?;
     let precision = Precision::from_name(&get(values, "precision").extract::<String>()?)?;
     let substeps = count(key("substeps"), &get(values, "substeps"))?;
+    let (target, start_value) = (get(values, "target"), get(values, "start"));
+    let transitions = transitions(values, &target, &start_value, chain)?;
     let mut task = TaskConfig::new(
-        signs(&get(values, "target"), n)?,
+        match &transitions {
+            Some(t) => t.target(0).to_vec(),
+            None => signs(&target, n)?,
+        },
         f("dt")?,
         StepOptions::new(method, substeps as usize)?,
     );
-    task.start = start(&get(values, "start"), n, chain.state_dim())?;
+    task.start = match &transitions {
+        Some(t) => Start::Equilibrium(t.start(0).to_vec()),
+        None => start(&start_value, n, chain.state_dim())?,
+    };
+    task.transitions = transitions;
     task.start_noise = f("start_noise")?;
     task.max_force = f("max_force")?;
     task.track_limit = f("track_limit")?;
     task.max_episode_steps = count(key("max_episode_steps"), &get(values, "max_episode_steps"))?;
     task.reward = RewardWeights::from_array(get(values, "reward_weights").extract()?);
+    task.reward_kind = RewardKind::from_name(&get(values, "reward").extract::<String>()?)?;
     let [e_q, e_w]: [f64; 2] = get(values, "success_tolerances").extract()?;
     task.success = SuccessTolerances { e_q, e_w };
+    task.success_hold = f("success_hold")?;
+    task.goal_observation = get(values, "goal_observation").extract()?;
     let optional = |name: &str| Some(get(values, name)).filter(|v| !v.is_none());
     task.reality = reality_gap(RealityArgs {
         randomize: optional("randomize").as_ref(),

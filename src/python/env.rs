@@ -61,6 +61,8 @@ pub struct PyEnvBatch {
     batch: SceneEnvBatch,
     num_envs: usize,
     state_dim: usize,
+    /// Numbers per observation: the state, then the target's signs when observed.
+    obs_dim: usize,
     force_dim: usize,
     n_links: usize,
     planar: bool,
@@ -169,10 +171,13 @@ fn reset_into<'py, G: LaneScene, T: Element + Real>(
 impl PyEnvBatch {
     fn obs_shape(&self, single: bool) -> Vec<usize> {
         if single {
-            vec![self.state_dim]
+            vec![self.obs_dim]
         } else {
-            vec![self.num_envs, self.state_dim]
+            vec![self.num_envs, self.obs_dim]
         }
+    }
+    fn states_shape(&self) -> [usize; 2] {
+        [self.num_envs, self.state_dim]
     }
     fn check_single(&self) -> PyResult<()> {
         if self.num_envs == 1 {
@@ -219,6 +224,7 @@ impl PyEnvBatch {
             batch,
             num_envs,
             state_dim: chain.state_dim(),
+            obs_dim: resolved.task.obs_dim(chain.state_dim()),
             force_dim: chain.force_dim(),
             n_links: chain.n_links(),
             planar: chain.is_planar(),
@@ -235,6 +241,23 @@ impl PyEnvBatch {
     #[getter]
     fn state_dim(&self) -> usize {
         self.state_dim
+    }
+    /// Numbers per observation: `state_dim`, plus `n_links` target signs when the task
+    /// observes its goal.
+    #[getter]
+    fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+    /// Each env's target signs for its current episode, shape `(num_envs, n_links)`
+    /// (goal-conditioned tasks draw them at every reset).
+    fn targets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let mut v = Vec::with_capacity(self.num_envs * self.n_links);
+        for k in 0..self.num_envs {
+            v.extend_from_slice(scene!(&self.batch, b => b.env_target(k))?);
+        }
+        Ok(PyArray1::from_vec(py, v)
+            .reshape([self.num_envs, self.n_links])?
+            .into_any())
     }
     #[getter]
     fn force_dim(&self) -> usize {
@@ -444,7 +467,7 @@ impl PyEnvBatch {
     /// `obs_noise` is set), shape `(num_envs, state_dim)`.
     fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let shape = self.obs_shape(false);
-        let n = self.num_envs * self.state_dim;
+        let n = self.num_envs * self.obs_dim;
         Ok(if self.obs_f64 {
             let mut v = vec![0.0f64; n];
             scene!(&self.batch, b => b.write_obs(&mut v))?;
@@ -459,7 +482,7 @@ impl PyEnvBatch {
     fn states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         Ok(
             PyArray1::from_slice(py, scene!(&self.batch, b => b.states()))
-                .reshape(self.obs_shape(false))?
+                .reshape(self.states_shape())?
                 .into_any(),
         )
     }
@@ -491,12 +514,14 @@ impl PyEnvBatch {
         let d = PyDict::new(py);
         d.set_item(
             "states",
-            PyArray1::from_vec(py, s.states).reshape(self.obs_shape(false))?,
+            PyArray1::from_vec(py, s.states).reshape(self.states_shape())?,
         )?;
         let rng: Vec<u8> = s.rng.iter().flatten().copied().collect();
         d.set_item("rng", PyArray1::from_vec(py, rng).reshape([n, RNG_BYTES])?)?;
         d.set_item("steps", PyArray1::from_vec(py, s.steps))?;
         d.set_item("ended", PyArray1::from_vec(py, s.ended))?;
+        d.set_item("held", PyArray1::from_vec(py, s.held))?;
+        d.set_item("goal", PyArray1::from_vec(py, s.goal))?;
         let rng_array = |rows: &[[u8; RNG_BYTES]]| {
             let flat: Vec<u8> = rows.iter().flatten().copied().collect();
             PyArray1::from_vec(py, flat).reshape([rows.len(), RNG_BYTES])
@@ -525,11 +550,13 @@ impl PyEnvBatch {
                 .ok_or_else(|| error(format!("snapshot has no {key:?} entry")))
         };
         let states: PyReadonlyArray2<'_, f64> = get("states")?.extract()?;
-        check_shape("snapshot states", states.shape(), &self.obs_shape(false))?;
+        check_shape("snapshot states", states.shape(), &self.states_shape())?;
         let rng: PyReadonlyArray2<'_, u8> = get("rng")?.extract()?;
         check_shape("snapshot rng", rng.shape(), &[n, RNG_BYTES])?;
         let steps: PyReadonlyArray1<'_, u64> = get("steps")?.extract()?;
         let ended: PyReadonlyArray1<'_, bool> = get("ended")?.extract()?;
+        let held: PyReadonlyArray1<'_, u32> = get("held")?.extract()?;
+        let goal: PyReadonlyArray1<'_, u16> = get("goal")?.extract()?;
         let rng_rows = |a: &PyReadonlyArray2<'_, u8>| -> Vec<[u8; RNG_BYTES]> {
             a.as_array()
                 .rows()
@@ -561,6 +588,8 @@ impl PyEnvBatch {
             rng: rng_rows(&rng),
             steps: steps.as_array().to_vec(),
             ended: ended.as_array().to_vec(),
+            held: held.as_array().to_vec(),
+            goal: goal.as_array().to_vec(),
             param_rng: rng_rows(&param_rng),
             noise_rng: rng_rows(&noise_rng),
             params,
