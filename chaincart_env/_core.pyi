@@ -274,6 +274,16 @@ class ResolvedConfig:
     @property
     def force_dim(self) -> int:
         """Length of an action: 1 planar, 2 spatial."""
+    @property
+    def obs_dim(self) -> int:
+        """Length of an observation: ``state_dim``, plus ``n_links`` target signs when the
+        task observes its goal (``goal_observation``)."""
+    @property
+    def target(self) -> list[float]:
+        """The target's signs (for a goal-conditioned task, the first pair's)."""
+    @property
+    def pairs(self) -> Optional[list[tuple[list[float], list[float]]]]:
+        """The (start, target) sign lists a goal-conditioned task draws from, or ``None``."""
     def __reduce__(self) -> tuple[Any, ...]: ...
 
 @final
@@ -383,7 +393,14 @@ class EnvBatch:
         """Number of envs."""
     @property
     def state_dim(self) -> int:
-        """Length of one state and observation."""
+        """Length of one state."""
+    @property
+    def obs_dim(self) -> int:
+        """Numbers per observation: ``state_dim``, plus ``n_links`` target signs when the
+        task observes its goal."""
+    def targets(self) -> npt.NDArray[np.float64]:
+        """Each env's target signs for its current episode, shape ``(num_envs, n_links)``
+        (goal-conditioned tasks draw them at every reset)."""
     @property
     def force_dim(self) -> int:
         """Length of one action."""

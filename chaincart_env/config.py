@@ -167,9 +167,13 @@ class ChainCartConfig:
     track_limit: float = _UNSET
     max_episode_steps: int = _UNSET
     reward_weights: RewardWeights = _UNSET
+    reward: str = _UNSET
     scene: str = _UNSET
     obs_dtype: str = _UNSET
     success_tolerances: tuple[float, float] = _UNSET
+    success_hold: float = _UNSET
+    transitions: Optional[tuple[tuple[Any, Any], ...]] = _UNSET
+    goal_observation: bool = _UNSET
     diagnostics: bool = _UNSET
     precision: str = _UNSET
     randomize: Optional[dict[str, Any]] = _UNSET
@@ -207,10 +211,31 @@ class ChainCartConfig:
 
     @property
     def target_signs(self) -> tuple[int, ...]:
-        """The target equilibrium as a tuple of +1 (hanging link) / -1 (upright link)."""
-        if isinstance(self.target, str):
-            return tuple(_core.target_signs(self.target, self.n_links))
-        return tuple(int(s) for s in self.target)
+        """The target equilibrium as a tuple of +1 (hanging link) / -1 (upright link);
+        for a goal-conditioned task (:attr:`goal_conditioned`), the first pair's target
+        (each episode draws its own: the env's ``targets``)."""
+        return tuple(int(s) for s in self._resolved.target)
+
+    @property
+    def goal_conditioned(self) -> bool:
+        """Every reset draws its (start, target) pair: ``target`` or ``start`` is
+        ``"any"``, or ``transitions`` lists the pairs."""
+        return self._resolved.pairs is not None
+
+    @property
+    def pairs(self) -> Optional[list[tuple[tuple[int, ...], tuple[int, ...]]]]:
+        """The (start, target) sign tuples a goal-conditioned task draws from, in the
+        order the core indexes them; ``None`` for a fixed task."""
+        pairs = self._resolved.pairs
+        if pairs is None:
+            return None
+        return [(tuple(int(v) for v in s), tuple(int(v) for v in t)) for s, t in pairs]
+
+    @property
+    def obs_dim(self) -> int:
+        """Length of an observation: :attr:`state_dim`, plus ``n_links`` target signs
+        with ``goal_observation``."""
+        return self._resolved.obs_dim
 
     @property
     def view(self) -> str:

@@ -31,10 +31,11 @@ def observation_space(config: ChainCartConfig) -> spaces.Box:
     with ``obs_noise``), the rest unbounded (``-inf``/``inf``, Gymnasium's convention;
     observations themselves are always finite)."""
     dtype = np.dtype(config.obs_dtype)
-    high = np.full(config.state_dim, np.inf, dtype=dtype)
+    high = np.full(config.obs_dim, np.inf, dtype=dtype)
     if not np.any(np.asarray(config.obs_noise if config.obs_noise is not None else 0.0)):
         start, stop = config.state_layout["q"]
         high[start:stop] = 1.0
+    high[config.state_dim :] = 1.0  # the target's signs, when observed
     return spaces.Box(-high, high, dtype=dtype)
 
 
@@ -240,6 +241,12 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     def dt(self) -> float:
         """Control period (s): the time one step advances."""
         return self.config.dt
+
+    @property
+    def episode_target(self) -> tuple[int, ...]:
+        """The target equilibrium of the current episode (goal-conditioned tasks draw
+        it at every reset; otherwise the config's target)."""
+        return tuple(int(s) for s in self._batch.targets()[0])
 
     @property
     def model_state(self) -> np.ndarray:

@@ -14,7 +14,7 @@ is returned.
 
 from __future__ import annotations
 
-from typing import Any, Optional, Sequence
+from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
 
@@ -73,6 +73,24 @@ class LQRPolicy:
         self.max_force = float(max_force)
         self.planar = bool(planar)
         self.state_dim = (2 + 3 * self.n_links) if planar else (4 + 6 * self.n_links)
+        #: Goal-conditioned observations (see :meth:`goal_conditioned`): designs a gain
+        #: per target signs read from the observation's tail; None: the fixed target.
+        self._design: Optional[Callable[[tuple[int, ...]], np.ndarray]] = None
+        self._gains: dict[tuple[int, ...], np.ndarray] = {}
+
+    def goal_conditioned(self, model: Any, Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None) -> "LQRPolicy":
+        """Reads the target from the observation's last ``n_links`` numbers (the
+        ``goal_observation`` layout) and designs that target's gain on ``model`` the
+        first time it is seen. Returns ``self``."""
+        self._design = lambda signs: np.asarray(model.lqr_gain(list(signs), Q, R), dtype=np.float64)
+        self._gains = {tuple(int(s) for s in self.target): self.gain}
+        return self
+
+    @property
+    def obs_dim(self) -> int:
+        """Length of the observations it takes: the state, plus the target's signs
+        when goal-conditioned."""
+        return self.state_dim + (self.n_links if self._design is not None else 0)
 
     @classmethod
     def from_model(
@@ -107,20 +125,31 @@ class LQRPolicy:
             raise ValueError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
         if oracle:
             return OracleLQRPolicy(env, Q, R)
-        return cls.from_model(base.model, config.target_signs, config.max_force, Q, R, planar=config.planar)
+        policy = cls.from_model(base.model, config.target_signs, config.max_force, Q, R, planar=config.planar)
+        return policy.goal_conditioned(base.model, Q, R) if config.goal_observation else policy
 
     def forces(self, observation: np.ndarray) -> np.ndarray:
         """Unsaturated forces in newtons, shape (N, 2) for spatial, (N, 1) for planar."""
         obs = np.asarray(observation, dtype=np.float64)
         batch = np.atleast_2d(obs)
-        if batch.ndim != 2 or batch.shape[1] != self.state_dim:
+        if batch.ndim != 2 or batch.shape[1] != self.obs_dim:
             raise ValueError(
-                f"observation has shape {obs.shape}: expected ({self.state_dim},) or (N, {self.state_dim})"
+                f"observation has shape {obs.shape}: expected ({self.obs_dim},) or (N, {self.obs_dim})"
             )
         if not np.all(np.isfinite(batch)):
             raise ValueError("observation has non-finite entries: expected finite states")
-        states = _planar_to_spatial(batch, self.n_links) if self.planar else batch
-        u = -lqr_coordinates(states, self.target) @ self.gain.T
+        states = batch[:, : self.state_dim]
+        states = _planar_to_spatial(states, self.n_links) if self.planar else states
+        if self._design is None:
+            u = -lqr_coordinates(states, self.target) @ self.gain.T
+        else:
+            u = np.zeros((batch.shape[0], 2))
+            signs = np.where(batch[:, self.state_dim :] < 0, -1, 1)
+            for row, target in enumerate(map(tuple, signs.tolist())):
+                gain = self._gains.get(target)
+                if gain is None:
+                    gain = self._gains[target] = self._design(target)
+                u[row] = -lqr_coordinates(states[row : row + 1], np.asarray(target, dtype=np.float64)) @ gain.T
         return u[:, :1] if self.planar else u
 
     def predict(

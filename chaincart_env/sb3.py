@@ -58,6 +58,11 @@ class _EnvView:
     def elapsed_steps(self) -> int:
         return int(self._vec._batch.step_counts()[self._index])
 
+    @property
+    def episode_target(self) -> tuple[int, ...]:
+        """This env's target equilibrium in its current episode."""
+        return tuple(int(v) for v in self._vec._batch.targets()[self._index])
+
     def set_state(self, state: np.ndarray) -> None:
         self._vec._batch.set_state(self._index, state)
 
@@ -174,6 +179,12 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         """Control period (s)."""
         return self.config.dt
 
+    @property
+    def episode_targets(self) -> np.ndarray:
+        """Each env's target signs for its current episode, shape ``(num_envs,
+        n_links)`` (goal-conditioned tasks draw them at every reset)."""
+        return self._batch.targets()
+
     def seed(self, seed: Optional[int] = None) -> Sequence[Optional[int]]:
         """Seeds of the next ``reset`` (SB3's ``seed``): env i gets ``seed + i``."""
         if seed is not None:
@@ -193,7 +204,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         for i, start in enumerate(starts):
             if start is not None:  # validated by the core, as in ChainCartEnv.reset
                 self._batch.set_state(i, start)
-                obs[i] = self._batch.states()[i]
+                obs[i] = self._batch.observations()[i]
         if self.render_mode is not None:
             self._rendering.clear_forces()
             self._rendering.record_tips(self._batch.states)

@@ -187,6 +187,12 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         return self.config.dt
 
     @property
+    def episode_targets(self) -> np.ndarray:
+        """Each env's target signs for its current episode, shape ``(num_envs,
+        n_links)`` (goal-conditioned tasks draw them at every reset)."""
+        return self._batch.targets()
+
+    @property
     def model_states(self) -> np.ndarray:
         """Float64 states in the observed layout, shape ``(num_envs, state_dim)``."""
         return self._batch.states()

@@ -1,0 +1,167 @@
+"""The large-motion scenes and goal-conditioned tasks from Python: the observation's
+target tail, the draws over all transitions (seeded, fixed by keywords, limited by a
+list), the bounded reward, success held for the last seconds, the goal-conditioned
+LQR, and clear errors."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import chaincart_env  # noqa: F401  (registers the ids)
+from chaincart_env import ChainCartConfig, ChainCartEnv, ChainCartVectorEnv, LQRPolicy
+from chaincart_env.errors import ChainCartError
+
+LARGE_MOTION_SCENES = ["swingup-2", "swingup-3", "spatial-swingup-2", "transitions-2", "transitions-3"]
+
+
+@pytest.mark.parametrize("scene", LARGE_MOTION_SCENES)
+def test_large_motion_scenes_pass_gymnasiums_checker(scene: str) -> None:
+    env = gym.make(f"ChainCart-{scene}-v0")
+    check_env(env.unwrapped, skip_render_check=True)
+    config = env.unwrapped.config
+    assert config.reward == "tolerance" and config.success_hold == 1.0
+    goal = scene.startswith("transitions")
+    assert env.observation_space.shape == (config.state_dim + (config.n_links if goal else 0),)
+    env.close()
+
+
+def test_transitions_observe_their_drawn_target_and_draw_every_pair() -> None:
+    env = gym.make("ChainCart-transitions-2-v0")
+    base = env.unwrapped
+    n, d = 2, base.config.state_dim
+    pairs = set()
+    for seed in range(80):
+        obs, _ = env.reset(seed=seed)
+        target = tuple(int(v) for v in obs[d:])
+        assert target == base.episode_target
+        # The start: each link near the pair's start equilibrium, which is not the target.
+        q_vertical = base.model_state[2 + 1 : 2 + 2 * n : 2]
+        start = tuple(int(np.sign(v)) for v in q_vertical)
+        assert start != target
+        pairs.add((start, target))
+    assert len(pairs) == 12
+    # Seeded: the same seed, the same pair and start.
+    first, _ = env.reset(seed=7)
+    again, _ = env.reset(seed=7)
+    np.testing.assert_array_equal(first, again)
+
+
+def test_keywords_fix_the_pair_or_limit_the_draw() -> None:
+    env = gym.make("ChainCart-transitions-2-v0", start=[1, 1], target=[-1, 1])
+    d = env.unwrapped.config.state_dim
+    for seed in range(5):
+        obs, _ = env.reset(seed=seed)
+        assert tuple(obs[d:]) == (-1, 1)
+        assert np.all(env.unwrapped.model_state[[3, 5]] > 0)  # both links hang
+    listed = [((1, 1), (-1, -1)), ("inverted", "hanging")]
+    env = gym.make("ChainCart-transitions-2-v0", transitions=listed)
+    targets = {tuple(env.reset(seed=s)[0][d:]) for s in range(30)}
+    assert targets == {(-1, -1), (1, 1)}
+    assert env.unwrapped.config.pairs == [((1, 1), (-1, -1)), ((-1, -1), (1, 1))]
+
+
+def test_a_vector_env_equals_single_envs_on_drawn_transitions() -> None:
+    from gymnasium.vector import AutoresetMode
+
+    n_envs = 5
+    vec = ChainCartVectorEnv(n_envs, scene="transitions-2", max_episode_steps=12, autoreset_mode=AutoresetMode.SAME_STEP)
+    singles = [ChainCartEnv(scene="transitions-2", max_episode_steps=12) for _ in range(n_envs)]
+    obs, _ = vec.reset(seed=3)
+    for i, env in enumerate(singles):
+        np.testing.assert_array_equal(obs[i], env.reset(seed=3 + i)[0])
+    rng = np.random.default_rng(0)
+    ends = 0
+    for _ in range(40):
+        actions = rng.uniform(-1, 1, size=(n_envs, 1)).astype(np.float32)
+        obs, rewards, terminated, truncated, info = vec.step(actions)
+        for i, env in enumerate(singles):
+            o, r, te, tr, _ = env.step(actions[i])
+            assert rewards[i] == r and terminated[i] == te and truncated[i] == tr
+            if te or tr:
+                ends += 1
+                np.testing.assert_array_equal(info["final_obs"][i], o)
+                o, _ = env.reset()  # the same stream draws the next pair and start
+            np.testing.assert_array_equal(obs[i], o)
+            np.testing.assert_array_equal(vec.episode_targets[i], env.episode_target)
+    assert ends >= n_envs
+    vec.close()
+
+
+def test_the_tolerance_reward_is_bounded_and_one_at_rest_on_the_target() -> None:
+    env = ChainCartEnv(scene="swingup-2", start="target", start_noise=0.0)
+    env.reset(seed=0)
+    _, reward, *_ = env.step(np.zeros(1, np.float32))
+    assert reward == pytest.approx(1.0, abs=1e-9)
+    env = ChainCartEnv(scene="swingup-2")
+    env.reset(seed=1)
+    rng = np.random.default_rng(1)
+    rewards = []
+    for _ in range(300):
+        _, r, te, tr, _ = env.step(rng.uniform(-1, 1, 1).astype(np.float32))
+        rewards.append(r)
+        if te or tr:
+            env.reset()
+    assert 0.0 <= min(rewards) and max(rewards) <= 1.0
+    assert min(rewards) < 0.5  # far from the target, far from 1
+
+
+def test_success_waits_for_the_hold() -> None:
+    # Resting on the hanging equilibrium for 0.6 s: a success with a 0.5 s hold, not 1 s.
+    for hold, success in [(0.5, True), (1.0, False)]:
+        env = ChainCartEnv(target="hanging", start="target", start_noise=0.0, max_episode_steps=30, success_hold=hold)
+        env.reset(seed=0)
+        for _ in range(30):
+            *_, truncated, info = env.step(np.zeros(1, np.float32))
+        assert truncated and info["is_success"] is success
+
+
+def test_the_lqr_reads_the_target_from_the_observation() -> None:
+    # Every episode starts near its drawn target: the goal-conditioned LQR holds each of
+    # the four equilibria, a single-target LQR only its own.
+    config = dict(scene="transitions-2", start="target", max_episode_steps=100)
+    env = ChainCartEnv(**config)
+    policy = LQRPolicy.from_env(env)
+    held = set()
+    for seed in range(12):
+        obs, _ = env.reset(seed=seed)
+        for _ in range(100):
+            obs, _, terminated, truncated, info = env.step(policy.predict(obs)[0])
+            if terminated or truncated:
+                break
+        assert info["is_success"], (seed, env.episode_target)
+        held.add(env.episode_target)
+    assert len(held) == 4
+    with pytest.raises(ValueError, match="expected"):
+        LQRPolicy.from_env(ChainCartEnv(scene="swingup-2")).predict(obs)  # obs has the tail
+
+
+@pytest.mark.parametrize(
+    "keywords, message",
+    [
+        (dict(target="any", n_links=9), "at most 8"),
+        (dict(target="any", start="paper-fig1", n_links=5), "expected an equilibrium"),
+        (dict(transitions=[((1, 0.5), (1, 1))]), "0.5"),
+        (dict(transitions="hanging"), "transitions"),
+        (dict(transitions=[(1, 1)]), "transitions start = 1: expected a name or a sequence"),
+        (dict(transitions=[((1, 1),)]), "(start, target) pair"),
+        (dict(success_hold=-1.0), "success_hold"),
+        (dict(reward="quadratic"), "tolerance"),
+    ],
+)
+def test_bad_task_values_are_clear_errors(keywords: dict, message: str) -> None:
+    with pytest.raises(ChainCartError) as error:
+        ChainCartConfig(**keywords)
+    assert message in str(error.value)
+
+
+def test_goal_conditioned_configs_round_trip_and_pickle() -> None:
+    import pickle
+
+    config = ChainCartConfig(scene="transitions-2", transitions=[([1, 1], "inverted")])
+    again = ChainCartConfig(**config.to_dict())
+    assert again == config and again.pairs == [((1, 1), (-1, -1))]
+    assert pickle.loads(pickle.dumps(config)) == config
+    assert config.goal_conditioned and not ChainCartConfig(scene="swingup-2").goal_conditioned
