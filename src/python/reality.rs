@@ -1,10 +1,8 @@
 //! Conversion of the reality-gap keywords (`randomize`, `params`, `mismatch`,
 //! `obs_noise`, `action_delay`, `force_rate_limit`, `force_noise`) between Python
-//! values and
-//! [`RealityGap`]; every check is the core's.
+//! values and [`RealityGap`]; every check is the core's.
 
-use super::convert::error;
-use super::convert::type_error;
+use super::convert::{error, type_error};
 use super::model::ChainCart;
 use crate::env::{
     Distribution, EnvParams, ForceNoise, Param, ParamRandomization, ParamValues, Randomization,
