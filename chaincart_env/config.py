@@ -182,6 +182,7 @@ class ChainCartConfig:
     obs_noise: Optional[Floats] = _UNSET
     action_delay: int = _UNSET
     force_rate_limit: Optional[float] = _UNSET
+    force_noise: Optional[dict[str, float]] = _UNSET
     render_view: Optional[str] = _UNSET
     _resolved: _core.ResolvedConfig = field(default=_UNSET, init=False, repr=False, compare=False)
 

@@ -93,8 +93,9 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
       before they are stepped again.
 
     Sim-to-real keywords (``randomize``, ``params``, ``mismatch``, ``obs_noise``,
-    ``action_delay``, ``force_rate_limit``) as for the single env; env i's parameters
-    are those of the single env seeded ``s + i``. With a parameter gap,
+    ``action_delay``, ``force_rate_limit``, ``force_noise``) as for the single env; env
+    i's parameters, noises and force disturbances are those of the single env seeded
+    ``s + i``. With a parameter gap,
     ``info["params"]`` (arrays over the envs, mask ``_params``) comes with ``reset``
     and with every step in which some env started a new episode; ``true_params``
     reads them at any time.

@@ -2,7 +2,7 @@
 //! every output bit-identical (observations, rewards, flags, events, errors, final
 //! observations, diagnostics, states) for every compiled kernel, n = 1..16, both
 //! scenes, randomised per-env parameters, observation noise, control delay, force-rate
-//! limit and both autoreset modes; the same across thread counts and batch sizes;
+//! limit, force noise and both autoreset modes; the same across thread counts and batch sizes;
 //! a blow-up isolated to its env; and the f32 mode (deterministic, accurate on the
 //! paper's scenes within the bound published in docs/simd.md).
 
@@ -10,8 +10,8 @@ mod common;
 
 use chaincart::batch::MIN_LANE_ENVS;
 use chaincart::env::{
-    event, AutoresetMode, Distribution, Ends, EnvBatch, PaperFigure, ParamRandomization, Real,
-    RewardKind, Start, StepOutputs, TaskConfig, Transitions,
+    event, AutoresetMode, Distribution, Ends, EnvBatch, ForceNoise, PaperFigure,
+    ParamRandomization, Real, RewardKind, Start, StepOutputs, TaskConfig, Transitions,
 };
 use chaincart::lanes::Kernel;
 use chaincart::lanes::LaneScene;
@@ -41,7 +41,7 @@ enum Path {
 /// A short-episode task on `n` links: narrow track, large start noise, strong pushes,
 /// so that resets, out-of-track ends and (for long chains) guard failures all happen.
 /// With `reality`: cart mass, link masses and lengths and gravity redrawn per env at
-/// every reset, observation noise, a two-step delay and a force-rate limit.
+/// every reset, observation noise, a two-step delay, a force-rate limit and force noise.
 fn task(n: usize, reality: bool) -> TaskConfig {
     let signs: Vec<f64> = (0..n)
         .map(|i| if i % 3 == 1 { 1.0 } else { -1.0 })
@@ -62,6 +62,10 @@ fn task(n: usize, reality: bool) -> TaskConfig {
         t.reality.obs_noise = vec![0.01];
         t.reality.action_delay = 2;
         t.reality.force_rate_limit = 1500.0;
+        t.reality.force_noise = ForceNoise {
+            multiplicative: 0.2,
+            additive: 1.0,
+        };
     }
     t
 }

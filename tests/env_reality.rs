@@ -1,14 +1,14 @@
 //! The reality gap of the task layer: per-env parameters drawn at reset, fixed
-//! mismatch, observation noise, control delay and force-rate limit.
+//! mismatch, observation noise, control delay, force-rate limit and force noise.
 
 use chaincart::batch::CHUNK;
 use chaincart::env::{
-    AutoresetMode, Distribution, EnvBatch, Param, ParamRandomization, ParamValues, Randomization,
-    RealityGap, StepOutputs, TaskConfig,
+    AutoresetMode, Distribution, EnvBatch, ForceNoise, Param, ParamRandomization, ParamValues,
+    Randomization, RealityGap, Start, StepOutputs, TaskConfig,
 };
 use chaincart::error::InputError;
 use chaincart::geometry::{Geometry, Vector};
-use chaincart::integrate::{Guard, GuardedStepper};
+use chaincart::integrate::{Guard, GuardedStepper, StepStatus};
 use chaincart::lanes::LaneScene;
 use chaincart::{Chain, ChainError, ChainParams, Method, Planar, Spatial, StepOptions};
 use rand::{Rng, SeedableRng};
@@ -92,6 +92,24 @@ impl Out {
     }
 }
 
+/// One control period of `chain` from `y` under the cart force `force` (one number per
+/// axis), as the task `t` steps it.
+fn step_chain<G: Geometry>(
+    chain: &Chain<G>,
+    y: &mut [f64],
+    force: &[f64],
+    t: &TaskConfig,
+) -> StepStatus {
+    GuardedStepper::new(chain).step(
+        chain,
+        y,
+        G::Cart::load(force),
+        t.dt,
+        &t.step_options,
+        &Guard::default(),
+    )
+}
+
 fn actions(step: usize, num_envs: usize, f: usize, env0: usize) -> Vec<f64> {
     (0..num_envs * f)
         .map(|j| 1.5 * (0.3 * step as f64 + 0.9 * (env0 + j / f) as f64 + j as f64).sin())
@@ -124,6 +142,10 @@ fn everything_on(n: usize) -> TaskConfig {
     t.reality.obs_noise = vec![0.01];
     t.reality.action_delay = 2;
     t.reality.force_rate_limit = 400.0;
+    t.reality.force_noise = ForceNoise {
+        multiplicative: 0.2,
+        additive: 0.5,
+    };
     t.reality.mismatch.gravity = Some(1.02);
     t
 }
@@ -224,14 +246,7 @@ fn an_env_of_a_randomised_batch_steps_as_a_chain_with_its_parameters() {
                 .iter()
                 .map(|x| x.clamp(-1.0, 1.0) * t.max_force)
                 .collect();
-            let status = GuardedStepper::new(&chain).step(
-                &chain,
-                &mut y,
-                <Spatial as Geometry>::Cart::load(&force),
-                t.dt,
-                &t.step_options,
-                &Guard::default(),
-            );
+            let status = step_chain(&chain, &mut y, &force, &t);
             assert!(!status.is_failure());
             assert_eq!(&y[..], &b.states()[k * d..(k + 1) * d], "env {k} step {s}");
             checked += 1;
@@ -377,36 +392,47 @@ fn a_delay_applies_the_action_of_k_steps_before() {
 }
 
 /// max_force 10 N, 100 N/s at dt 0.02 s: the force rises by 2 N per step towards a
-/// full push, 2, 4, 6, 8, 10, 10 N, then falls by 2 N per step when released.
+/// full push, 2, 4, 6, 8, 10, 10 N, then falls by 2 N per step when released. With
+/// force noise the delivered force is that ramp disturbed (the limit's memory keeps the
+/// commanded ramp), and the reward's action term stays the commanded force's.
 #[test]
 fn the_force_rate_limit_ramps_the_force() {
-    let mut t = task(1);
-    t.max_force = 10.0;
-    t.max_episode_steps = 500;
-    t.reality.force_rate_limit = 100.0;
-    let mut b = batch::<Planar>(t.clone(), 1, 4, AutoresetMode::NextStep);
-    let chain = Chain::<Planar>::new(nominal(1));
-    let mut stepper = GuardedStepper::new(&chain);
-    let mut y = b.states().to_vec();
-    let mut out = Out::new(&b);
-    let pushes = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -1.0, 0.0];
-    let forces = [2.0, 4.0, 6.0, 8.0, 10.0, 10.0, 8.0, 6.0];
-    for (a, f) in pushes.iter().zip(forces) {
-        out.step(&mut b, &[*a]);
-        stepper.step(&chain, &mut y, f, t.dt, &t.step_options, &Guard::default());
-        assert_eq!(&y[..], b.states(), "force {f}");
-        // The reward's action term uses the applied force.
-        let lay = chain.layout();
-        let (x, v) = (lay.load_x(&y), lay.load_xdot(&y));
-        let q = lay.load_q(&y, 0);
-        let w = lay.load_w(&y, 0);
-        let dq = (q + <Planar as Geometry>::down_unit()).norm_squared();
-        let c = dq
-            + 0.1 * w.norm_squared()
-            + 0.1 * x * x
-            + 0.1 * v * v
-            + 0.01 * (f / 10.0) * (f / 10.0);
-        assert!((out.rewards[0] - (-c).exp()).abs() < 1e-12);
+    for (sm, sa) in [(0.0, 0.0), (0.25, 0.5)] {
+        let mut t = task(1);
+        t.max_force = 10.0;
+        t.max_episode_steps = 500;
+        t.reality.force_rate_limit = 100.0;
+        t.reality.force_noise = ForceNoise {
+            multiplicative: sm,
+            additive: sa,
+        };
+        let seed = 4;
+        let mut b = batch::<Planar>(t.clone(), 1, seed, AutoresetMode::NextStep);
+        let chain = Chain::<Planar>::new(nominal(1));
+        let mut y = b.states().to_vec();
+        let mut rng = force_stream(seed);
+        let mut out = Out::new(&b);
+        let pushes = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -1.0, 0.0];
+        let commanded = [2.0, 4.0, 6.0, 8.0, 10.0, 10.0, 8.0, 6.0];
+        for (a, f) in pushes.iter().zip(commanded) {
+            out.step(&mut b, &[*a]);
+            step_chain(&chain, &mut y, &[disturbed(f, sm, sa, &mut rng)], &t);
+            assert_eq!(&y[..], b.states(), "sm {sm} sa {sa} commanded {f}");
+            let lay = chain.layout();
+            let (x, v) = (lay.load_x(&y), lay.load_xdot(&y));
+            let (q, w) = (lay.load_q(&y, 0), lay.load_w(&y, 0));
+            let dq = (q + <Planar as Geometry>::down_unit()).norm_squared();
+            let c = dq
+                + 0.1 * w.norm_squared()
+                + 0.1 * x * x
+                + 0.1 * v * v
+                + 0.01 * (f / 10.0) * (f / 10.0);
+            let r = out.rewards[0];
+            assert!(
+                (r - (-c).exp()).abs() < 1e-12,
+                "sm {sm} sa {sa} commanded {f}"
+            );
+        }
     }
 }
 
@@ -477,6 +503,18 @@ fn bad_reality_settings_are_errors_naming_them() {
     );
     check(&|r| r.force_rate_limit = 0.0, "force_rate_limit = 0");
     check(
+        &|r| r.force_noise.multiplicative = -0.1,
+        "force_noise.multiplicative = -0.1: expected a finite number >= 0",
+    );
+    check(
+        &|r| r.force_noise.additive = f64::NAN,
+        "force_noise.additive = NaN: expected a finite number >= 0",
+    );
+    check(
+        &|r| r.force_noise.additive = f64::INFINITY,
+        "force_noise.additive = inf",
+    );
+    check(
         &|r| r.params.cart_mass = Some(-1.0),
         "params.cart_mass = -1",
     );
@@ -498,4 +536,175 @@ fn bad_reality_settings_are_errors_naming_them() {
             expected: &Param::NAMES,
         })
     );
+}
+
+/// The force noise of `sm`, `sa` on the commanded force `f` of one axis, drawn from
+/// `rng` in the documented order (recomputed here independently of the core).
+fn disturbed(f: f64, sm: f64, sa: f64, rng: &mut ChaCha8Rng) -> f64 {
+    let z1: f64 = if sm > 0.0 {
+        rng.sample(StandardNormal)
+    } else {
+        0.0
+    };
+    let z2: f64 = if sa > 0.0 {
+        rng.sample(StandardNormal)
+    } else {
+        0.0
+    };
+    f * (1.0 + sm * z1) + sa * z2
+}
+
+/// The force stream (stream 3) of the env seeded `seed`.
+fn force_stream(seed: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(3);
+    rng
+}
+
+/// Spatial, two axes: each step's state is the chain stepped with the commanded force
+/// (clipped, scaled) disturbed as documented, axis by axis, drawn from the env's force
+/// stream: bit for bit; the start state is the one without force noise.
+#[test]
+fn force_noise_disturbs_each_axis_as_documented() {
+    for (sm, sa) in [(0.3, 0.0), (0.0, 2.0), (0.3, 2.0)] {
+        let mut t = task(2);
+        t.max_episode_steps = 500;
+        t.reality.force_noise = ForceNoise {
+            multiplicative: sm,
+            additive: sa,
+        };
+        let seed = 31;
+        let mut b = batch::<Spatial>(t.clone(), 1, seed, AutoresetMode::NextStep);
+        let plain = batch::<Spatial>(task(2), 1, seed, AutoresetMode::NextStep);
+        assert_eq!(b.states(), plain.states(), "the start state is unchanged");
+        let chain = Chain::<Spatial>::new(nominal(2));
+        let mut y = b.states().to_vec();
+        let mut rng = force_stream(seed);
+        let mut out = Out::new(&b);
+        for s in 0..12 {
+            let a = actions(s, 1, 2, 0);
+            out.step(&mut b, &a);
+            let force: Vec<f64> = a
+                .iter()
+                .map(|x| disturbed(x.clamp(-1.0, 1.0) * t.max_force, sm, sa, &mut rng))
+                .collect();
+            step_chain(&chain, &mut y, &force, &t);
+            assert_eq!(&y[..], b.states(), "sm {sm} sa {sa} step {s}");
+        }
+    }
+}
+
+/// The applied force seen through the horizontal momentum, which only the cart force
+/// changes (`dP/dt = u`): envs put at rest hanging before every step push with the
+/// same command, and the force each delivered, `P / dt` after the step, has the mean
+/// of the command and the standard deviation `sqrt((sm f)^2 + sa^2)`, per axis, the
+/// two axes uncorrelated.
+#[test]
+fn the_delivered_force_has_the_documented_mean_and_spread() {
+    let num_envs = 2 * CHUNK;
+    let steps = 100;
+    for (sm, sa, command) in [
+        (0.0, 0.0, [0.5, -0.25]),
+        (0.2, 0.0, [0.5, -0.25]),
+        (0.0, 1.5, [0.5, -0.25]),
+        (0.2, 1.5, [-0.5, 0.0]),
+    ] {
+        let mut t = task(1);
+        t.start = Start::Equilibrium(vec![1.0]);
+        t.start_noise = 0.0;
+        t.max_episode_steps = 10 * steps as u64;
+        t.reality.force_noise = ForceNoise {
+            multiplicative: sm,
+            additive: sa,
+        };
+        let mut b = batch::<Spatial>(t.clone(), num_envs, 17, AutoresetMode::NextStep);
+        let rest = b.state(0).to_vec();
+        let chain = Chain::<Spatial>::new(nominal(1));
+        assert_eq!(chain.horizontal_momentum(&rest).norm_squared(), 0.0);
+        let actions: Vec<f64> = (0..num_envs).flat_map(|_| command).collect();
+        let mut out = Out::new(&b);
+        let mut forces = [Vec::new(), Vec::new()];
+        for _ in 0..steps {
+            for k in 0..num_envs {
+                b.set_state(k, &rest).unwrap();
+            }
+            out.step(&mut b, &actions);
+            for k in 0..num_envs {
+                let p = chain.horizontal_momentum(b.state(k)) / t.dt;
+                forces[0].push(p.x);
+                forces[1].push(p.y);
+            }
+        }
+        let samples = forces[0].len() as f64;
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / samples;
+        let std = |v: &[f64]| {
+            let m = mean(v);
+            (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (samples - 1.0)).sqrt()
+        };
+        for axis in 0..2 {
+            let f = command[axis] * t.max_force;
+            let sigma = ((sm * f).powi(2) + sa * sa).sqrt();
+            let (m, s) = (mean(&forces[axis]), std(&forces[axis]));
+            let case = format!("sm {sm} sa {sa} axis {axis}: mean {m} std {s}");
+            if sigma == 0.0 {
+                // Without noise the momentum reads the command to the accuracy of RK4
+                // (the momentum is not linear in the state: about 2e-7 relative).
+                assert!(
+                    (m - f).abs() < 1e-6 * f.abs().max(1.0) && s < 1e-9,
+                    "{case}"
+                );
+                continue;
+            }
+            // Standard errors over 6400 samples: the mean sigma/80, the standard
+            // deviation about sigma/113; the tolerances are about 4.5 of them.
+            assert!((m - f).abs() < 4.5 * sigma / samples.sqrt(), "{case}");
+            assert!(
+                (s / sigma - 1.0).abs() < 4.5 / (2.0 * samples).sqrt(),
+                "{case}"
+            );
+        }
+        if sm > 0.0 || sa > 0.0 {
+            let (m0, m1) = (mean(&forces[0]), mean(&forces[1]));
+            let cov = forces[0]
+                .iter()
+                .zip(&forces[1])
+                .map(|(a, b)| (a - m0) * (b - m1))
+                .sum::<f64>()
+                / samples;
+            let corr = cov / (std(&forces[0]) * std(&forces[1]));
+            assert!(corr.abs() < 4.5 / samples.sqrt(), "correlation {corr}");
+        }
+    }
+}
+
+/// Force noise draws from its own stream: turning it on changes no start state, no
+/// parameter draw and no observation noise (also after a reseeded reset), and a batch
+/// without it keeps no stream.
+#[test]
+fn force_noise_changes_no_other_random_number() {
+    let mut quiet = everything_on(2);
+    quiet.reality.force_noise = ForceNoise::default();
+    let mut a = batch::<Spatial>(quiet, 40, 8, AutoresetMode::NextStep);
+    let mut b = batch::<Spatial>(everything_on(2), 40, 8, AutoresetMode::NextStep);
+    let observed = |x: &EnvBatch<Spatial>| {
+        let mut obs = vec![0.0f64; x.states().len()];
+        x.write_obs(&mut obs).unwrap();
+        obs
+    };
+    let same = |a: &EnvBatch<Spatial>, b: &EnvBatch<Spatial>| {
+        assert_eq!(a.states(), b.states());
+        assert_eq!(observed(a), observed(b));
+        assert_eq!(a.per_env_params(), b.per_env_params());
+    };
+    same(&a, &b);
+    history(&mut a, 10, 0);
+    history(&mut b, 10, 0);
+    assert_ne!(a.states(), b.states(), "the force noise acted");
+    let seeds: Vec<Option<u64>> = (0..40).map(|k| Some(1000 + k)).collect();
+    let mut obs = vec![0.0f64; a.states().len()];
+    a.reset(Some(&seeds), None, &mut obs).unwrap();
+    b.reset(Some(&seeds), None, &mut obs).unwrap();
+    same(&a, &b);
+    assert!(a.snapshot().force_rng.is_empty());
+    assert_eq!(b.snapshot().force_rng.len(), 40);
 }

@@ -16,7 +16,7 @@
 use super::config::{AutoresetMode, Start, TaskConfig};
 use super::measure::{MeasureInto, RewardSpec};
 use super::outputs::{event, Real, StepOutputs, DIAGNOSTICS};
-use super::reality::{EnvParams, NOISE_STREAM, PARAM_STREAM};
+use super::reality::{EnvParams, FORCE_NOISE_STREAM, NOISE_STREAM, PARAM_STREAM};
 use super::start::base_state;
 use super::step::{
     reset_env, run_chunk, sense, write_goal, write_obs, Ctx, EnvData, Pass, Slot, Widths,
@@ -59,6 +59,8 @@ pub struct Snapshot {
     pub action_queue: Vec<f64>,
     /// Per env: the force applied last (for the rate limit).
     pub last_force: Vec<f64>,
+    /// Per env: the force-noise stream (same layout as `rng`; empty when off).
+    pub force_rng: Vec<[u8; RNG_BYTES]>,
 }
 
 /// Bytes of one env's RNG state in a [`Snapshot`].
@@ -130,7 +132,8 @@ macro_rules! ctx {
     };
 }
 
-/// Env `k`'s generator streams for `seed`: start states, parameters, noise.
+/// Env `k`'s generator streams for `seed`: start states, parameters, observation
+/// noise, force noise.
 fn seed_env(data: &mut EnvData, k: usize, seed: u64) {
     data.start_rngs[k] = ChaCha8Rng::seed_from_u64(seed);
     let stream = |s| {
@@ -143,6 +146,9 @@ fn seed_env(data: &mut EnvData, k: usize, seed: u64) {
     }
     if let Some(r) = data.noise_rngs.get_mut(k) {
         *r = stream(NOISE_STREAM);
+    }
+    if let Some(r) = data.force_rngs.get_mut(k) {
+        *r = stream(FORCE_NOISE_STREAM);
     }
 }
 
@@ -188,10 +194,11 @@ impl<G: LaneScene> EnvBatch<G> {
                 EnvParams::empty(chain.n_links())
             },
             param_rngs: vec![unseeded.clone(); num_envs * widths.param_scalars],
-            noise_rngs: vec![unseeded; num_envs * widths.noise_rng],
+            noise_rngs: vec![unseeded.clone(); num_envs * widths.noise_rng],
             noisy_obs: vec![0.0; num_envs * widths.noisy],
             queue: vec![0.0; num_envs * widths.queue],
             last_force: vec![0.0; num_envs * widths.last_force],
+            force_rngs: vec![unseeded; num_envs * widths.force_rng],
         };
         for k in 0..num_envs {
             seed_env(&mut data, k, seed.wrapping_add(k as u64));
@@ -546,6 +553,7 @@ impl<G: LaneScene> EnvBatch<G> {
             noisy_obs: d.noisy_obs.clone(),
             action_queue: d.queue.clone(),
             last_force: d.last_force.clone(),
+            force_rng: d.force_rngs.iter().map(rng_to_bytes).collect(),
         }
     }
 
@@ -557,7 +565,7 @@ impl<G: LaneScene> EnvBatch<G> {
         // Each part of the snapshot against the batch: name, length given, length
         // expected (one line each, which rustfmt would spread over five).
         #[rustfmt::skip]
-        let sizes: [(&'static str, usize, usize); 12] = [
+        let sizes: [(&'static str, usize, usize); 13] = [
             ("snapshot states", snap.states.len(), d.states.len()),
             ("snapshot rng", snap.rng.len(), n),
             ("snapshot steps", snap.steps.len(), n),
@@ -570,6 +578,7 @@ impl<G: LaneScene> EnvBatch<G> {
             ("snapshot noisy_obs", snap.noisy_obs.len(), d.noisy_obs.len()),
             ("snapshot action_queue", snap.action_queue.len(), d.queue.len()),
             ("snapshot last_force", snap.last_force.len(), d.last_force.len()),
+            ("snapshot force_rng", snap.force_rng.len(), d.force_rngs.len()),
         ];
         for (name, got, expected) in sizes {
             check_size(name, got, expected)?;
@@ -590,6 +599,9 @@ impl<G: LaneScene> EnvBatch<G> {
             *r = rng_from_bytes(b);
         }
         for (r, b) in d.noise_rngs.iter_mut().zip(&snap.noise_rng) {
+            *r = rng_from_bytes(b);
+        }
+        for (r, b) in d.force_rngs.iter_mut().zip(&snap.force_rng) {
             *r = rng_from_bytes(b);
         }
         d.params.clone_from(&snap.params);

@@ -389,6 +389,17 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                None for no limit.",
     },
     ConfigKey {
+        name: "force_noise",
+        kind: KeyKind::RealityGap,
+        default: KeyValue::None,
+        expected: "a dict with some of multiplicative, additive (standard deviations), each a \
+                   finite number >= 0",
+        help: "Gaussian disturbance of the force the actuator delivers, per step and cart \
+               axis: a dict with some of \"multiplicative\": sm (relative) and \"additive\": sa \
+               (N); the force f after delay and rate limit becomes f (1 + sm z1) + sa z2, \
+               z1, z2 standard normal, not clipped to max_force. None for none.",
+    },
+    ConfigKey {
         name: "render_view",
         kind: KeyKind::Choice(&ViewKind::NAMES),
         default: KeyValue::None,
@@ -538,5 +549,19 @@ mod expected_text {
         let e = noise.validate(2, 8).unwrap_err().to_string();
         let what = expected("obs_noise").split(':').next().unwrap();
         assert!(e.contains(what), "{e}");
+        let force_noise = RealityGap {
+            force_noise: crate::env::ForceNoise {
+                additive: -1.0,
+                ..Default::default()
+            },
+            ..RealityGap::default()
+        };
+        let e = force_noise.validate(2, 8).unwrap_err().to_string();
+        assert!(e.contains("force_noise.additive"), "{e}");
+        assert!(e.contains(crate::env::ForceNoise::EXPECTED), "{e}");
+        assert!(expected("force_noise").ends_with(crate::env::ForceNoise::EXPECTED));
+        for name in crate::env::ForceNoise::NAMES {
+            assert!(expected("force_noise").contains(name), "{name}");
+        }
     }
 }

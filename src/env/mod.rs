@@ -56,7 +56,8 @@ pub use goals::{Ends, Transitions, MAX_DRAWN_LINKS};
 pub use keys::{config_key, ConfigKey, KeyKind, KeyValue, CONFIG_KEYS};
 pub use outputs::{event, EpisodeEnds, Real, StepOutputs, DIAGNOSTICS};
 pub use reality::{
-    Distribution, EnvParams, Param, ParamRandomization, ParamValues, Randomization, RealityGap,
+    Distribution, EnvParams, ForceNoise, Param, ParamRandomization, ParamValues, Randomization,
+    RealityGap,
 };
 pub use scenes::{Scene, DEFAULT_SCENE, SCENES};
 pub use start::{base_state, paper_initial_condition, perturb};

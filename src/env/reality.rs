@@ -1,7 +1,8 @@
 //! How the simulated "real" system differs from the nominal model, and how it is
 //! sensed and actuated: fixed parameter mismatch, domain randomisation at reset,
-//! Gaussian observation noise, a control delay and a force-rate limit. Everything
-//! is off by default and then costs nothing.
+//! Gaussian observation noise, a control delay, a force-rate limit and a Gaussian
+//! disturbance of the applied force. Everything is off by default and then costs
+//! nothing.
 //!
 //! **Parameters.** The nominal parameters are the model's (what a controller
 //! designer knows). The env's *true* parameters are the nominal ones with
@@ -11,9 +12,10 @@
 //!
 //! **Random streams.** Every env's generator is ChaCha8 seeded with the env's seed;
 //! the start state uses its stream 0 (as without any of this), parameter draws its
-//! stream [`PARAM_STREAM`] and observation noise its stream [`NOISE_STREAM`]. Turning
-//! randomisation or noise on or off therefore changes no start state, and each feature
-//! is reproducible on its own.
+//! stream [`PARAM_STREAM`], observation noise its stream [`NOISE_STREAM`] and the force
+//! disturbance its stream [`FORCE_NOISE_STREAM`]. Turning randomisation or either noise
+//! on or off therefore changes no start state and no other feature's draws, and each
+//! feature is reproducible on its own.
 //!
 //! **Draw order at a reset** (only for the parameters that are randomised): the cart
 //! mass, the link masses (one number per link, or one shared), the link lengths
@@ -24,11 +26,14 @@ use crate::error::{check_positive, InputError, Result};
 use crate::params::check_positive_links;
 use crate::params::ChainParams;
 use rand::Rng;
+use rand_distr::StandardNormal;
 
 /// ChaCha8 stream number of the parameter draws of an env.
 pub const PARAM_STREAM: u64 = 1;
 /// ChaCha8 stream number of the observation noise of an env.
 pub const NOISE_STREAM: u64 = 2;
+/// ChaCha8 stream number of the force disturbance of an env.
+pub const FORCE_NOISE_STREAM: u64 = 3;
 
 /// A physical parameter that can be mismatched or randomised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -327,6 +332,66 @@ fn link_value(values: &[f64], i: usize) -> f64 {
     }
 }
 
+/// A Gaussian disturbance of the force the actuator delivers: per step and per cart
+/// axis, the commanded force `f` (after clipping, delay, scaling and the rate limit)
+/// becomes `f (1 + multiplicative z1) + additive z2`, `z1` and `z2` standard normal.
+/// The result is not clipped to `max_force`: it is what the actuator really delivers.
+/// Per axis, `z1` is drawn first (only when `multiplicative > 0`), then `z2` (only when
+/// `additive > 0`). The default (both 0) is off.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ForceNoise {
+    /// Relative standard deviation of the force's gain.
+    pub multiplicative: f64,
+    /// Standard deviation of the force added, N.
+    pub additive: f64,
+}
+
+impl ForceNoise {
+    /// The accepted keys of the `force_noise` keyword, in the order of the fields.
+    pub const NAMES: [&'static str; 2] = ["multiplicative", "additive"];
+    /// What each standard deviation must be.
+    pub const EXPECTED: &'static str = "a finite number >= 0";
+
+    /// The disturbance is on (some standard deviation is > 0).
+    pub fn is_on(&self) -> bool {
+        self.multiplicative > 0.0 || self.additive > 0.0
+    }
+
+    /// Checks both standard deviations (finite, >= 0).
+    pub fn validate(&self) -> Result<()> {
+        for (name, value) in [
+            ("force_noise.multiplicative", self.multiplicative),
+            ("force_noise.additive", self.additive),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(InputError::InvalidParameter {
+                    name,
+                    value,
+                    expected: Self::EXPECTED,
+                }
+                .into());
+            }
+        }
+        Ok(())
+    }
+
+    /// The force delivered for the commanded force `f`, with draws from `rng` in the
+    /// documented order.
+    #[inline]
+    pub fn disturb<R: Rng>(&self, f: f64, rng: &mut R) -> f64 {
+        let mut out = f;
+        if self.multiplicative > 0.0 {
+            let z: f64 = rng.sample(StandardNormal);
+            out = f * (1.0 + self.multiplicative * z);
+        }
+        if self.additive > 0.0 {
+            let z: f64 = rng.sample(StandardNormal);
+            out += self.additive * z;
+        }
+        out
+    }
+}
+
 /// How the env's true system, its sensors and its actuator differ from the nominal
 /// model. The default is the nominal model, sensed exactly, actuated at once.
 #[derive(Debug, Clone, PartialEq)]
@@ -346,6 +411,8 @@ pub struct RealityGap {
     /// Largest change of the applied force per second, per cart axis (N/s);
     /// `f64::INFINITY` is no limit.
     pub force_rate_limit: f64,
+    /// Gaussian disturbance of the delivered force (default: none).
+    pub force_noise: ForceNoise,
 }
 
 impl Default for RealityGap {
@@ -357,6 +424,7 @@ impl Default for RealityGap {
             obs_noise: Vec::new(),
             action_delay: 0,
             force_rate_limit: f64::INFINITY,
+            force_noise: ForceNoise::default(),
         }
     }
 }
@@ -394,7 +462,7 @@ impl RealityGap {
             }
             .into());
         }
-        Ok(())
+        self.force_noise.validate()
     }
 
     /// A control delay given as a signed integer (as it arrives from a config).
@@ -423,6 +491,11 @@ impl RealityGap {
     /// A force-rate limit is set.
     pub fn has_rate_limit(&self) -> bool {
         self.force_rate_limit.is_finite()
+    }
+
+    /// The delivered force is disturbed.
+    pub fn has_force_noise(&self) -> bool {
+        self.force_noise.is_on()
     }
 
     /// The true system differs from the nominal one before any randomisation.

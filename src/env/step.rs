@@ -59,6 +59,8 @@ pub(super) struct Widths {
     pub last_force: usize,
     /// 1 when each env has an observation-noise stream.
     pub noise_rng: usize,
+    /// 1 when each env has a force-noise stream.
+    pub force_rng: usize,
     /// Some per-env extra above is non-zero.
     pub any_gap: bool,
 }
@@ -71,6 +73,7 @@ impl Widths {
         let noise = reality.has_obs_noise();
         let queue = reality.action_delay * f;
         let last_force = if reality.has_rate_limit() { f } else { 0 };
+        let force_noise = reality.has_force_noise();
         Self {
             state: d,
             obs: task.obs_dim(d),
@@ -81,7 +84,8 @@ impl Widths {
             noisy: if noise { d } else { 0 },
             last_force,
             noise_rng: noise as usize,
-            any_gap: randomized || noise || queue > 0 || last_force > 0,
+            force_rng: force_noise as usize,
+            any_gap: randomized || noise || queue > 0 || last_force > 0 || force_noise,
         }
     }
 }
@@ -105,6 +109,8 @@ pub(super) struct EnvData {
     pub queue: Vec<f64>,
     /// The force applied on the last step (rate limit on).
     pub last_force: Vec<f64>,
+    /// Force-noise stream of each env's generator (force noise on).
+    pub force_rngs: Vec<ChaCha8Rng>,
 }
 
 impl EnvData {
@@ -122,6 +128,7 @@ impl EnvData {
             noisy_obs: &mut self.noisy_obs,
             queue: &mut self.queue,
             last_force: &mut self.last_force,
+            force_rngs: &mut self.force_rngs,
         }
     }
 }
@@ -154,6 +161,7 @@ pub(super) struct DataRange<'a> {
     noisy_obs: &'a mut [f64],
     queue: &'a mut [f64],
     last_force: &'a mut [f64],
+    force_rngs: &'a mut [ChaCha8Rng],
 }
 
 impl<'a> DataRange<'a> {
@@ -170,6 +178,7 @@ impl<'a> DataRange<'a> {
         let (noisy_obs, noisy_obs2) = cut(self.noisy_obs, at, w.noisy);
         let (queue, queue2) = cut(self.queue, at, w.queue);
         let (last_force, last_force2) = cut(self.last_force, at, w.last_force);
+        let (force_rngs, force_rngs2) = cut(self.force_rngs, at, w.force_rng);
         (
             Self {
                 states,
@@ -184,6 +193,7 @@ impl<'a> DataRange<'a> {
                 noisy_obs,
                 queue,
                 last_force,
+                force_rngs,
             },
             DataRange {
                 states: states2,
@@ -198,6 +208,7 @@ impl<'a> DataRange<'a> {
                 noisy_obs: noisy_obs2,
                 queue: queue2,
                 last_force: last_force2,
+                force_rngs: force_rngs2,
             },
         )
     }
@@ -221,6 +232,7 @@ impl<'a> DataRange<'a> {
                 noisy_obs: &mut [],
                 queue: &mut [],
                 last_force: &mut [],
+                force_rng: None,
             };
         }
         let params = (w.param_scalars == 1).then(|| ParamRow {
@@ -239,6 +251,7 @@ impl<'a> DataRange<'a> {
             noisy_obs: row(self.noisy_obs, k, w.noisy),
             queue: row(self.queue, k, w.queue),
             last_force: row(self.last_force, k, w.last_force),
+            force_rng: self.force_rngs.get_mut(k),
         }
     }
 }
@@ -256,6 +269,7 @@ pub(super) struct EnvMut<'a> {
     pub noisy_obs: &'a mut [f64],
     pub queue: &'a mut [f64],
     pub last_force: &'a mut [f64],
+    pub force_rng: Option<&'a mut ChaCha8Rng>,
 }
 
 /// The caller's actions and the output arrays of a contiguous range of envs.
@@ -643,7 +657,9 @@ pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
 /// Writes the force the actuator applies for `action` into `force` (one number per
 /// axis) and returns the squared norm of the applied normalised action (for the
 /// reward): clip to `[-1, 1]`, delay by `action_delay` control periods, scale by
-/// `max_force`, limit the change per period to `force_rate_limit * dt` per axis.
+/// `max_force`, limit the change per period to `force_rate_limit * dt` per axis, and
+/// disturb what the actuator delivers by the force noise (after the squared action is
+/// taken and after the rate limit's memory, which holds the commanded force).
 /// Written in place rather than returned: copying a returned array that was just
 /// written number by number stalled the lane path's actuation pass (store forwarding).
 #[inline(always)]
@@ -681,6 +697,12 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: 
                 a[k]
             };
             a2 += applied * applied;
+        }
+    }
+    if let Some(rng) = e.force_rng.as_deref_mut() {
+        let noise = task.reality.force_noise;
+        for fk in force.iter_mut() {
+            *fk = noise.disturb(*fk, rng);
         }
     }
     a2

@@ -589,6 +589,7 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
         force_rate_limit: optional("force_rate_limit")
             .map(|v| number("force_rate_limit", &v))
             .transpose()?,
+        force_noise: optional("force_noise").as_ref(),
     })?;
     task.precision = precision;
     Ok(task)

@@ -528,6 +528,7 @@ impl PyEnvBatch {
         };
         d.set_item("param_rng", rng_array(&s.param_rng)?)?;
         d.set_item("noise_rng", rng_array(&s.noise_rng)?)?;
+        d.set_item("force_rng", rng_array(&s.force_rng)?)?;
         let p = &s.params;
         let params = PyDict::new(py);
         params.set_item("cart_mass", PyArray1::from_slice(py, &p.cart_mass))?;
@@ -576,6 +577,11 @@ impl PyEnvBatch {
         };
         let param_rng: PyReadonlyArray2<'_, u8> = get("param_rng")?.extract()?;
         let noise_rng: PyReadonlyArray2<'_, u8> = get("noise_rng")?.extract()?;
+        // A snapshot taken before force noise existed has no stream: right when it is off.
+        let force_rng = match snapshot.get_item("force_rng")? {
+            Some(value) => rng_rows(&value.extract()?),
+            None => Vec::new(),
+        };
         let env_params = get("env_params")?;
         let param = |key: &str| floats(env_params.get_item(key)?);
         let mut params = EnvParams::empty(self.n_links);
@@ -596,6 +602,7 @@ impl PyEnvBatch {
             noisy_obs: floats(get("noisy_obs")?)?,
             action_queue: floats(get("action_queue")?)?,
             last_force: floats(get("last_force")?)?,
+            force_rng,
         };
         Ok(scene!(&mut self.batch, b => b.restore(&snap))?)
     }

@@ -1,11 +1,12 @@
 //! Conversion of the reality-gap keywords (`randomize`, `params`, `mismatch`,
-//! `obs_noise`, `action_delay`, `force_rate_limit`) between Python values and
-//! [`RealityGap`]; every check is the core's.
+//! `obs_noise`, `action_delay`, `force_rate_limit`, `force_noise`) between Python
+//! values and [`RealityGap`]; every check is the core's.
 
-use super::convert::error;
+use super::convert::{error, type_error};
 use super::model::ChainCart;
 use crate::env::{
-    Distribution, EnvParams, Param, ParamRandomization, ParamValues, Randomization, RealityGap,
+    Distribution, EnvParams, ForceNoise, Param, ParamRandomization, ParamValues, Randomization,
+    RealityGap,
 };
 use crate::params::ChainParams;
 use numpy::{PyArray1, PyArrayMethods};
@@ -20,6 +21,7 @@ pub struct RealityArgs<'a, 'py> {
     pub obs_noise: Option<&'a Bound<'py, PyAny>>,
     pub action_delay: i64,
     pub force_rate_limit: Option<f64>,
+    pub force_noise: Option<&'a Bound<'py, PyAny>>,
 }
 
 /// Numbers from a number or a sequence of numbers.
@@ -174,6 +176,46 @@ fn randomization(value: Option<&Bound<'_, PyAny>>) -> PyResult<Randomization> {
     Ok(out)
 }
 
+/// `force_noise=`: `None` (off) or a dict with some of `"multiplicative"`,
+/// `"additive"` mapped to numbers (ranges are checked by the core).
+fn force_noise(value: Option<&Bound<'_, PyAny>>) -> PyResult<ForceNoise> {
+    let mut out = ForceNoise::default();
+    let Some(value) = value.filter(|v| !v.is_none()) else {
+        return Ok(out);
+    };
+    let keys = crate::error::quoted(&ForceNoise::NAMES);
+    let Ok(dict) = value.cast::<PyDict>() else {
+        return Err(type_error(format!(
+            "force_noise = {}: expected None or a dict with some of {keys}, each {}",
+            value.repr()?,
+            ForceNoise::EXPECTED
+        )));
+    };
+    for (k, v) in dict.iter() {
+        let key = k.extract::<String>().ok();
+        let slot = match key.as_deref() {
+            Some("multiplicative") => &mut out.multiplicative,
+            Some("additive") => &mut out.additive,
+            _ => {
+                return Err(error(format!(
+                    "force_noise has unknown key {}: expected some of {keys}",
+                    k.repr()?
+                )))
+            }
+        };
+        let Ok(number) = v.extract::<f64>() else {
+            return Err(type_error(format!(
+                "force_noise[{}] = {}: expected {}",
+                k.repr()?,
+                v.repr()?,
+                ForceNoise::EXPECTED
+            )));
+        };
+        *slot = number;
+    }
+    Ok(out)
+}
+
 /// The reality gap of the keywords (checked by the core when the batch is built).
 pub fn reality_gap(args: RealityArgs<'_, '_>) -> PyResult<RealityGap> {
     let obs_noise = match args.obs_noise.filter(|v| !v.is_none()) {
@@ -187,6 +229,7 @@ pub fn reality_gap(args: RealityArgs<'_, '_>) -> PyResult<RealityGap> {
         obs_noise,
         action_delay: RealityGap::delay_from(args.action_delay)?,
         force_rate_limit: args.force_rate_limit.unwrap_or(f64::INFINITY),
+        force_noise: force_noise(args.force_noise)?,
     })
 }
 
@@ -249,7 +292,26 @@ pub fn write_task_keys(py: Python<'_>, r: &RealityGap, d: &Bound<'_, PyDict>) ->
         "force_rate_limit",
         r.has_rate_limit().then_some(r.force_rate_limit),
     )?;
+    d.set_item("force_noise", force_noise_dict(py, &r.force_noise)?)?;
     Ok(())
+}
+
+/// The force noise's non-zero standard deviations as a dict (`None` when off).
+fn force_noise_dict<'py>(
+    py: Python<'py>,
+    noise: &ForceNoise,
+) -> PyResult<Option<Bound<'py, PyDict>>> {
+    if !noise.is_on() {
+        return Ok(None);
+    }
+    let d = PyDict::new(py);
+    let values = [noise.multiplicative, noise.additive];
+    for (name, value) in ForceNoise::NAMES.iter().zip(values) {
+        if value > 0.0 {
+            d.set_item(name, value)?;
+        }
+    }
+    Ok(Some(d))
 }
 
 /// One parameter set as a dict of plain values.

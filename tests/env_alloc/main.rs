@@ -3,7 +3,7 @@
 
 use chaincart::batch::CHUNK;
 use chaincart::env::{
-    AutoresetMode, Distribution, EnvBatch, ParamRandomization, StepOutputs, TaskConfig,
+    AutoresetMode, Distribution, EnvBatch, ForceNoise, ParamRandomization, StepOutputs, TaskConfig,
 };
 use chaincart::lanes::Precision;
 use chaincart::{ChainParams, SpatialChain, StepOptions};
@@ -37,7 +37,8 @@ fn env_steps_and_resets_allocate_nothing() {
             task.track_limit = 0.05;
             task.start_noise = 0.1;
             if reality {
-                // Per-env parameters drawn at every reset, noise, delay, rate limit.
+                // Per-env parameters drawn at every reset, noise, delay, rate limit,
+                // force noise.
                 let scale = Some(ParamRandomization {
                     distribution: Distribution::relative(0.3),
                     per_link: true,
@@ -47,6 +48,10 @@ fn env_steps_and_resets_allocate_nothing() {
                 task.reality.obs_noise = vec![0.01];
                 task.reality.action_delay = 2;
                 task.reality.force_rate_limit = 200.0;
+                task.reality.force_noise = ForceNoise {
+                    multiplicative: 0.1,
+                    additive: 0.5,
+                };
             }
             let chain = SpatialChain::new(ChainParams::uniform(3, 1.0, 0.1, 0.3, 9.81).unwrap());
             let mut batch = EnvBatch::new(chain, task, n, 1, mode, true).unwrap();

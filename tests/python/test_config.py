@@ -168,7 +168,7 @@ BEFORE = json.loads((Path(__file__).parent / "data" / "config_before.json").read
 
 
 #: Keys added after the fixture was saved, with the default that keeps every result.
-ADDED_SINCE = {"precision": "f64", "render_view": None}
+ADDED_SINCE = {"precision": "f64", "render_view": None, "force_noise": None}
 
 
 def _saved_entry(c: ChainCartConfig) -> dict:

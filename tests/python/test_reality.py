@@ -1,6 +1,6 @@
 """The sim-to-real keywords from Python: randomised and mismatched parameters, sensor
-noise, control delay and force-rate limit through gym.make, the vector envs, SB3 and
-the LQR policies."""
+noise, control delay, force-rate limit and force noise through gym.make, the vector
+envs, SB3 and the LQR policies."""
 
 from __future__ import annotations
 
@@ -10,12 +10,20 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from chaincart_env import SCENES, ChainCart, ChainCartConfig, ChainCartError, ChainCartEnv, ChainCartVectorEnv
+from chaincart_env import SCENES, ChainCart, ChainCartConfig, ChainCartEnv, ChainCartVectorEnv
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.lqr import LQRPolicy, OracleLQRPolicy
 from chaincart_env.sb3 import ChainCartVecEnv
 
 RANDOMIZE = {"cart_mass": 0.3, "link_masses": {"scale": [0.8, 1.2]}, "link_lengths": {"range": [0.4, 0.6], "per_link": False}}
-EVERYTHING = dict(randomize=RANDOMIZE, obs_noise=0.01, action_delay=1, force_rate_limit=500.0, obs_dtype="float64")
+EVERYTHING = dict(
+    randomize=RANDOMIZE,
+    obs_noise=0.01,
+    action_delay=1,
+    force_rate_limit=500.0,
+    force_noise={"multiplicative": 0.2, "additive": 0.5},
+    obs_dtype="float64",
+)
 
 
 def actions(step: int, num_envs: int) -> np.ndarray:
@@ -197,10 +205,16 @@ def test_the_sim_to_real_scenes_run_under_the_nominal_lqr(scene: str) -> None:
         (dict(obs_noise=[0.1, 0.2]), "obs_noise has length 2, expected 8"),
         (dict(action_delay=-1), "action_delay = -1"),
         (dict(force_rate_limit=0.0), "force_rate_limit = 0"),
+        (dict(force_noise={"multiplicative": -0.1}), "force_noise.multiplicative = -0.1: expected a finite number >= 0"),
+        (dict(force_noise={"additive": float("nan")}), "force_noise.additive = NaN: expected a finite number >= 0"),
+        (dict(force_noise={"additive": float("inf")}), "force_noise.additive = inf"),
+        (dict(force_noise={"gain": 0.1}), 'force_noise has unknown key \'gain\': expected some of "multiplicative", "additive"'),
+        (dict(force_noise={"additive": "big"}), "force_noise['additive'] = 'big': expected a finite number >= 0"),
+        (dict(force_noise=0.1), 'force_noise = 0.1: expected None or a dict with some of "multiplicative", "additive"'),
     ],
 )
 def test_bad_settings_raise_errors_naming_them(keywords: dict, needle: str) -> None:
-    with pytest.raises(ChainCartError) as e:
+    with pytest.raises(InvalidInputError) as e:
         ChainCartConfig(**keywords)
     assert needle in str(e.value)
 
@@ -230,7 +244,10 @@ def test_the_command_line_takes_the_keywords_with_the_cores_help() -> None:
     c = config_from_options(args)
     assert c.randomize == {"link_masses": {"scale": [0.7, 1.3], "per_link": True}}
     assert (c.action_delay, c.obs_noise) == (2, [0.01])
-    assert len(REALITY_KEYS) == 6
+    assert "--force-noise" in text and "Gaussian disturbance of the force" in text
+    args = parser.parse_args(["--force-noise", '{"additive": 1.5}'])
+    assert config_from_options(args).force_noise == {"additive": 1.5}
+    assert len(REALITY_KEYS) == 7
 
 
 @pytest.mark.parametrize("cls", [ChainCartEnv, ChainCartVectorEnv, ChainCartVecEnv])
@@ -283,3 +300,54 @@ def test_compare_evaluates_the_oracle_lqr_on_the_rollouts_own_envs() -> None:
     for i in range(4):
         true_model = ChainCart(2, p["cart_mass"][i], p["link_masses"][i], p["link_lengths"][i], p["gravity"][i], True)
         assert any(np.array_equal(g, true_model.lqr_gain([-1, -1])) for g in oracle._gains.values())
+
+
+def test_force_noise_round_trips_in_its_canonical_form() -> None:
+    c = ChainCartConfig(force_noise={"multiplicative": 0.3})
+    assert c.force_noise == {"multiplicative": 0.3} and c.has_reality_gap and not c.has_param_gap
+    both = ChainCartConfig(force_noise={"additive": 2, "multiplicative": 0.1})
+    assert both.force_noise == {"multiplicative": 0.1, "additive": 2.0}
+    for config in (c, both):
+        assert ChainCartConfig(**config.to_dict()) == config
+        assert pickle.loads(pickle.dumps(config)) == config
+    # Standard deviations of 0, an empty dict and None are all "off".
+    for off in ({"multiplicative": 0.0, "additive": 0}, {}, None):
+        assert ChainCartConfig(force_noise=off).force_noise is None
+    assert not ChainCartConfig(force_noise={}).has_reality_gap
+    assert ChainCartConfig().force_noise is None
+
+
+def test_force_noise_disturbs_the_motion_but_no_other_random_number() -> None:
+    noisy = ChainCartEnv(obs_noise=0.01, force_noise={"multiplicative": 0.3, "additive": 1.0}, obs_dtype="float64")
+    quiet = ChainCartEnv(obs_noise=0.01, obs_dtype="float64")
+    np.testing.assert_array_equal(noisy.reset(seed=6)[0], quiet.reset(seed=6)[0])
+    for step in range(5):
+        a = actions(step, 1)[0]
+        noisy.step(a)
+        quiet.step(a)
+        assert not np.array_equal(noisy.model_state, quiet.model_state)
+    # Reseeded, both start again from the same noisy observation.
+    np.testing.assert_array_equal(noisy.reset(seed=7)[0], quiet.reset(seed=7)[0])
+    # The same seed reproduces the disturbed run bit for bit.
+    again = ChainCartEnv(noisy.config)
+    again.reset(seed=7)
+    for step in range(5):
+        a = actions(step, 1)[0]
+        np.testing.assert_array_equal(again.step(a)[0], noisy.step(a)[0])
+
+
+def test_the_vector_env_with_force_noise_is_n_single_envs_for_any_batch_path() -> None:
+    keywords = dict(force_noise={"multiplicative": 0.25, "additive": 0.8}, obs_dtype="float64", max_episode_steps=12)
+    num_envs = 6  # the lane kernel; one env steps env by env
+    vec = ChainCartVectorEnv(num_envs, **keywords)
+    obs, _ = vec.reset(seed=90)
+    singles = [ChainCartEnv(**keywords) for _ in range(num_envs)]
+    for i, env in enumerate(singles):
+        np.testing.assert_array_equal(env.reset(seed=90 + i)[0], obs[i])
+    for step in range(10):
+        a = actions(step, num_envs)
+        obs, rewards, _, _, _ = vec.step(a)
+        for i, env in enumerate(singles):
+            o, r, *_ = env.step(a[i])
+            np.testing.assert_array_equal(o, obs[i], err_msg=f"env {i} step {step}")
+            assert r == rewards[i]
