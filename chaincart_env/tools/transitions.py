@@ -177,10 +177,10 @@ def swingup_figure(n_links: int, path: Path, max_force: float = 20.0, duration: 
 def add_transitions_command(commands: Any) -> None:
     """Registers ``transitions`` as a subcommand."""
     p = commands.add_parser("transitions", help="plan and track every transition between equilibria (Markdown)")
-    p.add_argument("--links", type=int, default=2)
+    p.add_argument("--links", type=int, default=2, help="number of links (default: 2)")
     p.add_argument("--spatial", action="store_true", help="spherical joints (default: planar)")
-    p.add_argument("--max-force", type=float, default=20.0)
-    p.add_argument("--track-limit", type=float, default=2.4)
+    p.add_argument("--max-force", type=float, default=20.0, help="force limit per cart axis, N (default: 20)")
+    p.add_argument("--track-limit", type=float, default=2.4, help="largest cart offset from the centre before the episode ends, m (default: 2.4)")
     p.add_argument("--duration", type=float, default=None, help="plan length, s (default: 1 + links)")
     p.add_argument("--hold", type=float, default=1.0, help="seconds the target must be held at the end")
     p.add_argument("--seeds", type=int, default=3, help="perturbed starts per transition")

@@ -256,27 +256,17 @@ fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     out: &mut Measures,
     first: usize,
 ) {
-    let s = &task.target[..];
     let zero = Lanes::<LANES>::zero();
-    let (mut q2, mut w2, mut e_q, mut e_w) = (zero, zero, zero, zero);
-    for (i, &si) in s.iter().enumerate() {
-        let q = G::LinkL::load_with(lay.q(i), &component);
-        // Goal-conditioned: each env's own target sign (the same value as a splat).
-        let si = match &task.env_targets {
-            None => Lanes::splat(si),
-            Some(t) => {
-                let mut v = zero;
-                v.0.copy_from_slice(&t[i * task.room + first..][..LANES]);
-                v
-            }
-        };
-        let dq = (q - G::lanes_down_unit() * si).norm_squared();
-        let dw = G::SpinL::load_with(lay.w(i), &component).norm_squared();
-        q2 = q2 + dq;
-        w2 = w2 + dw;
-        e_q = e_q + dq.sqrt();
-        e_w = e_w + dw.sqrt();
-    }
+    // Two copies of the link loop, each without a branch inside: one target for all
+    // envs (a splat), or each env's own (goal-conditioned; the same values loaded).
+    let [q2, w2, e_q, e_w] = match &task.env_targets {
+        None => link_errors(lay, &component, |i| Lanes::splat(task.target[i])),
+        Some(t) => link_errors(lay, &component, |i| {
+            let mut v = zero;
+            v.0.copy_from_slice(&t[i * task.room + first..][..LANES]);
+            v
+        }),
+    };
     let x2 = G::CartL::load_with(lay.x(), &component).norm_squared();
     let v2 = G::CartL::load_with(lay.xdot(), &component).norm_squared();
     // Equal to the scalar fold but perhaps for the sign of a zero (never compared).
@@ -284,22 +274,46 @@ fn measure_f64x8<G: LaneGeometry<LANES> + Geometry>(
     for c in 0..G::CartL::DIM {
         x_max = x_max.max(component(lay.x() + c).abs());
     }
-    // Lane by lane with the scalar function: LLVM vectorises the loop, bits unchanged.
+    // Lane by lane with the scalar functions: LLVM vectorises each loop (the choice of
+    // reward outside them), bits unchanged.
     let a2 = &task.a2[first..first + LANES];
+    let spec = &task.reward;
     let mut rewards = zero;
-    for k in 0..LANES {
-        rewards.0[k] = step_reward(
-            &task.reward,
-            q2.0[k],
-            w2.0[k],
-            e_q.0[k],
-            e_w.0[k],
-            x2.0[k],
-            v2.0[k],
-            a2[k],
-        );
+    match spec.kind {
+        RewardKind::Exp => {
+            for k in 0..LANES {
+                rewards.0[k] = reward(&spec.weights, q2.0[k], w2.0[k], x2.0[k], v2.0[k], a2[k]);
+            }
+        }
+        RewardKind::Tolerance => {
+            for k in 0..LANES {
+                rewards.0[k] = tolerance_reward(spec, q2.0[k], e_q.0[k], e_w.0[k], x2.0[k], a2[k]);
+            }
+        }
     }
     out.put(first, [&q2, &w2, &e_q, &e_w, &x2, &v2, &x_max, &rewards]);
+}
+
+/// `[q2, w2, e_q, e_w]` of eight lanes summed over the links, `target(i)` the lanes'
+/// target sign of link `i`.
+#[inline(always)]
+fn link_errors<G: LaneGeometry<LANES> + Geometry>(
+    lay: Layout<G>,
+    component: &impl Fn(usize) -> Lanes<LANES>,
+    target: impl Fn(usize) -> Lanes<LANES>,
+) -> [Lanes<LANES>; 4] {
+    let zero = Lanes::<LANES>::zero();
+    let (mut q2, mut w2, mut e_q, mut e_w) = (zero, zero, zero, zero);
+    for i in 0..lay.n {
+        let q = G::LinkL::load_with(lay.q(i), component);
+        let dq = (q - G::lanes_down_unit() * target(i)).norm_squared();
+        let dw = G::SpinL::load_with(lay.w(i), component).norm_squared();
+        q2 = q2 + dq;
+        w2 = w2 + dw;
+        e_q = e_q + dq.sqrt();
+        e_w = e_w + dw.sqrt();
+    }
+    [q2, w2, e_q, e_w]
 }
 
 /// What measuring reads besides the state.

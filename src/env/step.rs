@@ -485,6 +485,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
             load_lane_params(scratch, l, k, &data.env(k, w).params);
         }
     }
+    let goals = task.transitions.is_some();
     for k in 0..num_envs {
         let mut e = data.env(k, w);
         let o = out.env(k, w);
@@ -495,7 +496,9 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
             continue;
         }
         l.hook.task.a2[k] = actuate(task, &mut e, o.action, &mut l.forces[k * f..(k + 1) * f]);
-        l.hook.set_target(k, task.target_of(e.slot.goal));
+        if goals {
+            l.hook.set_target(k, task.target_of(e.slot.goal));
+        }
     }
     let plan = StepPlan {
         dt: task.dt,
@@ -761,15 +764,21 @@ fn score<G: Geometry>(
     *o.truncated = truncated;
     o.errors.copy_from_slice(&[m.e_q, m.e_w]);
     let within = m.e_q <= task.success.e_q && m.e_w <= task.success.e_w;
-    slot.held = if within {
-        slot.held.saturating_add(1)
+    // Counted only when more than the last step must be within (no store otherwise).
+    let held = if ctx.hold_steps > 1 {
+        slot.held = if within {
+            slot.held.saturating_add(1)
+        } else {
+            0
+        };
+        slot.held >= ctx.hold_steps
     } else {
-        0
+        within
     };
     let mut ev = 0;
     if terminated || truncated {
         ev |= event::ENDED;
-        if !terminated && slot.held >= ctx.hold_steps {
+        if !terminated && held {
             ev |= event::SUCCESS;
         }
     }

@@ -165,3 +165,15 @@ def test_goal_conditioned_configs_round_trip_and_pickle() -> None:
     assert again == config and again.pairs == [((1, 1), (-1, -1))]
     assert pickle.loads(pickle.dumps(config)) == config
     assert config.goal_conditioned and not ChainCartConfig(scene="swingup-2").goal_conditioned
+
+
+def test_the_transitions_command_plans_tracks_and_writes_its_table(tmp_path, capsys) -> None:
+    from chaincart_env.__main__ import main
+
+    code = main(["transitions", "--links", "1", "--max-force", "10", "--track-limit", "3", "--duration", "3",
+                 "--hold", "0.5", "--seeds", "2", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert code in (0, 1)
+    rows = (tmp_path / "transitions_1.csv").read_text().splitlines()
+    assert rows[0].startswith("start,target,planned") and len(rows) == 3  # two transitions of one link
+    assert "| (+) | (-) | yes | 2/2 |" in out  # the swing-up is planned and tracked from both starts
