@@ -56,7 +56,7 @@ def _episode(env: Any, policy: Any, seed: int, hold_steps: int, dt: float) -> tu
         forces.append(np.clip(np.asarray(action, dtype=np.float64), -1, 1) * base.config.max_force)
         obs, _, terminated, truncated, info = env.step(action)
         e_q, e_w = base.model.errors(base.model_state, base.config.target_signs)
-        tol_q, tol_w = base.config.success_tolerances.e_q, base.config.success_tolerances.e_w
+        tol_q, tol_w = base.config.success_tolerances
         inside.append(e_q <= tol_q and e_w <= tol_w)
         cart = max(cart, float(np.abs(base.state[0:2]).max()))
     held = bool(not terminated and len(inside) >= hold_steps and all(inside[-hold_steps:]))
