@@ -76,7 +76,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     from chaincart_env.extras import command_needs, require
 
     try:
-        require(args.command, command_needs(args.command, args))
+        # A tool's command may say what it needs itself (``needs`` in its defaults).
+        needs = getattr(args, "needs", None)
+        require(args.command, needs(args) if needs is not None else command_needs(args.command, args))
     except MissingExtraError as error:
         print(f"{parser.prog} {args.command}: error: {error}", file=sys.stderr)
         return 1

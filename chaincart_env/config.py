@@ -167,10 +167,10 @@ class ChainCartConfig:
     track_limit: float = _UNSET
     max_episode_steps: int = _UNSET
     reward_weights: RewardWeights = _UNSET
-    reward: str = _UNSET
     scene: str = _UNSET
     obs_dtype: str = _UNSET
     success_tolerances: tuple[float, float] = _UNSET
+    reward: str = _UNSET
     success_hold: float = _UNSET
     transitions: Optional[tuple[tuple[Any, Any], ...]] = _UNSET
     goal_observation: bool = _UNSET

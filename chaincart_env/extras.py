@@ -68,10 +68,6 @@ def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
         return {"plot": ("matplotlib",)}
     if command == "animate":
         return _animate_needs(args)
-    if command == "leaderboard":
-        from chaincart_env.tools.leaderboard.cli import leaderboard_needs
-
-        return leaderboard_needs(args)
     if command == "transitions" and getattr(args, "figure", False):
         return {"plot": ("matplotlib",)}
     return {}

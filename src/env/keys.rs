@@ -263,16 +263,6 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "reward weights q, w, x, v, u (a mapping such as {\"q\": 2}, or five numbers)",
     },
     ConfigKey {
-        name: "reward",
-        kind: KeyKind::Choice(&REWARD_NAMES),
-        default: KeyValue::Name("exp"),
-        expected: "'exp' or 'tolerance'",
-        help: "per-step reward: exp (exp(-c), c the weighted quadratic cost of reward_weights) \
-               or tolerance (bounded in [0, 1] for large motions: the mean of the links' \
-               alignment with the target and a closeness within the success tolerances, times \
-               a centring and a force factor)",
-    },
-    ConfigKey {
         name: "scene",
         kind: KeyKind::Scene,
         default: KeyValue::Name(DEFAULT_SCENE),
@@ -292,6 +282,16 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Floats(&DEFAULT_SUCCESS_TOLERANCES),
         expected: "two numbers (e_q, e_w), each a finite number > 0",
         help: "e_q, e_w bounds of a success at the time limit (is_success)",
+    },
+    ConfigKey {
+        name: "reward",
+        kind: KeyKind::Choice(&REWARD_NAMES),
+        default: KeyValue::Name("exp"),
+        expected: "'exp' or 'tolerance'",
+        help: "per-step reward: exp (exp(-c), c the weighted quadratic cost of reward_weights) \
+               or tolerance (bounded in [0, 1] for large motions: the mean of the links' \
+               alignment with the target and a closeness within the success tolerances, times \
+               a centring and a force factor)",
     },
     ConfigKey {
         name: "success_hold",

@@ -155,7 +155,7 @@ def test_evaluate_reproduces_the_comparison_from_the_saved_model(
 
 
 def test_a_reloaded_model_gives_identical_rollouts(tiny_run: pathlib.Path) -> None:
-    from chaincart_env.tools.compare.run_files import load_run
+    from chaincart_env.tools.compare.policy_sources import load_run
 
     first, second = load_run(tiny_run / "seed-0"), load_run(tiny_run / "seed-0" / "model.zip")
     seeds = evaluation_seeds(100, 4)

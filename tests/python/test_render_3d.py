@@ -116,7 +116,7 @@ def test_render_view_is_a_config_key_with_the_scene_default() -> None:
     assert ChainCartConfig(planar=False).view == "3d"
     for view in ("3d", "side", "top", "side+top"):
         assert ChainCartConfig(render_view=view).view == view
-    with pytest.raises(ChainCartError, match='unknown render_view "3D": expected one of "3d", "side", "top", "side\\+top"'):
+    with pytest.raises(ChainCartError, match='unknown render_view "3D" \\(did you mean "3d"\\?\\): expected one of "3d", "side", "top", "side\\+top"'):
         ChainCartConfig(render_view="3D")
 
 

@@ -18,7 +18,7 @@ from typing import Any
 
 from chaincart_env.tools.bench.report import fmt_ratio
 from chaincart_env.tools.bench.rllib_sampling import MISSING_NOTE, rllib_available
-from chaincart_env.tools.bench.suite import BenchContext
+from chaincart_env.tools.bench.context import BenchContext
 
 __all__ = ["cells_section", "time_cells"]
 

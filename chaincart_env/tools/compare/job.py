@@ -34,7 +34,8 @@ from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.plots import plot_learning_curve
 from chaincart_env.tools.compare.layout import TrainingRun, training_runs
 from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
-from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, load_run, save_run, write_folder
+from chaincart_env.tools.compare.policy_sources import load_run
+from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, save_run, write_folder
 from chaincart_env.tools.compare.study import (
     EVALUATION_FILES, StudyEvaluation, describe, evaluate_study, lqr_baseline, model_based_sources, policy_label,
 )  # fmt: skip

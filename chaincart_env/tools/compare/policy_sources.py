@@ -20,11 +20,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
-from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, MODEL_FILE, RUN_FILE, read_json_object
+from chaincart_env.tools.compare.run_files import (
+    BEST_MODEL_FILE, CHECKPOINT_DIR, CONFIG_FILE, MODEL_FILE, RUN_FILE, SavedRun, read_json_object,
+)  # fmt: skip
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 
-__all__ = ["PolicySource"]
+__all__ = ["PolicySource", "load_run"]
 
 #: Extraction that refuses links and paths out of the folder, where Python has it.
 _SAFE_EXTRACTION: dict[str, Any] = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
@@ -73,7 +75,7 @@ class PolicySource:
     @classmethod
     def of_run(cls, directory: Path) -> "PolicySource":
         """The final policy of a trained run folder (``seed-<s>/``) of ``compare``."""
-        from chaincart_env.tools.compare.rllib_training import CHECKPOINT_DIR, MODULE_PATH
+        from chaincart_env.tools.compare.rllib_training import MODULE_PATH
 
         directory = Path(directory)
         info = read_json_object(directory / RUN_FILE)
@@ -125,3 +127,34 @@ class PolicySource:
             config = ChainCartConfig(**self.payload["config"])
             return build_model_based(self.payload["controller"], config, oracle=self.oracle)
         raise InvalidInputError(f"policy source kind {self.kind!r}: expected 'sb3', 'rllib' or 'model'")
+
+
+def load_run(path: Path) -> SavedRun:
+    """A run directory written by ``compare``, or the ``model.zip`` (SB3) or
+    ``rllib_checkpoint`` (RLlib) inside one."""
+    path = Path(path)
+    if path.is_dir() and path.name == CHECKPOINT_DIR:
+        path = path.parent
+    if path.is_dir() and (path / CHECKPOINT_DIR).is_dir():
+        from chaincart_env.tools.compare.rllib_training import RLlibPolicy
+
+        directory = path
+        info = read_json_object(directory / RUN_FILE)
+        model: Any = RLlibPolicy.load(directory / CHECKPOINT_DIR)
+    else:
+        if path.is_dir():
+            directory, model_path = path, path / MODEL_FILE
+        elif path.suffix == ".zip":
+            directory, model_path = path.parent, path
+        else:
+            raise InvalidInputError(
+                f"model {str(path)!r}: expected a run directory, a .zip model file or an {CHECKPOINT_DIR} that exists"
+            )
+        if not model_path.is_file():
+            raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
+        info = read_json_object(directory / RUN_FILE)
+        from chaincart_env.tools.compare.algorithms import algorithm_class
+
+        model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
+    config = ChainCartConfig(**read_json_object(directory / CONFIG_FILE))
+    return SavedRun(model=model, config=config, info=info, directory=directory)

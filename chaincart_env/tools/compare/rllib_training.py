@@ -24,7 +24,7 @@ import numpy as np
 from chaincart_env._core import ChainCartError
 from chaincart_env.tools.compare.cells import ray_cluster
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.tools.compare.run_files import replace_directory, settled_directory, truncate_csv
+from chaincart_env.tools.compare.run_files import CHECKPOINT_DIR, replace_directory, settled_directory, truncate_csv
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
@@ -43,7 +43,6 @@ __all__ = [
 
 #: The folder (beside ``run.json``) holding the RLlib checkpoint of the trained
 #: algorithm (``Algorithm.from_checkpoint`` resumes it).
-CHECKPOINT_DIR = "rllib_checkpoint"
 #: Where the trained RLModule (the policy evaluated) lies inside the checkpoint.
 MODULE_PATH = ("learner_group", "learner", "rl_module", "default_policy")
 

@@ -16,14 +16,16 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 
 __all__ = [
-    "BEST_MODEL_FILE", "CONFIG_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "MODEL_FILE", "RUN_FILE", "SavedRun",
-    "folder_contents", "load_run", "read_evaluations", "read_json_object", "replace_directory", "save_run",
+    "BEST_MODEL_FILE", "CHECKPOINT_DIR", "CONFIG_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "MODEL_FILE", "RUN_FILE",
+    "SavedRun", "folder_contents", "read_evaluations", "read_json_object", "replace_directory", "save_run",
     "settled_directory", "truncate_csv", "write_folder",
 ]  # fmt: skip
 
 MODEL_FILE = "model.zip"
 CONFIG_FILE = "config.json"
 RUN_FILE = "run.json"
+#: The folder of an RLlib run's checkpoint.
+CHECKPOINT_DIR = "rllib_checkpoint"
 
 
 @dataclass(frozen=True)
@@ -59,39 +61,6 @@ def read_json_object(path: Path) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise InvalidInputError(f"{path} holds {type(data).__name__}: expected a JSON object")
     return data
-
-
-def load_run(path: Path) -> SavedRun:
-    """A run directory written by ``compare``, or the ``model.zip`` (SB3) or
-    ``rllib_checkpoint`` (RLlib) inside one."""
-    from chaincart_env.tools.compare.rllib_training import CHECKPOINT_DIR
-
-    path = Path(path)
-    if path.is_dir() and path.name == CHECKPOINT_DIR:
-        path = path.parent
-    if path.is_dir() and (path / CHECKPOINT_DIR).is_dir():
-        from chaincart_env.tools.compare.rllib_training import RLlibPolicy
-
-        directory = path
-        info = read_json_object(directory / RUN_FILE)
-        model: Any = RLlibPolicy.load(directory / CHECKPOINT_DIR)
-    else:
-        if path.is_dir():
-            directory, model_path = path, path / MODEL_FILE
-        elif path.suffix == ".zip":
-            directory, model_path = path.parent, path
-        else:
-            raise InvalidInputError(
-                f"model {str(path)!r}: expected a run directory, a .zip model file or an {CHECKPOINT_DIR} that exists"
-            )
-        if not model_path.is_file():
-            raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
-        info = read_json_object(directory / RUN_FILE)
-        from chaincart_env.tools.compare.algorithms import algorithm_class
-
-        model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
-    config = ChainCartConfig(**read_json_object(directory / CONFIG_FILE))
-    return SavedRun(model=model, config=config, info=info, directory=directory)
 
 
 #: The training-time evaluation log and the best model it keeps (see

@@ -108,4 +108,4 @@ def add_leaderboard_command(commands: "argparse._SubParsersAction[argparse.Argum
                         help="Ray cluster ('auto': the one this machine joined with `ray start`, HOST:PORT of its "
                         "head, or 'local' for a new one here) on which the agents train and the cells run as Ray "
                         "tasks, with the same results (default: everything in this process)")
-    parser.set_defaults(handler=_run)
+    parser.set_defaults(handler=_run, needs=leaderboard_needs)
