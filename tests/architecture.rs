@@ -339,7 +339,7 @@ fn edges(sources: &[Source], krate: &Crate) -> Edges {
         for p in paths_in(&s.code) {
             let rooted = p.starts_with("crate") || p.starts_with("super") || p.starts_with("self");
             // A facade also names its own child modules directly (`pub use config::X`).
-            if !rooted && !(s.is_facade && krate.is_child(&s.module, &p)) {
+            if !(rooted || s.is_facade && krate.is_child(&s.module, &p)) {
                 continue;
             }
             let abs = krate.absolute(&s.module, s.is_facade, &p);

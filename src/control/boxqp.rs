@@ -35,7 +35,8 @@ pub fn solve_box_qp(
 }
 
 fn one(h: f64, g: f64, lo: f64, hi: f64) -> Option<BoxSolution> {
-    if !(h > 0.0) {
+    // Also refuses a NaN curvature.
+    if h.is_nan() || h <= 0.0 {
         return None;
     }
     let d = -g / h;

@@ -93,8 +93,8 @@ impl ChartPoint {
 
     fn spin_of<G: ScalarGeometry, S: Real>(&self, i: usize, coords: &[S]) -> G::SpinS<S> {
         let mut v = G::SpinS::<S>::constant(&self.basis[i][0]) * coords[0];
-        for k in 1..G::TANGENT {
-            v += G::SpinS::<S>::constant(&self.basis[i][k]) * coords[k];
+        for (k, &c) in coords.iter().enumerate().take(G::TANGENT).skip(1) {
+            v += G::SpinS::<S>::constant(&self.basis[i][k]) * c;
         }
         v
     }

@@ -139,6 +139,7 @@ impl<const N: usize> Mul for Dual<N> {
 impl<const N: usize> Div for Dual<N> {
     type Output = Self;
     #[inline(always)]
+    #[allow(clippy::suspicious_arithmetic_impl)] // a quotient is the product with the reciprocal
     fn div(self, o: Self) -> Self {
         self * o.recip()
     }

@@ -139,6 +139,7 @@ impl<G: ScalarGeometry> StepModel<G> {
 
     /// The Jacobian (`m x nz`) of a function `f(y) -> [m values]` of the state, in the
     /// chart about `base`, and its value. `values` and `jacobian` have `m` rows.
+    #[allow(clippy::too_many_arguments)]
     pub fn chart_jacobian(
         &self,
         base: &ChartPoint,

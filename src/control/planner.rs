@@ -262,7 +262,7 @@ impl<G: ScalarGeometry> Planner<G> {
             let pump = index - 2;
             let omega =
                 omegas[pump % omegas.len()] * [1.0, 0.8, 1.25][(pump / omegas.len() / 2) % 3];
-            let phase = if (pump / omegas.len()) % 2 == 0 {
+            let phase = if (pump / omegas.len()).is_multiple_of(2) {
                 0.0
             } else {
                 std::f64::consts::PI

@@ -92,7 +92,7 @@ impl Transitions {
             .into());
         }
         // Start-major order: all targets of the first start first.
-        pairs.sort_by(|a, b| key(&a.0, &a.1).cmp(&key(&b.0, &b.1)));
+        pairs.sort_by_key(|(s, t)| key(s, t));
         Self::from_pairs(n, &pairs)
     }
 
