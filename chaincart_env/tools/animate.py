@@ -33,7 +33,7 @@ from chaincart_env.rendering import RENDER_VIEWS, Camera, default_frame_size
 __all__ = ["Animation", "animate", "add_animate_command", "load_sb3_model", "parse_settings", "make_policy"]
 
 #: Policies by name; anything else is a path to a saved SB3 model.
-POLICY_NAMES = ("random", "zero", "lqr")
+POLICY_NAMES = ("random", "zero", "lqr", "trajectory", "mpc", "energy")
 #: Frame rate asked for unless ``--fps`` says otherwise.
 DEFAULT_FPS = 25.0
 #: Fastest GIF: frame delays are whole centiseconds and browsers slow anything under 2.
@@ -171,7 +171,9 @@ def _sb3_policy(model: Any, env: ChainCartEnv) -> Policy:
 
 def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> Policy:
     """``obs -> action`` for ``random`` (seeded), ``zero``, ``lqr`` (the paper's
-    controller for the env's target) or a loaded SB3 ``model``."""
+    controller for the env's target), the large-motion controllers ``trajectory``,
+    ``mpc`` and ``energy`` (designed on the env's model; the episode starts at the first
+    call), or a loaded SB3 ``model``."""
     if model is not None:
         return _sb3_policy(model, env)
     if name == "zero":
@@ -190,6 +192,14 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
 
         lqr = LQRPolicy.from_env(env)
         return lambda obs: lqr.predict(obs)[0]
+    if name in ("trajectory", "mpc", "energy"):
+        from chaincart_env.tools.controllers import NotApplicable, build_model_based
+
+        try:
+            controller = build_model_based(name, env.config)
+        except NotApplicable as error:
+            raise InvalidInputError(f"--policy {name}: {error}") from None
+        return lambda obs: controller.predict(obs)[0]
     raise InvalidInputError(f"policy {name!r}: expected one of {list(POLICY_NAMES)} or a saved model")
 
 
@@ -474,7 +484,8 @@ def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentP
     )
     parser.add_argument(
         "--policy", dest="policies", action="append", default=None, metavar="POLICY",
-        help="random, zero, lqr (default) or a saved SB3 model: a .zip or a compare run folder; "
+        help="random, zero, lqr (default), trajectory, mpc, energy (the large-motion controllers) or a saved SB3 "
+             "model: a .zip or a compare run folder; "
              "repeat it to show several side by side from the same start",
     )
     length = parser.add_mutually_exclusive_group()

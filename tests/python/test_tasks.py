@@ -177,3 +177,14 @@ def test_the_transitions_command_plans_tracks_and_writes_its_table(tmp_path, cap
     rows = (tmp_path / "transitions_1.csv").read_text().splitlines()
     assert rows[0].startswith("start,target,planned") and len(rows) == 3  # two transitions of one link
     assert "| (+) | (-) | yes | 2/2 |" in out  # the swing-up is planned and tracked from both starts
+
+
+def test_animate_draws_a_swing_up_by_the_planners_controller(tmp_path) -> None:
+    from chaincart_env.errors import InvalidInputError
+    from chaincart_env.tools.animate import animate
+
+    still = animate(ChainCartConfig(scene="swingup-2"), tmp_path / "swingup.png", policy="trajectory",
+                    times=[0.0, 2.5], width=120, height=160)
+    assert still.path.is_file() and still.endings == ("step limit",) and still.policies == ("trajectory",)
+    with pytest.raises(InvalidInputError, match="energy cannot serve scene 'swingup-2'"):
+        animate(ChainCartConfig(scene="swingup-2"), tmp_path / "x.png", policy="energy", times=[0.0])
