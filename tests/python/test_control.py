@@ -59,15 +59,28 @@ def test_a_plan_replays_open_loop_on_the_model_and_reports_itself() -> None:
 
 @pytest.mark.parametrize("start, target", [(s, t) for s in SIGNS_2 for t in SIGNS_2 if s != t])
 def test_each_transition_of_the_double_pendulum_succeeds_with_the_trajectory_policy(start, target) -> None:  # type: ignore[no-untyped-def]
-    env = chaincart_env.ChainCartEnv(ChainCartConfig(start=start, target=target, max_episode_steps=200))
+    # The goal-conditioned scene with its pair fixed: the target is read from the
+    # observation, and a success holds the target for the scene's last second.
+    env = gym.make("ChainCart-transitions-2-v0", start=start, target=target)
     policy = TrajectoryPolicy.from_env(env, duration=3.0)
     for seed in (0, 1):
         info = run_episode(env, policy, seed)
         assert info["is_success"], (start, target, seed, info)
 
 
+def test_the_trajectory_policy_serves_every_drawn_transition() -> None:
+    env = gym.make("ChainCart-transitions-2-v0")
+    policy = TrajectoryPolicy.from_env(env)
+    pairs = set()
+    for seed in range(24):
+        info = run_episode(env, policy, seed)
+        assert info["is_success"], (seed, env.unwrapped.episode_target, info)
+        pairs.add(env.unwrapped.episode_target)
+    assert len(pairs) == 4  # every equilibrium was a target
+
+
 def test_mpc_swings_the_double_pendulum_up_from_perturbed_starts() -> None:
-    config = ChainCartConfig(start="hanging", target="inverted", max_episode_steps=200, start_noise=0.1)
+    config = ChainCartConfig(scene="swingup-2", start_noise=0.1)
     policy = MPCPolicy.from_env(chaincart_env.ChainCartEnv(config), duration=3.0, budget=0.05)
     run = rollout(policy, "MPC", config, list(range(20)))
     assert run.success.mean() >= 0.95, run.success

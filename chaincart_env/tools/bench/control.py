@@ -7,13 +7,15 @@ import time
 
 import numpy as np
 
+from chaincart_env.config import ChainCartConfig
 from chaincart_env.tools.bench.context import BenchContext
 from chaincart_env.model import ChainCart
 
 __all__ = ["control_section"]
 
-#: (name, links, planar, plan duration in s): the swing-up scenes' systems.
-SWINGUPS = (("swingup-2", 2, True, 3.0), ("swingup-3", 3, True, 4.0), ("spatial-swingup-2", 2, False, 3.0))
+#: (scene, plan duration in s): the swing-up scenes, planned with their own force
+#: limit and track.
+SWINGUPS = (("swingup-2", 3.0), ("swingup-3", 4.0), ("spatial-swingup-2", 3.0))
 
 
 def _mpc_step_times(model: ChainCart, plan, steps: int) -> np.ndarray:  # type: ignore[no-untyped-def]
@@ -35,9 +37,11 @@ def control_section(ctx: BenchContext) -> None:
     ctx.report.heading("Large motions: planning and MPC")
     repeats = ctx.settings.repeats
     rows, results = [], {}
-    for name, n, planar, duration in SWINGUPS:
-        model = ChainCart(n, 1.0, 0.1, 0.5, planar=planar)
-        plans = [model.plan("hanging", "inverted", max_force=20.0, duration=duration) for _ in range(repeats)]
+    for name, duration in SWINGUPS:
+        config = ChainCartConfig(scene=name)
+        model = config.make_model()
+        limits = {"max_force": config.max_force, "track_limit": config.track_limit}
+        plans = [model.plan("hanging", "inverted", duration=duration, **limits) for _ in range(repeats)]
         plan_seconds = min(p.report["seconds"] for p in plans)
         plan = plans[0]
         steps = plan.forces.shape[0] + int(round(1.0 / plan.dt))
@@ -51,8 +55,9 @@ def control_section(ctx: BenchContext) -> None:
         ])
     ctx.results["control"] = results
     ctx.report.paragraph(
-        "Default scene physics (1 kg cart, 0.1 kg at the end of each 0.5 m link), 20 N, 2.4 m track, "
-        "20 ms control period with 2 RK4 substeps. Planning: `ChainCart.plan('hanging', 'inverted')` on "
+        "The swing-up scenes: the default scene's physics (1 kg cart, 0.1 kg at the end of each 0.5 m "
+        "link), their force limit and 3 m track (20 N for two links, 30 N for three), 20 ms control period "
+        "with 2 RK4 substeps. Planning: `ChainCart.plan('hanging', 'inverted')` on "
         "one core (best of the repeats). MPC: `Plan.mpc()` (40 steps ahead, at most 2 iLQR iterations and "
         "2 ms per step) along the plan and one second beyond from a start 1 cm off; real-time factor = "
         "control period / mean step time."
