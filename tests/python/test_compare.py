@@ -388,7 +388,7 @@ def test_the_scene_recipe_sets_the_training_defaults_and_options_override_it(tmp
     from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
 
     recipe = recipe_for("inverted-2", "ppo")
-    assert recipe is not GENERIC and recipe_for("swingup-1", "PPO") is GENERIC
+    assert recipe is not GENERIC and recipe_for("paper-fig1", "PPO") is GENERIC
     base = ["--eval-episodes", "2", "--sweep", "start_noise=0.05", "--set", "max_episode_steps=20", "--no-progress",
             "--torch-threads", "1"]  # fmt: skip
     assert main(["compare", *base, "--timesteps", "64", "--out", str(tmp_path / "recipe")]) == 0

@@ -57,7 +57,10 @@ def test_zoo_values_become_sb3_objects():
 @pytest.mark.parametrize(
     "entry, message",
     [
-        ({"n_timesteps": 10, "normalize": True}, "['normalize'] are zoo wrappers"),
+        ({"n_timesteps": 10, "frame_stack": 4}, "['frame_stack'] are zoo wrappers"),
+        ({"n_timesteps": 10, "normalize": "dict(norm_obs=True, epsilon=1e-3)"}, "normalize keys ['epsilon'] are not supported"),
+        ({"n_timesteps": 10, "normalize": "dict(norm_obs=__import__('os'))"}, "normalize = "),
+        ({"n_timesteps": 10, "normalize": {"norm_obs": "yes"}}, "normalize norm_obs = 'yes': expected true or false"),
         ({"n_timesteps": 10, "policy": "CnnPolicy"}, "policy 'CnnPolicy'"),
         ({"n_envs": 4}, "number n_timesteps"),
         ({"n_timesteps": 10, "learning_rate": "exp_1e-3"}, "learning_rate = 'exp_1e-3'"),

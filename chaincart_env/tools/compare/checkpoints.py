@@ -7,7 +7,8 @@ update, before the next rollout is collected), :class:`Checkpointer` saves into
 * the agent (``model.zip``: weights, optimizer state, step counters, last observations;
   the replay buffer too for off-policy agents),
 * the training envs mid-episode (``envs.pkl``: the ``VecMonitor`` and the native
-  ``ChainCartVecEnv`` pickle with their states and per-env random streams),
+  ``ChainCartVecEnv`` pickle with their states and per-env random streams, and the
+  ``VecNormalize`` statistics of a run that normalises),
 * the global random states that SB3 draws from (Python's ``random``, NumPy's legacy
   global generator, torch's CPU generator),
 * how many rows the run's CSV logs had, and the best model so far.
@@ -31,7 +32,7 @@ import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
-from stable_baselines3.common.vec_env import VecMonitor
+from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 from chaincart_env.tools.compare.run_files import replace_directory, truncate_csv
 from chaincart_env.errors import InvalidInputError
@@ -52,19 +53,27 @@ _MONITOR_FIELDS = ("episode_returns", "episode_lengths", "episode_count", "t_sta
 
 def _envs_state(envs: Any) -> dict[str, Any]:
     """The training envs as picklable data: a ``VecMonitor`` does not pickle (it keeps
-    its class's attribute table), so its counters are saved beside the native envs."""
+    its class's attribute table), so its counters are saved beside the native envs; a
+    ``VecNormalize`` pickles without its envs and its discounted returns, saved beside it."""
+    if isinstance(envs, VecNormalize):
+        return {**_envs_state(envs.venv), "normalize": envs, "returns": envs.returns.copy()}
     if isinstance(envs, VecMonitor):
         return {"envs": envs.venv, "monitor": {name: getattr(envs, name) for name in _MONITOR_FIELDS}}
     return {"envs": envs, "monitor": None}
 
 
 def _envs_from_state(state: dict[str, Any]) -> Any:
-    if state["monitor"] is None:
-        return state["envs"]
-    envs = VecMonitor(state["envs"])
-    for name, value in state["monitor"].items():
-        setattr(envs, name, value)
-    return envs
+    envs = state["envs"]
+    if state["monitor"] is not None:
+        envs = VecMonitor(envs)
+        for name, value in state["monitor"].items():
+            setattr(envs, name, value)
+    normalize = state.get("normalize")
+    if normalize is None:
+        return envs
+    normalize.set_venv(envs)
+    normalize.returns = state["returns"]
+    return normalize
 
 
 class Checkpointer(BaseCallback):

@@ -113,7 +113,8 @@ class StudySettings(dict):  # type: ignore[type-arg]
         return [name for name in self.policies() if name not in LEARNED]
 
     def training(self, algo: str) -> dict[str, Any]:
-        """How ``algo`` trains: ``timesteps``, ``num_envs``, ``hyperparameters``."""
+        """How ``algo`` trains: ``timesteps``, ``num_envs``, ``hyperparameters`` (and
+        ``normalize``, the recipe's ``VecNormalize`` keywords or ``None``)."""
         if "training" in self:
             return dict(self["training"][algo])
         return {key: self[key] for key in ("timesteps", "num_envs", "hyperparameters")}
@@ -177,9 +178,11 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
         result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=training["num_envs"],
                        directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
                        checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
-                       hyperparameters=training["hyperparameters"], resume=resume)
+                       hyperparameters=training["hyperparameters"], resume=resume,
+                       normalize=training.get("normalize"))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
-                       resumed_from=result.resumed_from, evaluations=result.evaluations)
+                       resumed_from=result.resumed_from, evaluations=result.evaluations,
+                       normalize=training.get("normalize"))
     print(f"{algo.upper()} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
@@ -375,7 +378,7 @@ def _training_settings(
             check_keywords(algo, keywords)
         out[algo] = dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                          num_envs=recipe.num_envs if num_envs is None else num_envs,
-                         hyperparameters=keywords, recipe=recipe.source)
+                         hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize)
     return out
 
 

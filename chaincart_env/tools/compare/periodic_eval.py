@@ -7,7 +7,9 @@ end whenever they end; they say little about the deterministic policy a user dep
 training, every ``every`` timesteps (at the first rollout boundary past each multiple)
 and at the end, writes one row per evaluation to ``evaluations.csv`` and keeps the
 best model so far in ``best_model.zip`` (highest success rate, then highest mean
-return; the earliest wins a tie).
+return; the earliest wins a tie). An agent trained on normalised observations is
+evaluated through the training statistics as they are (not updated by the evaluation),
+and they are saved with the best model (``best_vecnormalize.pkl``).
 
 Evaluation draws no random numbers from the agent or the training envs, so a run
 trains exactly the same with or without it.
@@ -25,6 +27,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.evaluation import rollout
+from chaincart_env.tools.compare.normalization import save_agent, with_statistics
 from chaincart_env.tools.compare.run_files import (
     BEST_MODEL_FILE, EVALUATION_COLUMNS, EVALUATIONS_FILE, read_evaluations,
 )  # fmt: skip
@@ -87,7 +90,9 @@ class PeriodicEvaluation(BaseCallback):
             self._evaluate()
 
     def _evaluate(self) -> None:
-        run = rollout(self.model, "agent", self.config, self.seeds)
+        # On normalised observations, with the training statistics as they are now (read, not updated).
+        policy = with_statistics(self.model, self.model.get_vec_normalize_env())
+        run = rollout(policy, "agent", self.config, self.seeds)
         wins = int(run.success.sum())
         low, high = wilson_interval(wins, run.episodes)
         row = dict(
@@ -100,7 +105,7 @@ class PeriodicEvaluation(BaseCallback):
             csv.writer(file).writerow([repr(row[key]) for key in EVALUATION_COLUMNS])
         if self.best is None or _score(row) > _score(self.best):
             self.best = row
-            self.model.save(self.best_path)
+            save_agent(self.model, self.best_path)
         self._next = (self.num_timesteps // self.every + 1) * self.every
 
     @property

@@ -37,7 +37,8 @@ _LOADED: dict[str, Any] = {}
 @dataclass(frozen=True)
 class PolicySource:
     """What :meth:`load` needs to build one policy: ``kind`` is ``"sb3"`` (``payload``:
-    the model's zip file, ``algo``: its algorithm), ``"rllib"`` (the RLModule folder as
+    the model's zip file, ``algo``: its algorithm, ``statistics``: the contents of its
+    observation normalisation file, if it has one), ``"rllib"`` (the RLModule folder as
     a tar archive) or ``"model"`` (a model-based controller: ``payload`` holds its name
     and the scene's ``ChainCartConfig`` keywords; ``oracle``: the per-episode design on
     the true parameters)."""
@@ -46,11 +47,17 @@ class PolicySource:
     payload: Any
     algo: str = ""
     oracle: bool = False
+    statistics: Optional[bytes] = None
 
     @classmethod
     def sb3(cls, path: Path, algo: str) -> "PolicySource":
-        """The SB3 model saved at ``path`` (trained with ``algo``)."""
-        return cls("sb3", Path(path).read_bytes(), algo=algo)
+        """The SB3 model saved at ``path`` (trained with ``algo``), with the normalisation
+        statistics saved beside it if there are any."""
+        from chaincart_env.tools.compare.normalization import normalization_file
+
+        statistics = normalization_file(path)
+        return cls("sb3", Path(path).read_bytes(), algo=algo,
+                   statistics=statistics.read_bytes() if statistics.is_file() else None)
 
     @classmethod
     def rllib(cls, module: Path) -> "PolicySource":
@@ -100,7 +107,8 @@ class PolicySource:
     def key(self) -> str:
         """Equal for sources that load the same policy."""
         data = self.payload if isinstance(self.payload, bytes) else json.dumps(self.payload, sort_keys=True).encode()
-        return f"{self.kind}:{self.algo}:{self.oracle}:{hashlib.sha256(data).hexdigest()}"
+        statistics = "" if self.statistics is None else ":" + hashlib.sha256(self.statistics).hexdigest()
+        return f"{self.kind}:{self.algo}:{self.oracle}:{hashlib.sha256(data).hexdigest()}{statistics}"
 
     def load(self) -> Any:
         """The policy (``predict`` like an SB3 model), loaded once per process."""
@@ -112,8 +120,10 @@ class PolicySource:
     def _build(self) -> Any:
         if self.kind == "sb3":
             from chaincart_env.tools.compare.algorithms import algorithm_class
+            from chaincart_env.tools.compare.normalization import read_statistics, with_statistics
 
-            return algorithm_class(self.algo).load(io.BytesIO(self.payload), device="cpu")
+            model = algorithm_class(self.algo).load(io.BytesIO(self.payload), device="cpu")
+            return with_statistics(model, None if self.statistics is None else read_statistics(self.statistics))
         if self.kind == "rllib":
             from chaincart_env.tools.compare.rllib_training import RLlibPolicy
 
@@ -131,7 +141,8 @@ class PolicySource:
 
 def load_run(path: Path) -> SavedRun:
     """A run directory written by ``compare``, or the ``model.zip`` (SB3) or
-    ``rllib_checkpoint`` (RLlib) inside one."""
+    ``rllib_checkpoint`` (RLlib) inside one. An SB3 model saved with normalisation
+    statistics loads as a :class:`~chaincart_env.tools.compare.normalization.NormalizedPolicy`."""
     path = Path(path)
     if path.is_dir() and path.name == CHECKPOINT_DIR:
         path = path.parent
@@ -154,7 +165,9 @@ def load_run(path: Path) -> SavedRun:
             raise InvalidInputError(f"{model_path} does not exist: expected an SB3 model saved by compare")
         info = read_json_object(directory / RUN_FILE)
         from chaincart_env.tools.compare.algorithms import algorithm_class
+        from chaincart_env.tools.compare.normalization import load_statistics, with_statistics
 
-        model = algorithm_class(str(info.get("algo"))).load(model_path, device="cpu")
+        model = with_statistics(algorithm_class(str(info.get("algo"))).load(model_path, device="cpu"),
+                                load_statistics(model_path))
     config = ChainCartConfig(**read_json_object(directory / CONFIG_FILE))
     return SavedRun(model=model, config=config, info=info, directory=directory)

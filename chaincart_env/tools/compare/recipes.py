@@ -3,8 +3,9 @@
 
 The recipes are RL Baselines3 Zoo hyperparameter files shipped with the package,
 ``chaincart_env/hyperparams/<algo>.yml``: one entry per env id (``ChainCart-<scene>-v0``)
-with the zoo's keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs``) and the
-algorithm's keywords. The same file trains the same agent with the zoo::
+with the zoo's keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs``,
+``normalize``: observation and reward normalisation, see
+:mod:`chaincart_env.tools.compare.normalization`) and the algorithm's keywords. The same file trains the same agent with the zoo::
 
     python -m rl_zoo3.train --algo ppo --env ChainCart-swingup-2-v0 \\
         --gym-packages chaincart_env -conf <the file>
@@ -23,17 +24,22 @@ import ast
 import functools
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Optional
 
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.registration import scene_env_id
 
-__all__ = ["GENERIC", "TrainingRecipe", "hyperparameter_file", "load_recipes", "recipe_for", "sb3_keywords"]
+__all__ = [
+    "GENERIC", "NORMALIZE_KEYS", "TrainingRecipe", "hyperparameter_file", "load_recipes", "normalize_setting", "recipe_for",
+    "sb3_keywords",
+]  # fmt: skip
 
 #: Zoo keys a recipe may hold besides the algorithm's keywords.
-ZOO_KEYS = ("n_envs", "n_timesteps", "policy")
+ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "normalize")
+#: ``VecNormalize`` keywords a recipe's ``normalize`` may set.
+NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward")
 #: Zoo keys that ask for wrappers ``compare`` does not build: refused rather than ignored.
-UNSUPPORTED_ZOO_KEYS = ("normalize", "env_wrapper", "vec_env_wrapper", "frame_stack", "callback", "env_kwargs")
+UNSUPPORTED_ZOO_KEYS = ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback", "env_kwargs")
 
 
 @dataclass(frozen=True)
@@ -45,6 +51,8 @@ class TrainingRecipe:
     hyperparameters: dict[str, Any] = field(default_factory=dict)
     #: Where it comes from: ``"ppo.yml: ChainCart-inverted-2-v0"``, or SB3's defaults.
     source: str = ""
+    #: ``VecNormalize`` keywords (the zoo's ``normalize``), or ``None``: no normalisation.
+    normalize: Optional[dict[str, Any]] = None
 
 
 #: SB3's defaults on 8 envs: what a scene without a recipe trains with.
@@ -71,7 +79,7 @@ def _recipe(algo: str, env_id: str, entry: Any) -> TrainingRecipe:
         raise InvalidInputError(f"{where}: expected an integer n_envs and a number n_timesteps") from None
     keywords = {key: value for key, value in entry.items() if key not in ZOO_KEYS}
     sb3_keywords(keywords, where)  # checked now, so a bad file fails before any training
-    return TrainingRecipe(num_envs, timesteps, keywords, where)
+    return TrainingRecipe(num_envs, timesteps, keywords, where, normalize_setting(entry.get("normalize"), where))
 
 
 @functools.lru_cache(maxsize=None)
@@ -110,33 +118,71 @@ def _schedule(key: str, value: Any, where: str) -> Any:
     return value
 
 
-def _policy_kwargs(value: Any, where: str) -> dict[str, Any]:
-    """A zoo ``policy_kwargs``: a mapping, or the string ``"dict(key=literal, ...)"`` (read
-    with :mod:`ast`, never evaluated; ``activation_fn=nn.ReLU``/``nn.Tanh`` allowed)."""
-    if isinstance(value, Mapping):
-        return dict(value)
-    bad = InvalidInputError(f"{where}: policy_kwargs = {value!r}: expected dict(key=literal, ...)")
+def _dict_call(value: Any, bad: InvalidInputError) -> list[tuple[str, ast.expr]]:
+    """The keywords of a zoo string ``"dict(key=..., ...)"`` with their unevaluated
+    values (read with :mod:`ast`, never evaluated); ``bad`` for anything else."""
     try:
         call = ast.parse(str(value), mode="eval").body
     except SyntaxError:
         raise bad from None
     if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id == "dict" and not call.args):
         raise bad
+    return [(str(keyword.arg), keyword.value) for keyword in call.keywords]
+
+
+def _policy_kwargs(value: Any, where: str) -> dict[str, Any]:
+    """A zoo ``policy_kwargs``: a mapping, or the string ``"dict(key=literal, ...)"``
+    (``activation_fn=nn.ReLU``/``nn.Tanh`` allowed)."""
+    if isinstance(value, Mapping):
+        return dict(value)
+    bad = InvalidInputError(f"{where}: policy_kwargs = {value!r}: expected dict(key=literal, ...)")
     out: dict[str, Any] = {}
-    for keyword in call.keywords:
-        node = keyword.value
+    for key, node in _dict_call(value, bad):
         if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "nn":
             import torch.nn
 
             if node.attr not in ("ReLU", "Tanh", "ELU", "LeakyReLU"):
                 raise bad
-            out[str(keyword.arg)] = getattr(torch.nn, node.attr)
+            out[key] = getattr(torch.nn, node.attr)
             continue
         try:
-            out[str(keyword.arg)] = ast.literal_eval(node)
+            out[key] = ast.literal_eval(node)
         except ValueError:
             raise bad from None
     return out
+
+
+def normalize_setting(value: Any, where: str = "normalize") -> Optional[dict[str, Any]]:
+    """A zoo ``normalize`` value as SB3 ``VecNormalize`` keywords, or ``None`` for no
+    normalisation: ``false``; ``true`` (the zoo's meaning: ``VecNormalize``'s defaults,
+    observations and rewards); a mapping or the string
+    ``"dict(norm_obs=True, norm_reward=False)"``. Keys other than those of
+    :data:`NORMALIZE_KEYS` are refused (``gamma`` is the algorithm's, as in the zoo)."""
+    if value is None or value is False:
+        return None
+    if value is True:
+        return {}
+    bad = InvalidInputError(f"{where}: normalize = {value!r}: expected true, false or dict(key=literal, ...) "
+                            f"with keys among {list(NORMALIZE_KEYS)}")
+    if isinstance(value, Mapping):
+        keywords = {str(key): item for key, item in value.items()}
+    else:
+        try:
+            keywords = {key: ast.literal_eval(node) for key, node in _dict_call(value, bad)}
+        except ValueError:
+            raise bad from None
+    unsupported = sorted(set(keywords) - set(NORMALIZE_KEYS))
+    if unsupported:
+        raise InvalidInputError(f"{where}: normalize keys {unsupported} are not supported; expected some of "
+                                f"{list(NORMALIZE_KEYS)} (gamma is the algorithm's)")
+    for key in ("norm_obs", "norm_reward"):
+        if not isinstance(keywords.get(key, True), bool):
+            raise InvalidInputError(f"{where}: normalize {key} = {keywords[key]!r}: expected true or false")
+    for key in ("clip_obs", "clip_reward"):
+        clip = keywords.get(key, 10.0)
+        if isinstance(clip, bool) or not isinstance(clip, (int, float)) or not clip > 0:
+            raise InvalidInputError(f"{where}: normalize {key} = {clip!r}: expected a number > 0")
+    return keywords
 
 
 def sb3_keywords(hyperparameters: Mapping[str, Any], where: str = "hyperparameters") -> dict[str, Any]:

@@ -45,10 +45,13 @@ def _rllib(info: dict[str, Any]) -> bool:
 
 
 def save_run(directory: Path, model: Any, config: ChainCartConfig, info: dict[str, Any]) -> None:
-    """Writes the run's files (an RLlib run's checkpoint is already there)."""
+    """Writes the run's files (an RLlib run's checkpoint is already there; an SB3 model's
+    normalisation statistics go beside it)."""
     directory = Path(directory)
     if not _rllib(info):
-        model.save(directory / MODEL_FILE)
+        from chaincart_env.tools.compare.normalization import save_agent
+
+        save_agent(model, directory / MODEL_FILE)
     (directory / CONFIG_FILE).write_text(json.dumps(config.to_dict(), indent=2) + "\n")
     (directory / RUN_FILE).write_text(json.dumps(info, indent=2, default=repr) + "\n")
 

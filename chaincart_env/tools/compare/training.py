@@ -126,15 +126,24 @@ def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
     sb3_keywords(hyperparameters, f"{algo} keywords")
 
 
-def _new_agent(algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any]) -> BaseAlgorithm:
+def _new_agent(
+    algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
+    normalize: Optional[Mapping[str, Any]] = None,
+) -> BaseAlgorithm:
+    from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
 
     keywords = sb3_keywords(kwargs)  # checked before the envs are built
-    venv = VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed))
+    # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the true rewards.
+    venv = normalized_envs(VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed)), normalize)
     try:
-        return algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
+        model = algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
     except TypeError as error:  # an unknown or ill-typed keyword
         raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
+    statistics = model.get_vec_normalize_env()
+    if statistics is not None:  # rewards are normalised by their discounted return, with the agent's discount
+        statistics.gamma = float(getattr(model, "gamma", statistics.gamma))
+    return model
 
 
 def steps_trained(model: BaseAlgorithm, timesteps: int) -> tuple[int, str]:
@@ -166,6 +175,7 @@ def train(
     progress_bar: bool = True,
     hyperparameters: Optional[Mapping[str, Any]] = None,
     resume: bool = False,
+    normalize: Optional[Mapping[str, Any]] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -173,8 +183,12 @@ def train(
     on ``eval_seeds`` every ``eval_every`` steps (``evaluations.csv``,
     ``best_model.zip``), a checkpoint every ``checkpoint_every`` steps. With
     ``resume=True`` and a checkpoint in ``directory``, training continues from it (and
-    ends as the uninterrupted run would)."""
+    ends as the uninterrupted run would). ``normalize``: ``VecNormalize`` keywords (a
+    recipe's ``normalize``; the statistics are the agent's, saved with each of its model files by
+    :func:`~chaincart_env.tools.compare.normalization.save_agent`), ``None`` for none; a resumed
+    run keeps its checkpoint's."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
+    from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
     from chaincart_env.tools.compare.run_files import settled_directory
 
@@ -185,7 +199,7 @@ def train(
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
-    model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs)
+    model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs, normalize)
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
     if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise
@@ -193,7 +207,7 @@ def train(
     logger = EpisodeCsvLogger(directory / EPISODES_FILE, append=resuming)
     evaluation = PeriodicEvaluation(config, eval_seeds, eval_every, directory, resume=resuming)
     checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
-                               keep=(BEST_MODEL_FILE,))
+                               keep=(BEST_MODEL_FILE, normalization_file(directory / BEST_MODEL_FILE).name))
     start = time.perf_counter()
     model.learn(total_timesteps=max(0, planned - resumed_from), callback=[logger, evaluation, checkpoints],
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)

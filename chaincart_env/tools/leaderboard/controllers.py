@@ -37,9 +37,11 @@ def train_agent(
 ) -> None:
     """Trains the agent ``name`` on ``config`` with seed ``seed`` into ``directory``
     (the scene's packaged recipe; ``timesteps`` overrides its budget; ``tiny``:
-    :data:`TINY_TRAINING` on top) and saves it as ``model.zip``; a run that was cut short
+    :data:`TINY_TRAINING` on top) and saves it as ``model.zip`` (with its normalisation
+    statistics beside it if the recipe normalises); a run that was cut short
     resumes from its checkpoint. The leaderboard reuses an agent whose ``model.zip``
     exists."""
+    from chaincart_env.tools.compare.normalization import save_agent
     from chaincart_env.tools.compare.recipes import recipe_for
     from chaincart_env.tools.compare.training import train
 
@@ -54,9 +56,9 @@ def train_agent(
         config, algo=name, timesteps=budget, seed=seed, num_envs=num_envs, directory=directory,
         eval_seeds=[10_000_000 + seed * 1000 + i for i in range(8)], eval_every=max(budget // 10, 1),
         checkpoint_every=max(budget // 5, 1), progress_bar=progress_bar, hyperparameters=hyperparameters,
-        resume=True,
+        resume=True, normalize=recipe.normalize,
     )
-    result.model.save(directory / "model.zip")
+    save_agent(result.model, directory / "model.zip")
 
 
 class TimedPolicy:

@@ -1,0 +1,91 @@
+"""Observation (and reward) normalisation of a training recipe: the zoo's ``normalize``.
+
+A recipe with ``normalize`` trains its agent on SB3's ``VecNormalize`` wrapped around the
+``VecMonitor`` of the native envs, as RL Baselines3 Zoo does. The agent then acts on
+normalised observations, so the running statistics belong to the agent: they are saved
+beside every model file (``vecnormalize.pkl`` beside ``model.zip``,
+``best_vecnormalize.pkl`` beside ``best_model.zip``; SB3's ``VecNormalize.save``) and a
+loaded agent is a :class:`NormalizedPolicy` that normalises with them, frozen. A model
+without a statistics file loads as the bare SB3 model.
+"""
+
+from __future__ import annotations
+
+import io
+import pickle
+from pathlib import Path
+from typing import Any, Mapping, Optional
+
+import numpy as np
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
+
+from chaincart_env.errors import InvalidInputError
+
+__all__ = [
+    "NormalizedPolicy", "load_statistics", "normalization_file", "normalized_envs", "read_statistics",
+    "save_agent", "with_statistics",
+]  # fmt: skip
+
+def normalized_envs(envs: VecEnv, setting: Optional[Mapping[str, Any]]) -> VecEnv:
+    """``envs`` in ``VecNormalize`` with ``setting``'s keywords (``envs`` as they are for ``None``)."""
+    return envs if setting is None else VecNormalize(envs, **setting)
+
+
+def normalization_file(model_path: Path) -> Path:
+    """Where the statistics of the model saved at ``model_path`` go: ``vecnormalize.pkl``
+    beside ``model.zip``, ``best_vecnormalize.pkl`` beside ``best_model.zip``,
+    ``<name>_vecnormalize.pkl`` beside any other ``<name>.zip``."""
+    stem = Path(model_path).stem
+    prefix = stem[: -len("model")] if stem.endswith("model") else stem + "_"
+    return Path(model_path).with_name(prefix + "vecnormalize.pkl")
+
+
+def save_agent(model: BaseAlgorithm, path: Path) -> None:
+    """Saves ``model`` at ``path`` and its envs' normalisation statistics beside it
+    (removing a stale statistics file when it has none)."""
+    model.save(path)
+    statistics, stats_path = model.get_vec_normalize_env(), normalization_file(path)
+    if statistics is not None:
+        statistics.save(str(stats_path))
+    elif stats_path.is_file():
+        stats_path.unlink()
+
+
+def read_statistics(data: bytes) -> VecNormalize:
+    """The ``VecNormalize`` pickled in ``data`` (a statistics file's contents), without envs: only
+    its ``normalize_obs`` is used."""
+    statistics = pickle.load(io.BytesIO(data))
+    if not isinstance(statistics, VecNormalize):
+        raise InvalidInputError(f"normalisation statistics hold {type(statistics).__name__}: expected a VecNormalize")
+    return statistics
+
+
+def load_statistics(model_path: Path) -> Optional[VecNormalize]:
+    """The statistics saved beside the model file ``model_path``, or ``None`` without a file."""
+    path = normalization_file(model_path)
+    return read_statistics(path.read_bytes()) if path.is_file() else None
+
+
+class NormalizedPolicy:
+    """An SB3 model that acts on observations normalised with ``statistics`` (a
+    ``VecNormalize``; only its ``normalize_obs`` is called, which never updates it).
+    Everything else is the model's."""
+
+    def __init__(self, model: BaseAlgorithm, statistics: VecNormalize) -> None:
+        self.model, self.statistics = model, statistics
+
+    def predict(
+        self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = False
+    ) -> tuple[np.ndarray, Any]:
+        """The model's ``predict`` on ``observation`` normalised."""
+        normalized = self.statistics.normalize_obs(np.asarray(observation))
+        return self.model.predict(normalized, state=state, episode_start=episode_start, deterministic=deterministic)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.model, name)
+
+
+def with_statistics(model: BaseAlgorithm, statistics: Optional[VecNormalize]) -> Any:
+    """``model`` acting through ``statistics`` (the bare model for ``None``)."""
+    return model if statistics is None else NormalizedPolicy(model, statistics)
