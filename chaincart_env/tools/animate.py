@@ -133,7 +133,8 @@ def saved_config(path: Path) -> Optional[dict[str, Any]]:
 def load_sb3_model(path: Path) -> Any:
     """A stable-baselines3 model from a ``.zip`` or a folder with ``model.zip``. The
     algorithm is the one ``run.json`` / ``config.json`` names (key ``algo``), or else
-    the first of PPO, SAC, TD3, A2C, DDPG that loads the file."""
+    the first of PPO, SAC, TD3, A2C, DDPG that loads the file. With normalisation statistics
+    beside it (``compare``'s ``vecnormalize.pkl``), it acts on observations normalised with them."""
     model_path, folder = _model_files(Path(path))
     if not model_path.is_file():
         raise InvalidInputError(
@@ -153,9 +154,13 @@ def load_sb3_model(path: Path) -> Any:
             failures.append(f"{name}: not a stable-baselines3 algorithm")
             continue
         try:
-            return algorithm.load(model_path, device="cpu")
+            model = algorithm.load(model_path, device="cpu")
         except Exception as e:  # a zip saved by another algorithm fails in its own way
             failures.append(f"{name}: {type(e).__name__}: {e}")
+            continue
+        from chaincart_env.tools.compare.normalization import load_statistics, with_statistics
+
+        return with_statistics(model, load_statistics(model_path))
     raise InvalidInputError(f"could not load {model_path} as an SB3 model ({'; '.join(failures)})")
 
 

@@ -137,3 +137,33 @@ def test_a_normalized_run_resumes_to_the_uninterrupted_result(tmp_path: pathlib.
                    for line in (broken / name).read_text().splitlines()]
         assert untimed == [[cell for i, cell in enumerate(line.split(",")) if i != 1]
                            for line in (whole / name).read_text().splitlines()], name
+
+
+def test_evaluate_and_animate_use_the_saved_statistics(normalized_run: pathlib.Path, tmp_path: pathlib.Path):
+    from chaincart_env.tools.animate import load_sb3_model
+    from chaincart_env.tools.compare.normalization import NormalizedPolicy
+
+    seed = normalized_run / "seed-0"
+    assert isinstance(load_sb3_model(seed), NormalizedPolicy)
+    assert main(["evaluate", str(seed), "--out", str(tmp_path / "again")]) == 0
+    # The study's own evaluation used the same statistics: the re-evaluation agrees with it.
+    rows = lambda path: [r for r in path.read_text().splitlines() if r.startswith("PPO")]  # noqa: E731
+    again = rows(tmp_path / "again" / "comparison.csv")
+    assert again and set(again) <= set(rows(normalized_run / "comparison.csv"))
+
+
+def test_the_leaderboard_trains_a_normalized_recipe_and_scores_it_normalized(tmp_path: pathlib.Path):
+    import chaincart_env.tools.compare.recipes as recipes
+    from chaincart_env.tools.compare.normalization import NormalizedPolicy
+    from chaincart_env.tools.compare.policy_sources import PolicySource
+    from chaincart_env.tools.leaderboard.controllers import train_agent
+
+    recipe = TrainingRecipe(2, 128, dict(TINY_PPO), "test recipe", dict(OBS_ONLY))
+    patch = pytest.MonkeyPatch()
+    patch.setattr(recipes, "recipe_for", lambda scene, algo: recipe)
+    try:
+        train_agent("ppo", ChainCartConfig(max_episode_steps=20), 0, tmp_path)
+    finally:
+        patch.undo()
+    assert (tmp_path / "vecnormalize.pkl").is_file()
+    assert isinstance(PolicySource.sb3(tmp_path / "model.zip", "ppo").load(), NormalizedPolicy)
