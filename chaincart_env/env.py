@@ -225,7 +225,8 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     ) -> None:
         self.config = ChainCartConfig.coerce(config, **kwargs)
         self._rendering = EnvRendering(
-            render_mode, self.config, render_width, render_height, camera=render_camera, trail=render_trail
+            render_mode, self.config, render_width, render_height, camera=render_camera, trail=render_trail,
+            targets=self._episode_targets if self.config.goal_conditioned else None,
         )
         self.render_mode = self._rendering.mode
         self.model: ChainCart = self.config.make_model()
@@ -241,6 +242,10 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     def dt(self) -> float:
         """Control period (s): the time one step advances."""
         return self.config.dt
+
+    def _episode_targets(self) -> np.ndarray:
+        """Each env's episode target (one row), for the renderer's ghost."""
+        return self._batch.targets()
 
     @property
     def episode_target(self) -> tuple[int, ...]:

@@ -163,6 +163,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
             tracked=num_envs,
             camera=render_camera,
             trail=render_trail,
+            targets=self._episode_targets if self.config.goal_conditioned else None,
         )
         self.render_mode: Optional[str] = self._rendering.mode
         self._diagnostics = self.config.diagnostics
@@ -178,6 +179,10 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     def dt(self) -> float:
         """Control period (s)."""
         return self.config.dt
+
+    def _episode_targets(self) -> np.ndarray:
+        """Each env's episode target (one row per env), for the renderer's ghosts."""
+        return self._batch.targets()
 
     @property
     def episode_targets(self) -> np.ndarray:

@@ -165,6 +165,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
             modes=VECTOR_RENDER_MODES,
             camera=render_camera,
             trail=render_trail,
+            targets=self._episode_targets if self.config.goal_conditioned else None,
         )
         self.render_mode = self._rendering.mode
         # rgb_array_list: per step, the tuple of every env's frame
@@ -186,6 +187,10 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     def dt(self) -> float:
         """Control period (s)."""
         return self.config.dt
+
+    def _episode_targets(self) -> np.ndarray:
+        """Each env's episode target (one row per env), for the renderer's ghosts."""
+        return self._batch.targets()
 
     @property
     def episode_targets(self) -> np.ndarray:

@@ -59,8 +59,11 @@ class EnvRendering:
         modes: Sequence[str] = RENDER_MODES,
         camera: Any = None,
         trail: float = 0.0,
+        targets: Optional[Callable[[], np.ndarray]] = None,
     ) -> None:
         self.mode = check_render_mode(render_mode, modes)
+        # Goal-conditioned envs: each env's episode target for its ghost (one row per env).
+        self._targets = targets
         # Validates the size, camera and trail in every mode.
         self.renderer = ChainRenderer(config, width, height, camera, trail)
         self.shown = shown
@@ -135,7 +138,10 @@ class EnvRendering:
                 f"envs 0..{len(self.forces) - 1} only"
             )
         trails: Sequence[Any] = self.trails[first:] if self.trails else [None] * len(states)
-        return [self.renderer.frame(y, f, t) for y, f, t in zip(states, self.forces[first:], trails)]
+        targets: Sequence[Any] = self._targets()[first:] if self._targets is not None else [None] * len(states)
+        return [
+            self.renderer.frame(y, f, t, g) for y, f, t, g in zip(states, self.forces[first:], trails, targets)
+        ]
 
     def image(self, states: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
         """The frame of the first env (``tiled=False``) or the grid of the first

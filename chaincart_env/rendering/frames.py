@@ -168,17 +168,22 @@ class ChainRenderer:
         return np.array([y[0], y[1], 0.0]) + np.asarray(self._lengths) @ q
 
     def frame(
-        self, state: npt.ArrayLike, force: Optional[npt.ArrayLike] = None, trail: Optional[TipTrail] = None
+        self,
+        state: npt.ArrayLike,
+        force: Optional[npt.ArrayLike] = None,
+        trail: Optional[TipTrail] = None,
+        target: Optional[Sequence[float]] = None,
     ) -> np.ndarray:
         """The frame of ``state`` (the model's layout: planar states are planar) with
-        ``force`` (N, ``force_dim`` numbers; ``None``: no force) as an arrow and the
-        ``trail``'s positions (3-D view). Any state draws, however far off-screen,
-        huge or NaN its entries."""
+        ``force`` (N, ``force_dim`` numbers; ``None``: no force) as an arrow, the
+        ``trail``'s positions (3-D view) and the ghost of ``target`` (signs; ``None``:
+        the config's target). Any state draws, however far off-screen, huge or NaN its
+        entries."""
         return _core.render_frame(
             self._lengths,
             self.spatial(state),
             self._force_2d(force),
-            target=self._target,
+            target=self._target if target is None else [float(s) for s in target],
             max_force=self._max_force,
             track_limit=self._track_limit,
             width=self.width,

@@ -188,3 +188,20 @@ def test_animate_draws_a_swing_up_by_the_planners_controller(tmp_path) -> None:
     assert still.path.is_file() and still.endings == ("step limit",) and still.policies == ("trajectory",)
     with pytest.raises(InvalidInputError, match="energy cannot serve scene 'swingup-2'"):
         animate(ChainCartConfig(scene="swingup-2"), tmp_path / "x.png", policy="energy", times=[0.0])
+
+
+def test_frames_show_the_ghost_of_each_episodes_own_target() -> None:
+    from chaincart_env.rendering import ChainRenderer
+
+    env = ChainCartEnv(scene="transitions-2", render_mode="rgb_array", render_width=96, render_height=96)
+    renderer = ChainRenderer(env.config, 96, 96)
+    frames = {}
+    for seed in range(12):
+        env.reset(seed=seed)
+        target = env.episode_target
+        frame = env.render()
+        np.testing.assert_array_equal(frame, renderer.frame(env.model_state, target=target))
+        frames[target] = frame
+    assert len(frames) > 1
+    (a, fa), (b, fb) = list(frames.items())[:2]
+    assert not np.array_equal(renderer.frame(env.model_state, target=a), renderer.frame(env.model_state, target=b))
