@@ -49,6 +49,17 @@ fn run<G: chaincart::lanes::LaneScene>(
         .collect()
 }
 
+/// Every reward of 64 envs of `task` pushed at random for 400 steps.
+fn pushed_rewards<G: chaincart::lanes::LaneScene>(chain: Chain<G>, task: &TaskConfig) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let pushes: Vec<f64> = (0..400 * 64).map(|_| rng.random_range(-1.5..1.5)).collect();
+    let mut b = EnvBatch::new(chain, task.clone(), 64, 1, AutoresetMode::SameStep, false).unwrap();
+    run(&mut b, 400, |s, k| pushes[s * 64 + k])
+        .into_iter()
+        .flat_map(|r| r.0)
+        .collect()
+}
+
 #[test]
 fn the_tolerance_reward_is_one_at_rest_on_the_target_and_stays_in_zero_one() {
     let mut task = upright(2);
@@ -71,36 +82,10 @@ fn the_tolerance_reward_is_one_at_rest_on_the_target_and_stays_in_zero_one() {
     task.start_noise = 1.0;
     task.max_episode_steps = 50;
     for spatial in [false, true] {
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let pushes: Vec<f64> = (0..400 * 64).map(|_| rng.random_range(-1.5..1.5)).collect();
-        let rewards: Vec<f64> = if spatial {
-            let mut b = EnvBatch::new(
-                chain::<Spatial>(2),
-                task.clone(),
-                64,
-                1,
-                AutoresetMode::SameStep,
-                false,
-            )
-            .unwrap();
-            run(&mut b, 400, |s, k| pushes[s * 64 + k])
-                .into_iter()
-                .flat_map(|r| r.0)
-                .collect()
+        let rewards = if spatial {
+            pushed_rewards(chain::<Spatial>(2), &task)
         } else {
-            let mut b = EnvBatch::new(
-                chain::<Planar>(2),
-                task.clone(),
-                64,
-                1,
-                AutoresetMode::SameStep,
-                false,
-            )
-            .unwrap();
-            run(&mut b, 400, |s, k| pushes[s * 64 + k])
-                .into_iter()
-                .flat_map(|r| r.0)
-                .collect()
+            pushed_rewards(chain::<Planar>(2), &task)
         };
         assert!(rewards.iter().all(|r| (0.0..=1.0).contains(r)));
         let low = rewards.iter().filter(|&&r| r < 0.3).count();
