@@ -495,7 +495,7 @@ def test_animate_bad_input_is_a_usage_error(
         (["--elevation", "95"], "elevation = 95"),
         (["--fov", "0.5"], "fov = 0.5"),
         (["--times", "0,x"], "expected seconds separated by commas"),
-        (["--policy", "smart"], "expected one of ['random', 'zero', 'lqr'], an SB3 model .zip"),
+        (["--policy", "smart"], "expected one of ['random', 'zero', 'lqr', 'trajectory', 'mpc', 'energy'], an SB3 model .zip"),
         (["--scene", "paper-fig1", "--policy", "lqr"], "use --policy zero"),
         (["--width", "4"], "render_width = 4"),
         (["--set", "n_links"], "expected KEY=VALUE"),
