@@ -4,6 +4,7 @@ read from the observation in goal-conditioned scenes."""
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Optional
 
 import numpy as np
@@ -11,9 +12,12 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError, PlanningError
 from chaincart_env.policies.settings import EnvSettings, env_settings, goal_signs, nearest_equilibrium
 
-__all__ = ["PlannedPolicy"]
+__all__ = ["ON_FAILURE", "PlannedPolicy"]
 
 Pair = tuple[tuple[int, ...], tuple[int, ...]]
+
+#: What a plan that misses its target may do.
+ON_FAILURE = ("raise", "track")
 
 
 class PlannedPolicy:
@@ -27,9 +31,17 @@ class PlannedPolicy:
     equilibrium reuses the same plan and the feedback absorbs the difference.
     """
 
-    def __init__(self, settings: EnvSettings, duration: Optional[float] = None, **plan_options: Any) -> None:
+    def __init__(
+        self, settings: EnvSettings, duration: Optional[float] = None, on_failure: str = "raise", **plan_options: Any
+    ) -> None:
+        if on_failure not in ON_FAILURE:
+            raise InvalidInputError(f"on_failure = {on_failure!r}: expected one of {list(ON_FAILURE)}")
         self.settings = settings
         self.duration = duration
+        #: What a plan that misses its target does: "raise" a PlanningError, or "track"
+        #: it anyway (the episode then fails as the plan does; :attr:`failed_pairs` lists it).
+        self.on_failure = on_failure
+        self.failed_pairs: set[Pair] = set()
         self.plan_options = plan_options
         self._plans: dict[Pair, Any] = {}
         self._clock = np.zeros(0, dtype=np.int64)
@@ -37,16 +49,22 @@ class PlannedPolicy:
         self._controllers: list[Any] = []
 
     @classmethod
-    def from_env(cls, env: Any, *, oracle: bool = False, duration: Optional[float] = None, **options: Any) -> Any:
+    def from_env(
+        cls, env: Any, *, oracle: bool = False, duration: Optional[float] = None, on_failure: str = "raise",
+        **options: Any,
+    ) -> Any:
         """For a ``ChainCartEnv``, its vector envs or SB3 VecEnv: the env's nominal model
         (``oracle=True``: its true parameters), force limit, track, control period and
         target (or, in goal-conditioned scenes, the target in each observation).
-        ``duration`` (s) and the other keywords go to ``ChainCart.plan``."""
-        return cls(env_settings(env, oracle), duration=duration, **options)
+        ``duration`` (s) and the other keywords go to ``ChainCart.plan``; ``on_failure``
+        says what a plan that misses its target does (``"raise"`` or ``"track"``)."""
+        return cls(env_settings(env, oracle), duration=duration, on_failure=on_failure, **options)
 
     def plan(self, start: tuple[int, ...], target: tuple[int, ...]) -> Any:
-        """The plan from equilibrium ``start`` to ``target`` (cached); raises
-        :class:`~chaincart_env.errors.PlanningError` if it does not reach the target."""
+        """The plan from equilibrium ``start`` to ``target`` (cached); if it does not
+        reach the target, raises :class:`~chaincart_env.errors.PlanningError`
+        (``on_failure="raise"``) or warns once and returns it all the same
+        (``"track"``)."""
         key = (tuple(start), tuple(target))
         plan = self._plans.get(key)
         if plan is None:
@@ -56,7 +74,11 @@ class PlannedPolicy:
                 duration=self.duration, dt=s.dt, substeps=s.substeps, **self.plan_options,
             )
             if not plan.converged:
-                raise PlanningError(f"no plan from {list(start)} to {list(target)}: {plan.report['reason']}")
+                message = f"no plan from {list(start)} to {list(target)}: {plan.report['reason']}"
+                if self.on_failure == "raise":
+                    raise PlanningError(message)
+                warnings.warn(f"{message}; tracking it all the same", RuntimeWarning, stacklevel=2)
+                self.failed_pairs.add(key)
             self._plans[key] = plan
         return plan
 

@@ -120,7 +120,10 @@ def build_model_based(name: str, config: ChainCartConfig, oracle: bool = False) 
     if name not in MODEL_BASED:
         raise InvalidInputError(f"controller {name!r}: expected a model-based one among {list(MODEL_BASED)}")
     policy_class = controller_class(name)
-    options = {"oracle": True} if oracle else {}
+    options: dict[str, Any] = {"oracle": True} if oracle else {}
+    if name in ("trajectory", "mpc"):
+        # In a study a missed plan is a failed episode, not an aborted run.
+        options["on_failure"] = "track"
     try:
         return policy_class.from_env(ChainCartEnv(config), **options)
     except (ValueError, NotImplementedError) as error:

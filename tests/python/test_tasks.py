@@ -205,3 +205,30 @@ def test_frames_show_the_ghost_of_each_episodes_own_target() -> None:
     assert len(frames) > 1
     (a, fa), (b, fb) = list(frames.items())[:2]
     assert not np.array_equal(renderer.frame(env.model_state, target=a), renderer.frame(env.model_state, target=b))
+
+
+def test_a_plan_that_misses_raises_or_is_tracked_to_a_failed_episode() -> None:
+    import warnings as _warnings
+
+    from chaincart_env.errors import PlanningError
+    from chaincart_env.policies import TrajectoryPolicy
+    from chaincart_env.tools.controllers import build_model_based
+
+    # Three links, a 1 s plan from hanging to upright: no plan reaches the target.
+    env = ChainCartEnv(scene="swingup-3", max_episode_steps=60)
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(PlanningError, match="no plan from"):
+        TrajectoryPolicy.from_env(env, duration=1.0, max_time=2.0).predict(obs)
+    with pytest.raises(ChainCartError, match="on_failure = 'ignore'"):
+        TrajectoryPolicy.from_env(env, on_failure="ignore")
+    policy = TrajectoryPolicy.from_env(env, duration=1.0, max_time=2.0, on_failure="track")
+    with _warnings.catch_warnings(record=True) as caught:
+        _warnings.simplefilter("always")
+        for _ in range(60):
+            obs, _, terminated, truncated, info = env.step(policy.predict(obs)[0])
+            if terminated or truncated:
+                break
+    assert not info["is_success"] and policy.failed_pairs == {((1, 1, 1), (-1, -1, -1))}
+    assert any("tracking it all the same" in str(w.message) for w in caught)
+    # The study's registry tracks missed plans, so a run counts them as failures.
+    assert build_model_based("trajectory", env.config).on_failure == "track"
