@@ -251,7 +251,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
     def episode_target(self) -> tuple[int, ...]:
         """The target equilibrium of the current episode (goal-conditioned tasks draw
         it at every reset; otherwise the config's target)."""
-        return tuple(int(s) for s in self._batch.targets()[0])
+        return tuple(int(s) for s in self._episode_targets()[0])
 
     @property
     def model_state(self) -> np.ndarray:

@@ -188,7 +188,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     def episode_targets(self) -> np.ndarray:
         """Each env's target signs for its current episode, shape ``(num_envs,
         n_links)`` (goal-conditioned tasks draw them at every reset)."""
-        return self._batch.targets()
+        return self._episode_targets()
 
     def seed(self, seed: Optional[int] = None) -> Sequence[Optional[int]]:
         """Seeds of the next ``reset`` (SB3's ``seed``): env i gets ``seed + i``."""

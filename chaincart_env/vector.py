@@ -196,7 +196,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     def episode_targets(self) -> np.ndarray:
         """Each env's target signs for its current episode, shape ``(num_envs,
         n_links)`` (goal-conditioned tasks draw them at every reset)."""
-        return self._batch.targets()
+        return self._episode_targets()
 
     @property
     def model_states(self) -> np.ndarray:

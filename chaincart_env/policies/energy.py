@@ -8,7 +8,7 @@ import numpy as np
 
 from chaincart_env import _core
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.policies.settings import EnvSettings, env_settings
+from chaincart_env.policies.settings import EnvSettings, env_settings, observation_batch
 
 __all__ = ["EnergyPolicy"]
 
@@ -38,13 +38,7 @@ class EnergyPolicy:
 
     def forces(self, observation: Any) -> np.ndarray:
         """Forces in newtons, shape (N, force_dim)."""
-        obs = np.asarray(observation, dtype=np.float64)
-        batch = np.atleast_2d(obs)
-        width = self.settings.obs_dim
-        if batch.ndim != 2 or batch.shape[1] != width:
-            raise InvalidInputError(f"observation has shape {obs.shape}: expected ({width},) or (N, {width})")
-        if not np.all(np.isfinite(batch)):
-            raise InvalidInputError("observation has non-finite entries: expected finite states")
+        batch = observation_batch(self.settings, observation)
         return np.array([self.controller.force(row[: self.settings.state_dim]) for row in batch])
 
     def predict(

@@ -10,7 +10,7 @@ from typing import Any, Optional
 import numpy as np
 
 from chaincart_env.errors import InvalidInputError, PlanningError
-from chaincart_env.policies.settings import EnvSettings, env_settings, goal_signs, nearest_equilibrium
+from chaincart_env.policies.settings import EnvSettings, env_settings, goal_signs, nearest_equilibrium, observation_batch
 
 __all__ = ["ON_FAILURE", "PlannedPolicy"]
 
@@ -98,19 +98,9 @@ class PlannedPolicy:
             self._clock = np.zeros(n, dtype=np.int64)
             self._pairs, self._controllers = [None] * n, [None] * n
 
-    def _split(self, observation: Any) -> tuple[np.ndarray, bool]:
-        obs = np.asarray(observation, dtype=np.float64)
-        batch = np.atleast_2d(obs)
-        width = self.settings.obs_dim
-        if batch.ndim != 2 or batch.shape[1] != width:
-            raise InvalidInputError(f"observation has shape {obs.shape}: expected ({width},) or (N, {width})")
-        if not np.all(np.isfinite(batch)):
-            raise InvalidInputError("observation has non-finite entries: expected finite states")
-        return batch, obs.ndim == 1
-
     def forces(self, observation: Any, episode_start: Optional[Any] = None) -> np.ndarray:
         """Forces in newtons, shape (N, force_dim), advancing each env's clock."""
-        batch, _ = self._split(observation)
+        batch = observation_batch(self.settings, observation)
         n, s = batch.shape[0], self.settings
         self._resize(n)
         starts = np.ones(n, dtype=bool) if episode_start is None else np.asarray(episode_start, dtype=bool).reshape(-1)

@@ -11,7 +11,7 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.model import ChainCart
 
-__all__ = ["EnvSettings", "env_settings", "goal_signs", "nearest_equilibrium"]
+__all__ = ["EnvSettings", "env_settings", "goal_signs", "nearest_equilibrium", "observation_batch"]
 
 
 @dataclass(frozen=True)
@@ -88,3 +88,16 @@ def goal_signs(tail: np.ndarray, n: int) -> Optional[tuple[int, ...]]:
             f"observation ends with {signs.tolist()}: expected the target's {n} signs +1/-1 (goal observation)"
         )
     return tuple(int(round(v)) for v in signs)
+
+
+def observation_batch(settings: EnvSettings, observation: Any) -> np.ndarray:
+    """``observation`` (one or a batch) as a float64 batch of ``settings.obs_dim``
+    columns, checked: shape and finite entries."""
+    obs = np.asarray(observation, dtype=np.float64)
+    batch = np.atleast_2d(obs)
+    width = settings.obs_dim
+    if batch.ndim != 2 or batch.shape[1] != width:
+        raise InvalidInputError(f"observation has shape {obs.shape}: expected ({width},) or (N, {width})")
+    if not np.all(np.isfinite(batch)):
+        raise InvalidInputError("observation has non-finite entries: expected finite states")
+    return batch

@@ -232,3 +232,13 @@ def test_a_plan_that_misses_raises_or_is_tracked_to_a_failed_episode() -> None:
     assert any("tracking it all the same" in str(w.message) for w in caught)
     # The study's registry tracks missed plans, so a run counts them as failures.
     assert build_model_based("trajectory", env.config).on_failure == "track"
+
+
+def test_a_rendering_goal_conditioned_env_pickles_with_its_episode_target() -> None:
+    import pickle
+
+    env = ChainCartEnv(scene="transitions-2", render_mode="rgb_array", render_width=64, render_height=64)
+    env.reset(seed=3)
+    copy = pickle.loads(pickle.dumps(env))
+    assert copy.episode_target == env.episode_target
+    np.testing.assert_array_equal(copy.render(), env.render())
