@@ -167,3 +167,27 @@ def test_the_leaderboard_trains_a_normalized_recipe_and_scores_it_normalized(tmp
         patch.undo()
     assert (tmp_path / "vecnormalize.pkl").is_file()
     assert isinstance(PolicySource.sb3(tmp_path / "model.zip", "ppo").load(), NormalizedPolicy)
+
+
+def test_the_leaderboard_scores_the_best_evaluated_model_not_the_last(tmp_path: pathlib.Path):
+    """Every evaluation ties here, so the earliest (before any update) is the best: the
+    agent the leaderboard keeps must be that one, with its statistics, not the last."""
+    from stable_baselines3 import PPO
+
+    import chaincart_env.tools.compare.periodic_eval as periodic_eval
+    import chaincart_env.tools.compare.recipes as recipes
+    from chaincart_env.tools.leaderboard.controllers import train_agent
+
+    recipe = TrainingRecipe(2, 256, dict(TINY_PPO), "test recipe", dict(OBS_ONLY))
+    patch = pytest.MonkeyPatch()
+    patch.setattr(recipes, "recipe_for", lambda scene, algo: recipe)
+    patch.setattr(periodic_eval, "_score", lambda row: (0.0, 0.0))
+    try:
+        train_agent("ppo", ChainCartConfig(max_episode_steps=20), 0, tmp_path)
+    finally:
+        patch.undo()
+    kept = PPO.load(tmp_path / "model.zip", device="cpu")
+    assert kept.num_timesteps == 0
+    assert (tmp_path / "model.zip").read_bytes() == (tmp_path / "best_model.zip").read_bytes()
+    assert (tmp_path / "vecnormalize.pkl").read_bytes() == (tmp_path / "best_vecnormalize.pkl").read_bytes()
+    assert len((tmp_path / "evaluations.csv").read_text().splitlines()) > 2  # header, first, later ones

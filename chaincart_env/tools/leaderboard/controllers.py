@@ -37,11 +37,12 @@ def train_agent(
 ) -> None:
     """Trains the agent ``name`` on ``config`` with seed ``seed`` into ``directory``
     (the scene's packaged recipe; ``timesteps`` overrides its budget; ``tiny``:
-    :data:`TINY_TRAINING` on top) and saves it as ``model.zip`` (with its normalisation
-    statistics beside it if the recipe normalises); a run that was cut short
-    resumes from its checkpoint. The leaderboard reuses an agent whose ``model.zip``
-    exists."""
-    from chaincart_env.tools.compare.normalization import save_agent
+    :data:`TINY_TRAINING` on top) and saves as ``model.zip`` (with its normalisation
+    statistics beside it if the recipe normalises) the model that scored best on the
+    periodic deterministic evaluations: PPO's success on the swing-ups rises and falls
+    during training, so the last model can be a bad one, and compare reports the best
+    too. A run that was cut short resumes from its checkpoint. The leaderboard reuses an
+    agent whose ``model.zip`` exists."""
     from chaincart_env.tools.compare.recipes import recipe_for
     from chaincart_env.tools.compare.training import train
 
@@ -52,13 +53,34 @@ def train_agent(
     if tiny:
         num_envs, small = TINY_TRAINING[name]
         hyperparameters.update(small)
-    result = train(
+    train(
         config, algo=name, timesteps=budget, seed=seed, num_envs=num_envs, directory=directory,
-        eval_seeds=[10_000_000 + seed * 1000 + i for i in range(8)], eval_every=max(budget // 10, 1),
-        checkpoint_every=max(budget // 5, 1), progress_bar=progress_bar, hyperparameters=hyperparameters,
-        resume=True, normalize=recipe.normalize,
+        eval_seeds=[EVALUATION_SEED_BASE + seed * 1000 + i for i in range(EVALUATION_STARTS)],
+        eval_every=max(budget // EVALUATIONS, 1), checkpoint_every=max(budget // 5, 1),
+        progress_bar=progress_bar, hyperparameters=hyperparameters, resume=True, normalize=recipe.normalize,
     )
-    save_agent(result.model, directory / "model.zip")
+    _keep_best_model(directory)
+
+
+#: Periodic evaluations of a learned agent's training: how many over its budget, on how many
+#: seeded starts (drawn apart from the leaderboard's cells, which start at seed 0).
+EVALUATIONS, EVALUATION_STARTS, EVALUATION_SEED_BASE = 20, 20, 10_000_000
+
+
+def _keep_best_model(directory: Path) -> None:
+    """Copies the best evaluated model (and its statistics) to ``model.zip`` (and its statistics' name)."""
+    import shutil
+
+    from chaincart_env.tools.compare.normalization import normalization_file
+    from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE
+
+    best, kept = directory / BEST_MODEL_FILE, directory / "model.zip"
+    statistics, kept_statistics = normalization_file(best), normalization_file(kept)
+    if statistics.is_file():
+        shutil.copyfile(statistics, kept_statistics)
+    elif kept_statistics.is_file():
+        kept_statistics.unlink()
+    shutil.copyfile(best, kept)  # last: an existing model.zip means the agent is complete
 
 
 class TimedPolicy:
