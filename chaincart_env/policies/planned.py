@@ -10,14 +10,20 @@ from typing import Any, Optional
 import numpy as np
 
 from chaincart_env.errors import InvalidInputError, PlanningError
-from chaincart_env.policies.settings import EnvSettings, env_settings, goal_signs, nearest_equilibrium, observation_batch
+from chaincart_env.policies.settings import (
+    SCENE_PLANS, EnvSettings, env_settings, goal_signs, nearest_equilibrium, observation_batch,
+)
 
-__all__ = ["ON_FAILURE", "PlannedPolicy"]
+__all__ = ["ON_FAILURE", "PLAN_FROM", "PlannedPolicy"]
 
 Pair = tuple[tuple[int, ...], tuple[int, ...]]
 
 #: What a plan that misses its target may do.
 ON_FAILURE = ("raise", "track")
+
+#: Where an episode's plan starts: the equilibrium nearest to its first observation (one
+#: plan per pair, cached), or that observed state itself (one plan per episode).
+PLAN_FROM = ("equilibrium", "state")
 
 
 class PlannedPolicy:
@@ -28,20 +34,30 @@ class PlannedPolicy:
     first call every env begins), or where the observed target changes. Its start
     equilibrium is the one nearest to the first observation; the plan from it to the
     target is computed once and cached (:meth:`plan`), so a seeded start near an
-    equilibrium reuses the same plan and the feedback absorbs the difference.
+    equilibrium reuses the same plan and the feedback absorbs the difference. With
+    ``plan_from="state"`` each episode plans instead from its first observed state (a
+    plan per episode, about a second for three links): from a start near an unstable
+    equilibrium the chain leaves it before the feedback catches up, and a plan that
+    starts where the chain is needs no catching up. Where that plan misses its target,
+    the cached plan from the equilibrium is followed.
     """
 
     def __init__(
-        self, settings: EnvSettings, duration: Optional[float] = None, on_failure: str = "raise", **plan_options: Any
+        self, settings: EnvSettings, duration: Optional[float] = None, on_failure: str = "raise",
+        plan_from: str = "equilibrium", **plan_options: Any,
     ) -> None:
         if on_failure not in ON_FAILURE:
             raise InvalidInputError(f"on_failure = {on_failure!r}: expected one of {list(ON_FAILURE)}")
+        if plan_from not in PLAN_FROM:
+            raise InvalidInputError(f"plan_from = {plan_from!r}: expected one of {list(PLAN_FROM)}")
         self.settings = settings
         self.duration = duration
         #: What a plan that misses its target does: "raise" a PlanningError, or "track"
         #: it anyway (the episode then fails as the plan does; :attr:`failed_pairs` lists it).
         self.on_failure = on_failure
         self.failed_pairs: set[Pair] = set()
+        #: Where each episode's plan starts (:data:`PLAN_FROM`).
+        self.plan_from = plan_from
         self.plan_options = plan_options
         self._plans: dict[Pair, Any] = {}
         self._clock = np.zeros(0, dtype=np.int64)
@@ -51,14 +67,23 @@ class PlannedPolicy:
     @classmethod
     def from_env(
         cls, env: Any, *, oracle: bool = False, duration: Optional[float] = None, on_failure: str = "raise",
-        **options: Any,
+        plan_from: Optional[str] = None, **options: Any,
     ) -> Any:
         """For a ``ChainCartEnv``, its vector envs or SB3 VecEnv: the env's nominal model
         (``oracle=True``: its true parameters), force limit, track, control period and
         target (or, in goal-conditioned scenes, the target in each observation).
         ``duration`` (s) and the other keywords go to ``ChainCart.plan``; ``on_failure``
-        says what a plan that misses its target does (``"raise"`` or ``"track"``)."""
-        return cls(env_settings(env, oracle), duration=duration, on_failure=on_failure, **options)
+        says what a plan that misses its target does (``"raise"`` or ``"track"``);
+        ``plan_from`` where each episode's plan starts (``"equilibrium"`` or ``"state"``).
+        Left out, ``duration`` and ``plan_from`` are the scene's
+        (:data:`~chaincart_env.policies.settings.SCENE_PLANS`) on a large-motion scene,
+        the planner's default length and ``"equilibrium"`` elsewhere."""
+        settings = env_settings(env, oracle)
+        scene_duration, scene_start = SCENE_PLANS.get(settings.scene, (None, "equilibrium"))
+        return cls(
+            settings, duration=scene_duration if duration is None else duration, on_failure=on_failure,
+            plan_from=scene_start if plan_from is None else plan_from, **options,
+        )
 
     def plan(self, start: tuple[int, ...], target: tuple[int, ...]) -> Any:
         """The plan from equilibrium ``start`` to ``target`` (cached); if it does not
@@ -81,6 +106,16 @@ class PlannedPolicy:
                 self.failed_pairs.add(key)
             self._plans[key] = plan
         return plan
+
+    def plan_from_state(self, state: np.ndarray, start: tuple[int, ...], target: tuple[int, ...]) -> Any:
+        """A plan from the full ``state`` to ``target``, or, if it misses, the plan from the
+        equilibrium ``start`` (:meth:`plan`)."""
+        s = self.settings
+        plan = s.model.plan(
+            np.asarray(state, dtype=np.float64), list(target), max_force=s.max_force, track_limit=s.track_limit,
+            duration=self.duration, dt=s.dt, substeps=s.substeps, **self.plan_options,
+        )
+        return plan if plan.converged else self.plan(start, target)
 
     def reset(self) -> None:
         """Forgets every env's episode (the next call begins new ones)."""
@@ -114,7 +149,9 @@ class PlannedPolicy:
             begins = starts[i] if episode_start is not None else pair is None
             if begins or pair is None or pair[1] != target:
                 start = nearest_equilibrium(s.model, state)
-                self._controllers[i] = self._controller(self.plan(start, target), self._controllers[i])
+                from_state = self.plan_from == "state"
+                plan = self.plan_from_state(state, start, target) if from_state else self.plan(start, target)
+                self._controllers[i] = self._controller(plan, self._controllers[i])
                 self._pairs[i], self._clock[i] = (start, target), 0
             out[i] = self._force(self._controllers[i], int(self._clock[i]), state)
             self._clock[i] += 1

@@ -11,7 +11,18 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.model import ChainCart
 
-__all__ = ["EnvSettings", "env_settings", "goal_signs", "nearest_equilibrium", "observation_batch"]
+__all__ = ["SCENE_PLANS", "EnvSettings", "env_settings", "goal_signs", "nearest_equilibrium", "observation_batch"]
+
+#: The plan length (s) and the plan start (``"equilibrium"`` or ``"state"``) of the
+#: plan-following policies on the scenes where the planner's defaults (1 + n s from the
+#: start equilibrium, enough for every transition of two links) are not: three links
+#: need longer plans, and plans from each episode's observed start, since from a start
+#: near one of their unstable equilibria the chain leaves a plan that begins at the
+#: equilibrium before its feedback catches up (the transitions tables of docs/task.md).
+SCENE_PLANS: dict[str, tuple[float, str]] = {
+    "swingup-3": (7.0, "state"),
+    "transitions-3": (7.0, "state"),
+}
 
 
 @dataclass(frozen=True)
@@ -26,6 +37,8 @@ class EnvSettings:
     target: tuple[int, ...]
     #: The observation ends with the target's n signs (goal-conditioned scenes).
     goal_observation: bool
+    #: The scene the env's configuration started from ("" for none).
+    scene: str = ""
 
     @property
     def n_links(self) -> int:
@@ -68,6 +81,7 @@ def env_settings(env: Any, oracle: bool = False) -> EnvSettings:
         substeps=int(config.substeps),
         target=tuple(int(s) for s in config.target_signs),
         goal_observation=bool(getattr(config, "goal_observation", False)),
+        scene=str(getattr(config, "scene", None) or ""),
     )
 
 

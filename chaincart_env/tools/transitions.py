@@ -3,9 +3,10 @@
 from seeded perturbed starts, with success held over the last seconds of the episode.
 
 ``python -m chaincart_env transitions [--links 2] [--spatial] [--max-force 20]
-[--track-limit 2.4] [--duration D] [--hold 1] [--seeds 3] [--out DIR] [--figure]``
-prints a Markdown table and writes ``transitions_<n>.csv`` (and, with ``--figure``, a
-picture of the planned swing-up ``swingup_<n>.png``).
+[--track-limit 2.4] [--duration D] [--hold 1] [--spare 1] [--seeds 3]
+[--plan-from equilibrium|state] [--out DIR] [--figure]`` prints a Markdown table and
+writes ``transitions_<n>.csv`` (and, with ``--figure``, a picture of the planned
+swing-up ``swingup_<n>.png``).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import argparse
 import csv
 import itertools
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional, Sequence
@@ -75,14 +77,17 @@ def transitions(
     seeds: int = 3,
     start_noise: float = 0.05,
     pairs: Optional[Sequence[tuple[Sequence[int], Sequence[int]]]] = None,
+    spare: float = 0.0,
+    plan_from: str = "equilibrium",
 ) -> list[TransitionRow]:
     """Plans and tracks every ordered pair of distinct equilibria (or ``pairs``) on the
     default scene's physical system with ``n_links`` links; each episode lasts the plan
-    plus ``hold`` seconds and succeeds when the chain stays within the success
-    tolerances over those last ``hold`` seconds."""
+    plus ``spare`` plus ``hold`` seconds (the large-motion scenes keep a second spare)
+    and succeeds when the chain stays within the success tolerances over those last
+    ``hold`` seconds. ``plan_from``: the tracking policy's (:class:`~chaincart_env.TrajectoryPolicy`),
+    where each episode's plan starts."""
     from chaincart_env.config import ChainCartConfig
     from chaincart_env.env import ChainCartEnv
-    from chaincart_env.errors import PlanningError
     from chaincart_env.policies import TrajectoryPolicy
 
     all_signs = [tuple(s) for s in itertools.product([1, -1], repeat=n_links)]
@@ -93,27 +98,33 @@ def transitions(
     rows = []
     for start, target in todo:
         dt = 0.02
-        steps = int(round(plan_duration / dt)) + int(round(hold / dt))
+        steps = int(round(plan_duration / dt)) + int(round(spare / dt)) + int(round(hold / dt))
         env = ChainCartEnv(ChainCartConfig(
             n_links=n_links, planar=planar, start=list(start), target=list(target),
             max_force=max_force, track_limit=track_limit, max_episode_steps=steps, start_noise=start_noise,
         ))
-        policy = TrajectoryPolicy.from_env(env, duration=plan_duration)
+        # A missed plan is tracked all the same (the episodes then fail): planning from each
+        # episode's state may still find one where the plan from the equilibrium did not.
+        policy = TrajectoryPolicy.from_env(env, duration=plan_duration, plan_from=plan_from, on_failure="track")
         began = time.perf_counter()
-        try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
             plan = policy.plan(start, target)
-        except PlanningError as error:
-            rows.append(TransitionRow(start, target, False, time.perf_counter() - began, 0, 0, seeds,
-                                      float("nan"), float("nan"), float("nan"), float("nan"), str(error)))
-            continue
         report = plan.report
-        results = [_episode(env, policy, seed, int(round(hold / dt)), dt) for seed in range(seeds)]
+        if not plan.converged and plan_from == "equilibrium":
+            rows.append(TransitionRow(start, target, False, time.perf_counter() - began, 0, 0, seeds,
+                                      float("nan"), float("nan"), float("nan"), float("nan"), str(report["reason"])))
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            results = [_episode(env, policy, seed, int(round(hold / dt)), dt) for seed in range(seeds)]
         forces = np.concatenate([r[2].reshape(-1) for r in results])
         rows.append(TransitionRow(
-            start=start, target=target, planned=True, plan_seconds=float(report["seconds"]),
+            start=start, target=target, planned=bool(plan.converged), plan_seconds=float(report["seconds"]),
             iterations=int(report["iterations"]), successes=sum(r[0] for r in results), episodes=seeds,
             time_to_reach=max(r[1] for r in results), peak_force=float(np.abs(forces).max()),
-            rms_force=float(np.sqrt(np.mean(forces**2))), max_cart=max(r[3] for r in results), reason="",
+            rms_force=float(np.sqrt(np.mean(forces**2))), max_cart=max(r[3] for r in results),
+            reason="" if plan.converged else str(report["reason"]),
         ))
     return rows
 
@@ -183,6 +194,11 @@ def add_transitions_command(commands: Any) -> None:
     p.add_argument("--track-limit", type=float, default=2.4, help="largest cart offset from the centre before the episode ends, m (default: 2.4)")
     p.add_argument("--duration", type=float, default=None, help="plan length, s (default: 1 + links)")
     p.add_argument("--hold", type=float, default=1.0, help="seconds the target must be held at the end")
+    p.add_argument("--spare", type=float, default=0.0,
+                   help="seconds between the plan's end and the hold (the large-motion scenes keep 1; default: 0)")
+    p.add_argument("--plan-from", choices=["equilibrium", "state"], default="equilibrium",
+                   help="where each episode's plan starts: the start equilibrium (one plan per transition) "
+                   "or the episode's first observed state (one plan per episode)")
     p.add_argument("--seeds", type=int, default=3, help="perturbed starts per transition")
     p.add_argument("--out", type=Path, default=None, help="directory for the CSV (and the figure)")
     p.add_argument("--figure", action="store_true", help="also draw the planned swing-up")
@@ -194,7 +210,8 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
     try:
         rows = transitions(
-            args.links, not args.spatial, args.max_force, args.track_limit, args.duration, args.hold, args.seeds
+            args.links, not args.spatial, args.max_force, args.track_limit, args.duration, args.hold, args.seeds,
+            spare=args.spare, plan_from=args.plan_from,
         )
     except InvalidInputError as error:
         print(f"{parser.prog} transitions: error: {error}")

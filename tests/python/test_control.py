@@ -150,3 +150,29 @@ def test_bad_input_is_named() -> None:
         chaincart_env._core.EnergyController(DOUBLE, 10.0)
     with pytest.raises(InvalidInputError, match="expected one link"):
         EnergyPolicy.from_env(env)
+    with pytest.raises(InvalidInputError, match=r"plan_from = 'start': expected one of \['equilibrium', 'state'\]"):
+        TrajectoryPolicy.from_env(env, plan_from="start")
+
+
+def test_a_scenes_plan_settings_are_the_policies_defaults_and_keywords_override_them() -> None:
+    triple = TrajectoryPolicy.from_env(gym.make("ChainCart-transitions-3-v0"))
+    assert (triple.duration, triple.plan_from) == (7.0, "state")
+    double = MPCPolicy.from_env(gym.make("ChainCart-swingup-2-v0"))
+    assert (double.duration, double.plan_from) == (None, "equilibrium")  # the planner's 1 + n s
+    default = TrajectoryPolicy.from_env(gym.make("ChainCart-v0"))
+    assert (default.duration, default.plan_from) == (None, "equilibrium")
+    chosen = TrajectoryPolicy.from_env(gym.make("ChainCart-swingup-3-v0"), duration=8.0, plan_from="equilibrium")
+    assert (chosen.duration, chosen.plan_from) == (8.0, "equilibrium")
+
+
+@pytest.mark.parametrize("start, target", [([1, -1, -1], [-1, 1, 1]), ([1, -1, 1], [1, -1, -1])])
+def test_three_link_transitions_succeed_with_plans_from_each_episodes_start(start, target) -> None:  # type: ignore[no-untyped-def]
+    # Two of the hardest transitions: upright links above a hanging first one at the start,
+    # which the chain leaves at once. The scene's defaults (7 s plans from each episode's
+    # observed start) serve them.
+    env = gym.make("ChainCart-transitions-3-v0", start=start, target=target)
+    policy = TrajectoryPolicy.from_env(env)
+    for seed in (0, 1):
+        info = run_episode(env, policy, seed)
+        assert info["is_success"], (start, target, seed, info)
+    assert len(policy._plans) == 0  # every episode followed its own plan, none from the equilibrium
