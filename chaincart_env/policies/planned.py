@@ -36,7 +36,7 @@ class PlannedPolicy:
     target is computed once and cached (:meth:`plan`), so a seeded start near an
     equilibrium reuses the same plan and the feedback absorbs the difference. With
     ``plan_from="state"`` each episode plans instead from its first observed state (a
-    plan per episode, about a second for three links): from a start near an unstable
+    plan per episode, one to a few seconds for three links): from a start near an unstable
     equilibrium the chain leaves it before the feedback catches up, and a plan that
     starts where the chain is needs no catching up. Where that plan misses its target,
     the cached plan from the equilibrium is followed.
@@ -75,9 +75,9 @@ class PlannedPolicy:
         ``duration`` (s) and the other keywords go to ``ChainCart.plan``; ``on_failure``
         says what a plan that misses its target does (``"raise"`` or ``"track"``);
         ``plan_from`` where each episode's plan starts (``"equilibrium"`` or ``"state"``).
-        Left out, ``duration`` and ``plan_from`` are the scene's
-        (:data:`~chaincart_env.policies.settings.SCENE_PLANS`) on a large-motion scene,
-        the planner's default length and ``"equilibrium"`` elsewhere."""
+        Left out, ``duration`` and ``plan_from`` are the scene's on ``swingup-3`` and
+        ``transitions-3`` (:data:`~chaincart_env.policies.settings.SCENE_PLANS`), the
+        planner's default length and ``"equilibrium"`` elsewhere."""
         settings = env_settings(env, oracle)
         scene_duration, scene_start = SCENE_PLANS.get(settings.scene, (None, "equilibrium"))
         return cls(
@@ -93,11 +93,7 @@ class PlannedPolicy:
         key = (tuple(start), tuple(target))
         plan = self._plans.get(key)
         if plan is None:
-            s = self.settings
-            plan = s.model.plan(
-                list(start), list(target), max_force=s.max_force, track_limit=s.track_limit,
-                duration=self.duration, dt=s.dt, substeps=s.substeps, **self.plan_options,
-            )
+            plan = self._planned(list(start), target)
             if not plan.converged:
                 message = f"no plan from {list(start)} to {list(target)}: {plan.report['reason']}"
                 if self.on_failure == "raise":
@@ -110,12 +106,16 @@ class PlannedPolicy:
     def plan_from_state(self, state: np.ndarray, start: tuple[int, ...], target: tuple[int, ...]) -> Any:
         """A plan from the full ``state`` to ``target``, or, if it misses, the plan from the
         equilibrium ``start`` (:meth:`plan`)."""
-        s = self.settings
-        plan = s.model.plan(
-            np.asarray(state, dtype=np.float64), list(target), max_force=s.max_force, track_limit=s.track_limit,
-            duration=self.duration, dt=s.dt, substeps=s.substeps, **self.plan_options,
-        )
+        plan = self._planned(np.asarray(state, dtype=np.float64), target)
         return plan if plan.converged else self.plan(start, target)
+
+    def _planned(self, start: Any, target: tuple[int, ...]) -> Any:
+        """``ChainCart.plan`` from ``start`` (signs or a state) with the env's limits and this policy's options."""
+        s = self.settings
+        return s.model.plan(
+            start, list(target), max_force=s.max_force, track_limit=s.track_limit, duration=self.duration,
+            dt=s.dt, substeps=s.substeps, **self.plan_options,
+        )
 
     def reset(self) -> None:
         """Forgets every env's episode (the next call begins new ones)."""
