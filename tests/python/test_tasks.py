@@ -242,3 +242,27 @@ def test_a_rendering_goal_conditioned_env_pickles_with_its_episode_target() -> N
     copy = pickle.loads(pickle.dumps(env))
     assert copy.episode_target == env.episode_target
     np.testing.assert_array_equal(copy.render(), env.render())
+
+
+def test_the_main_job_trains_and_compares_on_a_goal_conditioned_scene(tmp_path) -> None:
+    """Periodic evaluation, the study's episodes and the filmstrip read the state part of
+    observations that carry the target's signs, and each episode is measured against its
+    own drawn target from its start on."""
+    from chaincart_env.__main__ import main
+    from chaincart_env.policies import TrajectoryPolicy
+    from chaincart_env.tools.compare.evaluation import rollout
+
+    out = tmp_path / "run"
+    code = main(["compare", "--scene", "transitions-2", "--policies", "ppo,trajectory", "--timesteps", "2048",
+                 "--num-envs", "4", "--eval-every", "1024", "--eval-starts", "4", "--sweep", "start_noise=0.05",
+                 "--eval-episodes", "4", "--no-progress", "--out", str(out)])
+    assert code == 0 and (out / "report.md").is_file() and (out / "filmstrip.png").is_file()
+    assert len((out / "seed-0" / "evaluations.csv").read_text().splitlines()) >= 3
+
+    config = ChainCartConfig(scene="transitions-2")
+    run = rollout(TrajectoryPolicy.from_env(ChainCartEnv(config)), "trajectory", config, [0, 1, 2, 3])
+    model, batch = config.make_model(), config.make_batch(4, "same_step")
+    batch.reset([0, 1, 2, 3], None)
+    for i, (state, target) in enumerate(zip(batch.states(), batch.targets())):
+        assert run.e_q[i, 0] == model.errors(state, tuple(int(s) for s in target))[0]
+    assert len({tuple(t) for t in batch.targets()}) > 1 and run.success.all()

@@ -93,7 +93,7 @@ def _spatial_force(force: np.ndarray) -> np.ndarray:
 def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[int]) -> Rollouts:
     """Runs ``policy`` (deterministic) for one episode from each seeded start."""
     n, horizon = len(seeds), config.max_episode_steps
-    model, signs = config.make_model(), config.target_signs
+    model = config.make_model()
     batch = config.make_batch(n, "same_step")
     obs = batch.reset(list(seeds), None)
     bind = getattr(policy, "bind", None)
@@ -101,7 +101,9 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
         bind(batch)
     e_q = np.full((n, horizon + 1), np.nan)
     e_w = np.full((n, horizon + 1), np.nan)
-    e_q[:, 0], e_w[:, 0] = np.array([model.errors(y, signs) for y in batch.states()]).T
+    # Each episode's own target (drawn per reset in the goal-conditioned scenes).
+    targets = [tuple(int(s) for s in row) for row in batch.targets()]
+    e_q[:, 0], e_w[:, 0] = np.array([model.errors(y, t) for y, t in zip(batch.states(), targets)]).T
     force = np.full((n, horizon), np.nan)
     returns, lengths = np.zeros(n), np.zeros(n, dtype=np.int64)
     success, terminated = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
@@ -128,7 +130,9 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
         force[active, k] = np.linalg.norm(applied[active], axis=1)
         e_q[active, k + 1], e_w[active, k + 1] = errors[active, 0], errors[active, 1]
         if active[0]:
-            last = batch.final_observations()[0] if ended[0] else batch.states()[0]
+            # An ended episode's last state is in its final observation (a goal-conditioned
+            # scene's observation carries the target's signs after the state).
+            last = batch.final_observations()[0][: model.state_dim] if ended[0] else batch.states()[0]
             first_states.append(model.to_spatial(np.asarray(last, dtype=np.float64)))
             first_forces.append(_spatial_force(applied[0]))
         episode_start = np.asarray(ended, dtype=bool).copy()
