@@ -176,3 +176,16 @@ def test_three_link_transitions_succeed_with_plans_from_each_episodes_start(star
         info = run_episode(env, policy, seed)
         assert info["is_success"], (start, target, seed, info)
     assert len(policy._plans) == 0  # every episode followed its own plan, none from the equilibrium
+
+
+def test_the_planner_swings_up_five_links() -> None:
+    # The longest chain the planner aims at: five links of the default scene's physics,
+    # within 60 N and a 5 m track over 8 s (see docs/control.md for the settings tried).
+    five = ChainCart(5, 1.0, 0.1, 0.5, planar=True)
+    plan = five.plan("hanging", "inverted", max_force=60.0, track_limit=5.0, duration=8.0, guesses=20,
+                     max_iterations=5000, max_time=300.0)
+    assert plan.converged, plan.report["reason"]
+    assert np.abs(plan.forces).max() <= 60.0 and np.abs(plan.states[:, 0]).max() <= 5.0
+    replay = five.simulate(plan.states[0], plan.forces, 0.02, "rk4", 2)
+    e_q, e_w = five.errors(replay[-1], "inverted")
+    assert e_q <= 0.1 and e_w <= 0.5
