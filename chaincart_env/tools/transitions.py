@@ -82,7 +82,8 @@ def transitions(
 ) -> list[TransitionRow]:
     """Plans and tracks every ordered pair of distinct equilibria (or ``pairs``) on the
     default scene's physical system with ``n_links`` links; each episode lasts the plan
-    plus ``spare`` plus ``hold`` seconds (the large-motion scenes keep a second spare)
+    plus ``spare`` plus ``hold`` seconds (the large-motion scenes leave 1 s spare after
+    4 s plans of two links and 2 s after 7 s plans of three)
     and succeeds when the chain stays within the success tolerances over those last
     ``hold`` seconds. ``plan_from``: the tracking policy's (:class:`~chaincart_env.TrajectoryPolicy`),
     where each episode's plan starts."""
@@ -195,7 +196,8 @@ def add_transitions_command(commands: Any) -> None:
     p.add_argument("--duration", type=float, default=None, help="plan length, s (default: 1 + links)")
     p.add_argument("--hold", type=float, default=1.0, help="seconds the target must be held at the end")
     p.add_argument("--spare", type=float, default=0.0,
-                   help="seconds between the plan's end and the hold (the large-motion scenes keep 1; default: 0)")
+                   help="seconds between the plan's end and the hold (the large-motion scenes leave 1 with "
+                   "two links, 2 with three; default: 0)")
     p.add_argument("--plan-from", choices=["equilibrium", "state"], default="equilibrium",
                    help="where each episode's plan starts: the start equilibrium (one plan per transition) "
                    "or the episode's first observed state (one plan per episode)")

@@ -177,6 +177,11 @@ def test_the_transitions_command_plans_tracks_and_writes_its_table(tmp_path, cap
     rows = (tmp_path / "transitions_1.csv").read_text().splitlines()
     assert rows[0].startswith("start,target,planned") and len(rows) == 3  # two transitions of one link
     assert "| (+) | (-) | yes | 2/2 |" in out  # the swing-up is planned and tracked from both starts
+    # Planning from each episode's start, with time to spare before the hold: one more
+    # second per episode, the same table.
+    code = main(["transitions", "--links", "1", "--max-force", "10", "--track-limit", "3", "--duration", "3",
+                 "--hold", "0.5", "--spare", "1", "--seeds", "2", "--plan-from", "state"])
+    assert code == 0 and "| (+) | (-) | yes | 2/2 |" in capsys.readouterr().out
 
 
 def test_animate_draws_a_swing_up_by_the_planners_controller(tmp_path) -> None:
