@@ -4,7 +4,7 @@ limit, the track, the control period and the goal convention."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -94,7 +94,7 @@ def nearest_equilibrium(model: ChainCart, state: np.ndarray) -> tuple[int, ...]:
     return tuple(1 if v >= 0.0 else -1 for v in q[:, -1])
 
 
-def goal_signs(tail: np.ndarray, n: int) -> Optional[tuple[int, ...]]:
+def goal_signs(tail: np.ndarray, n: int) -> tuple[int, ...]:
     """The target read from an observation's last ``n`` entries (+1/-1 each)."""
     signs = np.asarray(tail[-n:], dtype=np.float64)
     if not np.all(np.abs(np.abs(signs) - 1.0) < 1e-6):
