@@ -23,7 +23,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "NormalizedPolicy", "load_statistics", "normalization_file", "normalized_envs", "read_statistics",
+    "NormalizedPolicy", "copy_agent", "load_statistics", "normalization_file", "normalized_envs", "read_statistics",
     "save_agent", "with_statistics",
 ]  # fmt: skip
 
@@ -50,6 +50,20 @@ def save_agent(model: BaseAlgorithm, path: Path) -> None:
         statistics.save(str(stats_path))
     elif stats_path.is_file():
         stats_path.unlink()
+
+
+def copy_agent(source: Path, destination: Path) -> None:
+    """Copies the agent saved at ``source`` (by :func:`save_agent`) to ``destination``,
+    its statistics with it (removing a stale statistics file when it has none); the
+    model file goes last, so an existing ``destination`` means a complete copy."""
+    import shutil
+
+    statistics, copied = normalization_file(source), normalization_file(destination)
+    if statistics.is_file():
+        shutil.copyfile(statistics, copied)
+    elif copied.is_file():
+        copied.unlink()
+    shutil.copyfile(source, destination)
 
 
 def read_statistics(data: bytes) -> VecNormalize:

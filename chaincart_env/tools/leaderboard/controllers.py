@@ -43,7 +43,9 @@ def train_agent(
     during training, so the last model can be a bad one, and compare reports the best
     too. A run that was cut short resumes from its checkpoint. The leaderboard reuses an
     agent whose ``model.zip`` exists."""
+    from chaincart_env.tools.compare.normalization import copy_agent
     from chaincart_env.tools.compare.recipes import recipe_for
+    from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, MODEL_FILE
     from chaincart_env.tools.compare.training import train
 
     directory = Path(directory)
@@ -59,28 +61,12 @@ def train_agent(
         eval_every=max(budget // EVALUATIONS, 1), checkpoint_every=max(budget // 5, 1),
         progress_bar=progress_bar, hyperparameters=hyperparameters, resume=True, normalize=recipe.normalize,
     )
-    _keep_best_model(directory)
+    copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)
 
 
 #: Periodic evaluations of a learned agent's training: how many over its budget, on how many
 #: seeded starts (drawn apart from the leaderboard's cells, which start at seed 0).
 EVALUATIONS, EVALUATION_STARTS, EVALUATION_SEED_BASE = 20, 20, 10_000_000
-
-
-def _keep_best_model(directory: Path) -> None:
-    """Copies the best evaluated model (and its statistics) to ``model.zip`` (and its statistics' name)."""
-    import shutil
-
-    from chaincart_env.tools.compare.normalization import normalization_file
-    from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE
-
-    best, kept = directory / BEST_MODEL_FILE, directory / "model.zip"
-    statistics, kept_statistics = normalization_file(best), normalization_file(kept)
-    if statistics.is_file():
-        shutil.copyfile(statistics, kept_statistics)
-    elif kept_statistics.is_file():
-        kept_statistics.unlink()
-    shutil.copyfile(best, kept)  # last: an existing model.zip means the agent is complete
 
 
 class TimedPolicy:
