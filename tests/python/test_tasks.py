@@ -260,7 +260,7 @@ def test_the_main_job_trains_and_compares_on_a_goal_conditioned_scene(tmp_path) 
     out = tmp_path / "run"
     code = main(["compare", "--scene", "transitions-2", "--policies", "ppo,trajectory", "--timesteps", "2048",
                  "--num-envs", "4", "--eval-every", "1024", "--eval-starts", "4", "--sweep", "start_noise=0.05",
-                 "--eval-episodes", "4", "--no-progress", "--out", str(out)])
+                 "--eval-episodes", "4", "--no-imitation", "--no-progress", "--out", str(out)])
     assert code == 0 and (out / "report.md").is_file() and (out / "filmstrip.png").is_file()
     assert len((out / "seed-0" / "evaluations.csv").read_text().splitlines()) >= 3
 

@@ -87,6 +87,9 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "(repeatable), e.g. --algo-kwarg n_steps=256; ALGO: for one of them only, e.g. --algo-kwarg "
                         "sac:learning_starts=1000; with --trainer rllib a PPOConfig.training keyword, "
                         "e.g. --algo-kwarg train_batch_size_per_learner=4096")
+    parser.add_argument("--no-imitation", action="store_true",
+                        help="train PPO from scratch on scenes whose recipe first imitates the planner's controller "
+                        "(transitions-2)")
     _add_rllib_options(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_evaluation_options(parser, defaults=True)
@@ -196,7 +199,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     torch_threads=args.torch_threads, hyperparameters=hyperparameters,
                     algo_hyperparameters=algo_hyperparameters, trainer=args.trainer,
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
-                    address=args.address)
+                    address=args.address, imitation=not args.no_imitation)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

@@ -33,6 +33,7 @@ from chaincart_env.tools.compare.learning_curve import (
 from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.plots import plot_learning_curve
 from chaincart_env.tools.compare.layout import TrainingRun, training_runs
+from chaincart_env.tools.compare.imitation import scene_imitation
 from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
 from chaincart_env.tools.compare.policy_sources import load_run
 from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, save_run, write_folder
@@ -179,7 +180,7 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                        directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
                        checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
                        hyperparameters=training["hyperparameters"], resume=resume,
-                       normalize=training.get("normalize"))
+                       normalize=training.get("normalize"), imitation=_imitation(training))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations,
                        normalize=training.get("normalize"))
@@ -193,6 +194,13 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
     curve = learning_curve(read_training_episodes(directory / "training_episodes.csv"), info["timesteps_trained"])
     write_csv(directory / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
     return info
+
+
+def _imitation(training: Mapping[str, Any]) -> Any:
+    from chaincart_env.tools.compare.imitation import Imitation
+
+    record = training.get("imitation")
+    return None if record is None else Imitation.from_record(record)
 
 
 def _train_rllib(
@@ -359,10 +367,12 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
 def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
+    imitation: bool = True,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
-    algorithm, then those given for it alone."""
+    algorithm, then those given for it alone; with ``imitation``, the scene's imitation
+    of the planner first (SB3 only; ``None`` where the scene has none)."""
     unknown = sorted(set(algo_hyperparameters) - set(learned))
     if unknown:
         raise InvalidInputError(
@@ -379,6 +389,8 @@ def _training_settings(
         out[algo] = dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                          num_envs=recipe.num_envs if num_envs is None else num_envs,
                          hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize)
+        warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" else None
+        out[algo]["imitation"] = None if warm_start is None else warm_start.record()
     return out
 
 
@@ -404,6 +416,7 @@ def run_compare(
     trainer: str = "sb3",
     rllib: Optional[dict[str, Any]] = None,
     address: Optional[str] = None,
+    imitation: bool = True,
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -420,7 +433,9 @@ def run_compare(
     "envs_per_runner": ...}``). ``address``: a Ray cluster (``"local"``: a new one on
     this machine) on which the study's independent pieces (SB3 training runs,
     evaluation cells) run as Ray tasks, with the same results as without it; RLlib's
-    env runners run there too."""
+    env runners run there too. ``imitation=False`` trains from scratch where the scene's
+    PPO recipe starts from an imitation of the planner
+    (:data:`~chaincart_env.tools.compare.imitation.SCENE_IMITATIONS`)."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
     names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")
@@ -433,7 +448,7 @@ def run_compare(
         eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every, progress_bar=progress_bar,
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
-                                    dict(algo_hyperparameters or {})),
+                                    dict(algo_hyperparameters or {}), imitation),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve

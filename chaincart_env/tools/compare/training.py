@@ -15,6 +15,7 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
 from chaincart_env.tools.compare.algorithms import algorithm_class
+from chaincart_env.tools.compare.imitation import Imitation, imitate
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
@@ -176,6 +177,7 @@ def train(
     hyperparameters: Optional[Mapping[str, Any]] = None,
     resume: bool = False,
     normalize: Optional[Mapping[str, Any]] = None,
+    imitation: Optional[Imitation] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -186,7 +188,9 @@ def train(
     ends as the uninterrupted run would). ``normalize``: ``VecNormalize`` keywords (a
     recipe's ``normalize``; the statistics are the agent's, saved with each of its model files by
     :func:`~chaincart_env.tools.compare.normalization.save_agent`), ``None`` for none; a resumed
-    run keeps its checkpoint's."""
+    run keeps its checkpoint's. ``imitation``: a new agent first imitates the planner's
+    controller (:func:`~chaincart_env.tools.compare.imitation.imitate`, logged in
+    ``imitation.csv``); the first evaluation, at step 0, scores the imitation."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
@@ -200,6 +204,8 @@ def train(
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs, normalize)
+    if imitation is not None and not resuming:
+        imitate(model, config, imitation, seed, directory)
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
     if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise

@@ -43,6 +43,7 @@ def train_agent(
     during training, so the last model can be a bad one, and compare reports the best
     too. A run that was cut short resumes from its checkpoint. The leaderboard reuses an
     agent whose ``model.zip`` exists."""
+    from chaincart_env.tools.compare.imitation import scene_imitation
     from chaincart_env.tools.compare.normalization import copy_agent
     from chaincart_env.tools.compare.recipes import recipe_for
     from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, MODEL_FILE
@@ -60,6 +61,7 @@ def train_agent(
         eval_seeds=[EVALUATION_SEED_BASE + seed * 1000 + i for i in range(EVALUATION_STARTS)],
         eval_every=max(budget // EVALUATIONS, 1), checkpoint_every=max(budget // 5, 1),
         progress_bar=progress_bar, hyperparameters=hyperparameters, resume=True, normalize=recipe.normalize,
+        imitation=None if tiny else scene_imitation(config.scene, name),
     )
     copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)
 

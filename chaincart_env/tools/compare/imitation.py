@@ -1,0 +1,223 @@
+"""A warm start for a learned agent: imitation of the planner's controller.
+
+Where reinforcement learning alone stalls (one goal-conditioned policy for every
+transition between equilibria), an agent can first copy a model-based controller that
+solves the task, then train on as usual. The copy is DAgger (Ross, Gordon and Bagnell,
+2011) seeded with noisy demonstrations (DART, Laskey et al., 2017):
+
+1. the expert (the planner's :class:`~chaincart_env.policies.TrajectoryPolicy`) runs the
+   training scene with Gaussian noise on its actions, and every state it visits is
+   labelled with its clean action;
+2. the policy's mean action is fitted to the labels (mean squared error in the normalised
+   action space, observations normalised with the demonstrations' statistics);
+3. each round, the learner itself runs the scene, the expert labels the states the
+   learner visits, the labels join the data and the fit goes on.
+
+Only the policy's mean is fitted; the value function learns in the training that
+follows, and the policy's exploration noise is set to :attr:`Imitation.action_std`.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Mapping, Optional
+
+import numpy as np
+
+from chaincart_env.errors import InvalidInputError
+
+__all__ = ["IMITATING_ALGOS", "IMITATION_FILE", "SCENE_IMITATIONS", "Imitation", "imitate", "scene_imitation"]
+
+#: The per-round log of an imitation, in the training directory.
+IMITATION_FILE = "imitation.csv"
+_COLUMNS = ("round", "samples", "learner_episodes", "learner_success", "fit_loss", "wall_time_s")
+
+
+@dataclass(frozen=True)
+class Imitation:
+    """How much the agent imitates before it trains. Action noise and the fit's
+    loss are in the env's normalised action space ([-1, 1] per force axis)."""
+
+    #: Steps per env of noisy demonstrations, for each noise level.
+    demonstration_steps: int = 3000
+    #: Standard deviations of the noise on the expert's actions, one demonstration run each.
+    noise: tuple[float, ...] = (0.0, 0.03, 0.06)
+    #: Passes over the demonstrations in the first fit.
+    epochs: int = 30
+    #: DAgger rounds, the steps per env each round runs the learner, and the passes over
+    #: all the data after each round.
+    rounds: int = 20
+    round_steps: int = 1500
+    round_epochs: int = 3
+    learning_rate: float = 1e-3
+    batch_size: int = 4096
+    #: The policy's exploration standard deviation once imitation is over.
+    action_std: float = 0.1
+
+    def __post_init__(self) -> None:
+        for name in ("demonstration_steps", "epochs", "rounds", "round_steps", "round_epochs", "batch_size"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < (0 if name == "rounds" else 1):
+                raise InvalidInputError(f"imitation {name} = {value!r}: expected an integer >= "
+                                        f"{0 if name == 'rounds' else 1}")
+        if not self.noise or not all(isinstance(v, (int, float)) and 0.0 <= v < 1.0 for v in self.noise):
+            raise InvalidInputError(f"imitation noise = {self.noise!r}: expected standard deviations in [0, 1)")
+        for name in ("learning_rate", "action_std"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise InvalidInputError(f"imitation {name} = {value!r}: expected a number > 0")
+
+    def record(self) -> dict[str, Any]:
+        """The settings as ``run.json`` records them."""
+        out = asdict(self)
+        out["noise"] = list(self.noise)
+        return out
+
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> "Imitation":
+        """The settings :meth:`record` wrote."""
+        return cls(**{**record, "noise": tuple(record["noise"])})
+
+
+#: The scenes whose PPO agents start from an imitation of the planner: the
+#: goal-conditioned transitions of two links, where PPO alone learned only the
+#: transitions to hanging (docs/main-job.md).
+SCENE_IMITATIONS: dict[str, Imitation] = {"transitions-2": Imitation()}
+#: The algorithms whose policy an imitation can fit (a Gaussian actor-critic).
+IMITATING_ALGOS = ("ppo", "a2c")
+
+
+def scene_imitation(scene: Optional[str], algo: str) -> Optional[Imitation]:
+    """The imitation ``algo``'s agents start from on ``scene``, or ``None``."""
+    return SCENE_IMITATIONS.get(scene or "") if algo.lower() in IMITATING_ALGOS else None
+
+
+class _Fit:
+    """The policy's mean action, fitted to labelled observations with Adam."""
+
+    def __init__(self, model: Any, imitation: Imitation, seed: int) -> None:
+        import torch
+
+        self.torch = torch
+        self.policy = model.policy
+        self.imitation = imitation
+        self.optimizer = torch.optim.Adam(self.policy.parameters(), lr=imitation.learning_rate)
+        self.generator = torch.Generator().manual_seed(seed)
+
+    def mean_action(self, normalized: Any) -> Any:
+        policy = self.policy
+        features = policy.extract_features(normalized, policy.pi_features_extractor)
+        return policy.action_net(policy.mlp_extractor.forward_actor(features))
+
+    def act(self, normalized: np.ndarray) -> np.ndarray:
+        with self.torch.no_grad():
+            mean = self.mean_action(self.torch.as_tensor(normalized, dtype=self.torch.float32))
+        return np.clip(mean.numpy(), -1.0, 1.0).astype(np.float32)
+
+    def run(self, observations: np.ndarray, actions: np.ndarray, epochs: int) -> float:
+        """``epochs`` passes in shuffled minibatches; the last pass's mean loss."""
+        torch = self.torch
+        inputs = torch.as_tensor(observations, dtype=torch.float32)
+        targets = torch.as_tensor(actions, dtype=torch.float32)
+        n, size = inputs.shape[0], self.imitation.batch_size
+        loss_sum = 0.0
+        for _ in range(epochs):
+            loss_sum = 0.0
+            for chunk in torch.randperm(n, generator=self.generator).split(size):
+                loss = ((self.mean_action(inputs[chunk]) - targets[chunk]) ** 2).mean()
+                self.optimizer.zero_grad()
+                loss.backward()
+                self.optimizer.step()
+                loss_sum += float(loss.detach()) * len(chunk)
+        return loss_sum / n
+
+
+def _rollout(venv: Any, expert: Any, steps: int, act: Any) -> tuple[np.ndarray, np.ndarray, list[bool]]:
+    """``steps`` steps of ``venv`` acting with ``act(observation, expert_action)``; the
+    observations, the expert's actions there, and the success of every episode that ended."""
+    observation = venv.reset()
+    begins = np.ones(venv.num_envs, dtype=bool)
+    observations, labels, successes = [], [], []
+    for _ in range(steps):
+        label, _ = expert.predict(observation, episode_start=begins)
+        observations.append(observation.copy())
+        labels.append(label)
+        observation, _, begins, infos = venv.step(act(observation, label))
+        successes += [bool(info.get("is_success", False)) for done, info in zip(begins, infos) if done]
+    return np.concatenate(observations), np.concatenate(labels), successes
+
+
+def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory: Path) -> dict[str, Any]:
+    """Fits ``model``'s policy (an SB3 actor-critic with a Gaussian policy, observations
+    normalised by its ``VecNormalize``) to the planner's controller on ``config``, with
+    ``model.n_envs`` envs seeded from ``seed``; writes :data:`IMITATION_FILE` in
+    ``directory`` and returns the last round's summary."""
+    from chaincart_env.policies import TrajectoryPolicy
+    from chaincart_env.sb3 import ChainCartVecEnv
+
+    policy = model.policy
+    if not (hasattr(policy, "action_net") and hasattr(policy, "log_std")):
+        raise InvalidInputError(f"imitation fits a Gaussian actor-critic policy (PPO, A2C): "
+                                f"{type(model).__name__} has none")
+    statistics = model.get_vec_normalize_env()
+    n_envs, rng, start = int(model.n_envs), np.random.default_rng(seed), time.perf_counter()
+    fit = _Fit(model, imitation, seed)
+    rows: list[dict[str, Any]] = []
+
+    def envs(block: int) -> tuple[Any, Any]:
+        # Seeds apart from the training envs' (seed + i) and the evaluations' (1 000 000 + k).
+        venv = ChainCartVecEnv(n_envs, config, seed=seed + 100_000 + block * n_envs)
+        return venv, TrajectoryPolicy.from_env(venv)
+
+    observations, labels = [], []
+    for block, noise in enumerate(imitation.noise):
+        venv, expert = envs(block)
+
+        def noisy(_: np.ndarray, label: np.ndarray, noise: float = noise) -> np.ndarray:
+            return np.clip(label + noise * rng.standard_normal(label.shape), -1.0, 1.0).astype(np.float32)
+
+        seen, said, _ = _rollout(venv, expert, imitation.demonstration_steps, noisy)
+        observations.append(seen)
+        labels.append(said)
+    raw = np.concatenate(observations)
+    if statistics is not None and statistics.norm_obs:
+        statistics.obs_rms.mean = raw.mean(axis=0).astype(np.float64)
+        statistics.obs_rms.var = raw.var(axis=0).astype(np.float64)
+        statistics.obs_rms.count = float(raw.shape[0])
+
+    def normalized(raw_observations: np.ndarray) -> np.ndarray:
+        return statistics.normalize_obs(raw_observations) if statistics is not None else raw_observations
+
+    loss = fit.run(normalized(raw), np.concatenate(labels), imitation.epochs)
+    rows.append(_row(0, raw.shape[0], [], loss, start))
+    for round_ in range(1, imitation.rounds + 1):
+        venv, expert = envs(len(imitation.noise) + round_)
+        seen, said, successes = _rollout(venv, expert, imitation.round_steps, lambda obs, _: fit.act(normalized(obs)))
+        observations.append(seen)
+        labels.append(said)
+        raw = np.concatenate(observations)
+        loss = fit.run(normalized(raw), np.concatenate(labels), imitation.round_epochs)
+        rows.append(_row(round_, raw.shape[0], successes, loss, start))
+    with fit.torch.no_grad():  # the exploration of the training that follows
+        policy.log_std.fill_(math.log(imitation.action_std))
+    _write(Path(directory) / IMITATION_FILE, rows)
+    return rows[-1]
+
+
+def _row(round_: int, samples: int, successes: list[bool], loss: float, start: float) -> dict[str, Any]:
+    return {
+        "round": round_, "samples": samples, "learner_episodes": len(successes),
+        "learner_success": float(np.mean(successes)) if successes else float("nan"),
+        "fit_loss": loss, "wall_time_s": round(time.perf_counter() - start, 3),
+    }
+
+
+def _write(path: Path, rows: list[dict[str, Any]]) -> None:
+    with path.open("w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
