@@ -166,7 +166,7 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     statistics = model.get_vec_normalize_env()
     n_envs, rng, start = int(model.n_envs), np.random.default_rng(seed), time.perf_counter()
     fit = _Fit(model, imitation, seed)
-    rows: list[dict[str, Any]] = []
+    log = _Log(Path(directory) / IMITATION_FILE)
 
     def envs(block: int) -> tuple[Any, Any]:
         # Seeds apart from the training envs' (seed + i) and the evaluations' (1 000 000 + k).
@@ -193,7 +193,7 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
         return statistics.normalize_obs(raw_observations) if statistics is not None else raw_observations
 
     loss = fit.run(normalized(raw), np.concatenate(labels), imitation.epochs)
-    rows.append(_row(0, raw.shape[0], [], loss, start))
+    log.add(_row(0, raw.shape[0], [], loss, start))
     for round_ in range(1, imitation.rounds + 1):
         venv, expert = envs(len(imitation.noise) + round_)
         seen, said, successes = _rollout(venv, expert, imitation.round_steps, lambda obs, _: fit.act(normalized(obs)))
@@ -201,11 +201,10 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
         labels.append(said)
         raw = np.concatenate(observations)
         loss = fit.run(normalized(raw), np.concatenate(labels), imitation.round_epochs)
-        rows.append(_row(round_, raw.shape[0], successes, loss, start))
+        log.add(_row(round_, raw.shape[0], successes, loss, start))
     with fit.torch.no_grad():  # the exploration of the training that follows
         policy.log_std.fill_(math.log(imitation.action_std))
-    _write(Path(directory) / IMITATION_FILE, rows)
-    return rows[-1]
+    return log.last
 
 
 def _row(round_: int, samples: int, successes: list[bool], loss: float, start: float) -> dict[str, Any]:
@@ -216,8 +215,16 @@ def _row(round_: int, samples: int, successes: list[bool], loss: float, start: f
     }
 
 
-def _write(path: Path, rows: list[dict[str, Any]]) -> None:
-    with path.open("w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=_COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
+class _Log:
+    """The rounds' rows, written as they come (a long imitation can be watched)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.last: dict[str, Any] = {}
+        with path.open("w", newline="") as file:
+            csv.writer(file).writerow(_COLUMNS)
+
+    def add(self, row: dict[str, Any]) -> None:
+        self.last = row
+        with self.path.open("a", newline="") as file:
+            csv.DictWriter(file, fieldnames=_COLUMNS).writerow(row)
