@@ -5,6 +5,8 @@ LQR, and clear errors."""
 
 from __future__ import annotations
 
+import csv
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -263,6 +265,16 @@ def test_the_main_job_trains_and_compares_on_a_goal_conditioned_scene(tmp_path) 
                  "--eval-episodes", "4", "--no-imitation", "--no-progress", "--out", str(out)])
     assert code == 0 and (out / "report.md").is_file() and (out / "filmstrip.png").is_file()
     assert len((out / "seed-0" / "evaluations.csv").read_text().splitlines()) >= 3
+    with (out / "transitions.csv").open(newline="") as file:
+        per_pair = list(csv.DictReader(file))
+    with (out / "episodes.csv").open(newline="") as file:
+        episodes = list(csv.DictReader(file))
+    for policy in ("PPO (seed 0)", "Trajectory"):
+        rows = [row for row in per_pair if row["policy"] == policy]
+        assert sum(int(row["episodes"]) for row in rows) == 4 and all(row["start"] != row["target"] for row in rows)
+        mine = [row for row in episodes if row["policy"] == policy]
+        assert sum(int(row["successes"]) for row in rows) == sum(int(row["is_success"]) for row in mine)
+    assert "## Per transition" in (out / "report.md").read_text()
 
     config = ChainCartConfig(scene="transitions-2")
     run = rollout(TrajectoryPolicy.from_env(ChainCartEnv(config)), "trajectory", config, [0, 1, 2, 3])

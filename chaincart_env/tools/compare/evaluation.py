@@ -20,19 +20,23 @@ import numpy as np
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.policies.settings import nearest_equilibrium
 
 __all__ = [
     "EPISODE_COLUMNS",
     "METRIC_COLUMNS",
     "Policy",
     "Rollouts",
+    "TRANSITION_COLUMNS",
     "episode_table",
     "evaluate_policies",
     "evaluation_seeds",
     "rollout",
     "settle_times",
+    "signs_text",
     "summarize",
     "tabulate",
+    "transition_table",
 ]
 
 
@@ -74,6 +78,9 @@ class Rollouts:
     first_states: np.ndarray
     #: Applied forces (N) of the first episode, shape (length, 2) (spatial layout).
     first_forces: np.ndarray
+    #: Each episode's start equilibrium (the one nearest to its first state) and target, as signs.
+    starts: tuple[tuple[int, ...], ...] = ()
+    targets: tuple[tuple[int, ...], ...] = ()
 
     @property
     def episodes(self) -> int:
@@ -104,6 +111,7 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
     # Each episode's own target (drawn per reset in the goal-conditioned scenes).
     targets = [tuple(int(s) for s in row) for row in batch.targets()]
     e_q[:, 0], e_w[:, 0] = np.array([model.errors(y, t) for y, t in zip(batch.states(), targets)]).T
+    starts = [nearest_equilibrium(model, np.asarray(y, dtype=np.float64)) for y in batch.states()]
     force = np.full((n, horizon), np.nan)
     returns, lengths = np.zeros(n), np.zeros(n, dtype=np.int64)
     success, terminated = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
@@ -149,6 +157,7 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
         policy=name, dt=config.dt, seeds=np.asarray(seeds, dtype=np.int64), returns=returns, lengths=lengths,
         success=success, terminated=terminated, e_q=e_q, e_w=e_w, force=force,
         first_states=np.array(first_states), first_forces=np.array(first_forces).reshape(-1, 2),
+        starts=tuple(starts), targets=tuple(targets),
     )
 
 
@@ -187,6 +196,30 @@ def episode_table(rollouts: Rollouts, tolerances: tuple[float, float]) -> list[d
             peak_force=float(forces.max()), rms_force=float(np.sqrt(np.mean(forces**2))),
             settle_time=float(settle[i]),
         ))
+    return rows
+
+
+#: Columns of ``transitions.csv`` (one row per policy and transition between equilibria).
+TRANSITION_COLUMNS = ("policy", "start", "target", "episodes", "successes", "success_rate")
+
+
+def signs_text(signs: Sequence[int]) -> str:
+    """An equilibrium's signs as the docs write them: ``(+,-)``."""
+    return "(" + ",".join("+" if s > 0 else "-" for s in signs) + ")"
+
+
+def transition_table(runs: Sequence[Rollouts]) -> list[dict[str, Any]]:
+    """Success per policy and (start, target) pair met, pairs in sorted order (most
+    useful on the goal-conditioned scenes, where every episode draws its pair)."""
+    rows = []
+    for run in runs:
+        pairs = sorted(set(zip(run.starts, run.targets)), reverse=True)
+        for start, target in pairs:
+            mask = np.array([(s, t) == (start, target) for s, t in zip(run.starts, run.targets)])
+            successes = int(run.success[mask].sum())
+            rows.append(dict(policy=run.policy, start=signs_text(start), target=signs_text(target),
+                             episodes=int(mask.sum()), successes=successes,
+                             success_rate=successes / int(mask.sum())))
     return rows
 
 

@@ -57,13 +57,18 @@ def write_report(
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
     training: Sequence[str],
     pictures: Sequence[tuple[str, str]],
+    transitions: Sequence[dict[str, Any]] = (),
 ) -> str:
     """Writes ``report.md`` into ``directory``: the verdict (lines of Markdown), the
     setup, the comparison on the main starts, one table per sweep axis, training notes
     and the pictures (``(file, caption)``; only files that exist are linked). Returns
-    the text."""
+    the text. ``transitions``: success per policy and (start, target) pair
+    (:func:`~chaincart_env.tools.compare.evaluation.transition_table`), shown after the comparison."""
     parts = [f"# {title}\n\n", "## Verdict\n\n", *[f"{line}\n" for line in verdict], "\n## Setup\n\n",
              *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n", markdown_table(comparison)]
+    if transitions:
+        parts.append("\n## Per transition (successes / episodes)\n\n")
+        parts.append(transitions_markdown(transitions))
     for axis, (label, rows) in sweeps.items():
         parts.append(f"\n## Sweep: {label}\n\n")
         parts.append(sweep_markdown(rows, label))
@@ -77,6 +82,17 @@ def write_report(
     text = "".join(parts)
     (Path(directory) / REPORT_FILE).write_text(text)
     return text
+
+
+def transitions_markdown(rows: Sequence[dict[str, Any]]) -> str:
+    """One row per (start, target) pair, one column per policy: successes / episodes."""
+    policies = list(dict.fromkeys(row["policy"] for row in rows))
+    pairs = list(dict.fromkeys((row["start"], row["target"]) for row in rows))
+    cells = {(row["policy"], row["start"], row["target"]): f"{row['successes']}/{row['episodes']}" for row in rows}
+    lines = ["| start | target | " + " | ".join(policies) + " |", "|---|---|" + "---:|" * len(policies)]
+    for start, target in pairs:
+        lines.append(f"| {start} | {target} | " + " | ".join(cells.get((p, start, target), "–") for p in policies) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def write_summary_figure(

@@ -12,7 +12,9 @@ from typing import Any, Mapping, Optional, Sequence
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.tools.compare.cells import map_cells
-from chaincart_env.tools.compare.evaluation import EPISODE_COLUMNS, METRIC_COLUMNS, Rollouts, evaluation_seeds, rollout, tabulate
+from chaincart_env.tools.compare.evaluation import (
+    EPISODE_COLUMNS, METRIC_COLUMNS, TRANSITION_COLUMNS, Rollouts, evaluation_seeds, rollout, tabulate, transition_table,
+)
 from chaincart_env.tools.compare.filmstrip import write_filmstrip
 from chaincart_env.tools.compare.layout import TrainingRun, seed_directory
 from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
@@ -26,7 +28,7 @@ from chaincart_env.tools.compare.verdict import Standing, main_starts_rate, stud
 from chaincart_env.tools.controllers import build_model_based, label_of
 
 __all__ = [
-    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES", "EvaluationCell", "StudyEvaluation",
+    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES", "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation",
     "SweepPoint", "TrainedPolicy", "describe", "evaluate_cell", "evaluate_study", "lqr_baseline",
     "model_based_sources", "policy_label", "seed_directory", "trained_policies",
 ]  # fmt: skip
@@ -36,6 +38,8 @@ EVALUATION_FILES = (
     "comparison.csv", "comparison.md", "episodes.csv", "seeds.csv", "errors.png", "filmstrip.png",
     "sweeps.csv", "sweep_summary.csv", "evaluation_curve.png", "report.md", SUMMARY_FIGURE,
 )
+#: Success per (start, target) pair, written besides them on goal-conditioned scenes.
+TRANSITIONS_FILE = "transitions.csv"
 #: The files of :data:`EVALUATION_FILES` that only a study with a learned policy writes.
 TRAINING_EVALUATION_FILES = ("seeds.csv", "evaluation_curve.png")
 #: Columns of ``seeds.csv``: each trained policy's numbers aggregated over training seeds.
@@ -280,6 +284,10 @@ def evaluate_study(
     episodes, summaries = tabulate(runs_here, config.success_tolerances)
     write_csv(into / "comparison.csv", summaries, METRIC_COLUMNS)
     write_csv(into / "episodes.csv", episodes, EPISODE_COLUMNS)
+    # Goal-conditioned scenes draw a pair per episode: success per pair too.
+    transitions = transition_table(runs_here) if config.goal_conditioned else []
+    if transitions:
+        write_csv(into / TRANSITIONS_FILE, transitions, TRANSITION_COLUMNS)
     aggregates = _aggregate_rows(summaries, trained)
     if trained:
         write_csv(into / "seeds.csv", aggregates, AGGREGATE_COLUMNS)
@@ -325,7 +333,7 @@ def evaluate_study(
     write_report(
         into, title=title, verdict=verdict.lines,
         setup=notes + [_seed_line(row) for row in aggregates], comparison=summaries,
-        sweeps=summaries_by_axis, training=training_notes,
+        sweeps=summaries_by_axis, training=training_notes, transitions=transitions,
         pictures=[(SUMMARY_FIGURE, "summary"), ("evaluation_curve.png", "deterministic evaluation during training"),
                   *[(f"sweep_{axis}.png", f"success vs {SWEEP_AXES[axis].label}") for axis in sweeps],
                   ("errors.png", "e_q(t) and e_w(t) from the first start"),
