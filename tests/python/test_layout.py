@@ -83,3 +83,42 @@ def test_modules_import_each_other_without_circles() -> None:
             break
         left -= leaves
     assert left == set(), f"modules in a circle: {sorted(left)}"
+
+
+def _undocumented(path: Path) -> list[str]:
+    """The public functions, methods and classes of ``path`` (properties included) that
+    have no docstring; a property's setter or deleter shares its getter's."""
+    missing: list[str] = []
+
+    def walk(body: list[ast.stmt], prefix: str) -> None:
+        for node in body:
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                continue
+            if node.name.startswith("_"):
+                continue
+            accessor = any(
+                isinstance(d, ast.Attribute) and d.attr in ("setter", "deleter") for d in node.decorator_list
+            )
+            if not accessor and ast.get_docstring(node) is None:
+                missing.append(f"{prefix}{node.name} (line {node.lineno})")
+            if isinstance(node, ast.ClassDef):
+                walk(node.body, f"{prefix}{node.name}.")
+
+    walk(ast.parse(path.read_text()).body, "")
+    return missing
+
+
+def test_public_functions_methods_and_classes_have_docstrings() -> None:
+    missing = {name: found for name, path in sorted(_modules().items()) if (found := _undocumented(path))}
+    assert missing == {}
+
+
+def test_the_docstring_check_finds_what_it_must(tmp_path: Path) -> None:
+    source = tmp_path / "sample.py"
+    source.write_text(
+        'class A:\n    """A."""\n\n    @property\n    def p(self):\n        return 1\n\n'
+        "    @p.setter\n    def p(self, v):\n        pass\n\n    def _private(self):\n        pass\n\n"
+        'def f():\n    """F."""\n\n    def inner():\n        pass\n\n'
+        "class B:\n    pass\n"
+    )
+    assert [m.split(" ")[0] for m in _undocumented(source)] == ["A.p", "B"]
