@@ -9,9 +9,9 @@
 //! Comments are not read (an intra-doc link may point anywhere), nor is test code
 //! (everything from a file's first `#[cfg(test)]` on, and `tests.rs` files): tests sit
 //! above every layer.
-//! The crate root (`lib.rs`) and each directory's `mod.rs` only declare modules and
-//! re-export names; a path through such a facade counts as a use of the file the
-//! name comes from.
+//! The crate root (`lib.rs`) and each directory's `mod.rs` declare modules and
+//! re-export names (some `mod.rs` also define what their whole module shares); a path
+//! through such a re-export counts as a use of the file the name comes from.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
