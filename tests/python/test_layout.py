@@ -14,9 +14,8 @@ import chaincart_env
 PACKAGE = Path(chaincart_env.__file__).resolve().parent
 
 #: Library modules allowed to reach the tools, and why: the command line is the tools'
-#: entry point, and the package root keeps ``region_of_attraction`` importable (loaded
-#: on first use only).
-TOOL_USERS = {"chaincart_env.__main__", "chaincart_env"}
+#: entry point.
+TOOL_USERS = {"chaincart_env.__main__"}
 
 
 def _module_name(path: Path) -> str:
