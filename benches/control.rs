@@ -14,9 +14,8 @@
 use chaincart::control::chart::ChartPoint;
 use chaincart::control::dynamics::{ScalarChain, ScalarWorkspace};
 use chaincart::control::jacobian::StepModel;
-use chaincart::control::mpc::MpcOptions;
-use chaincart::control::planner::{PlanOptions, Planner};
-use chaincart::control::vector::{ScalarGeometry, Vect};
+use chaincart::control::vector::Vect;
+use chaincart::control::{MpcOptions, PlanOptions, Planner, ScalarGeometry};
 use chaincart::geometry::Vector;
 use chaincart::integrate::{Method, StepOptions, Stepper};
 use chaincart::{Chain, ChainParams, Planar, Spatial};

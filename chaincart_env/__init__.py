@@ -39,7 +39,7 @@ from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 if TYPE_CHECKING:
     from chaincart_env.lqr import LQRPolicy
     from chaincart_env.policies import EnergyPolicy, MPCPolicy, TrajectoryPolicy
-    from chaincart_env.tools.roa import region_of_attraction
+    from chaincart_env.roa import region_of_attraction
     from chaincart_env.sb3 import ChainCartVecEnv
 
 __all__ = [
@@ -94,7 +94,7 @@ def __getattr__(name: str) -> Any:
 
         return getattr(policies, name)
     if name == "region_of_attraction":
-        from chaincart_env.tools.roa import region_of_attraction
+        from chaincart_env.roa import region_of_attraction
 
         return region_of_attraction
     raise AttributeError(f"module 'chaincart_env' has no attribute {name!r}")

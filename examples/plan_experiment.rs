@@ -1,6 +1,4 @@
-use chaincart::control::mpc::MpcOptions;
-use chaincart::control::planner::{PlanOptions, Planner};
-use chaincart::control::vector::ScalarGeometry;
+use chaincart::control::{MpcOptions, PlanOptions, Planner, ScalarGeometry};
 use chaincart::geometry::Vector;
 use chaincart::integrate::{Method, StepOptions, Stepper};
 use chaincart::{Chain, ChainParams, Planar, Spatial};

@@ -7,11 +7,12 @@
 //!   each other in a circle.
 //!
 //! Comments are not read (an intra-doc link may point anywhere), nor is test code
-//! (everything from a file's first `#[cfg(test)]` on, and `tests.rs` files): tests sit
-//! above every layer.
-//! The crate root (`lib.rs`) and each directory's `mod.rs` only declare modules and
-//! re-export names; a path through such a facade counts as a use of the file the
-//! name comes from.
+//! (each item under `#[cfg(test)]`, and `tests.rs` files): tests sit above every layer.
+//! And only `src/python/` names the Python crates (`pyo3`, `numpy`) or their
+//! attributes.
+//! The crate root (`lib.rs`) and each directory's `mod.rs` declare modules and
+//! re-export names (some `mod.rs` also define what their whole module shares); a path
+//! through such a re-export counts as a use of the file the name comes from.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -42,6 +43,17 @@ fn rung(name: &str) -> Option<usize> {
     LADDER.iter().position(|(_, mods)| mods.contains(&name))
 }
 
+/// The crates of Python (PyO3) and NumPy (rust-numpy), and PyO3's item attributes:
+/// names only the bindings (`src/python/`) may write.
+const PYTHON_NAMES: &[&str] = &[
+    "pyo3",
+    "numpy",
+    "pyclass",
+    "pymethods",
+    "pyfunction",
+    "pymodule",
+];
+
 /// A source file: its module path (`env::step`, `lanes`, `` for the crate root) and
 /// its code without comments and tests.
 struct Source {
@@ -67,10 +79,74 @@ fn module_path(src: &Path, file: &Path) -> (Vec<String>, bool) {
 
 /// The code of `text` without comments, string literals, char literals and test code.
 fn code_of(text: &str) -> String {
-    let text = match text.find("#[cfg(test)]") {
-        Some(at) => &text[..at],
-        None => text,
-    };
+    without_test_items(&without_comments(text))
+}
+
+/// `code` without the items marked `#[cfg(test)]` (or `#[cfg(all(test, ...))]`): each
+/// such attribute and the item after it, up to its `;` or its closing brace, go; the
+/// code after them stays. `code` has no comments or literals (its braces are code).
+fn without_test_items(code: &str) -> String {
+    let b = code.as_bytes();
+    let mut out = String::with_capacity(b.len());
+    let mut i = 0;
+    while let Some(at) = code[i..].find("#[") {
+        let start = i + at;
+        let Some(attr_end) = closing(b, start + 1) else {
+            break;
+        };
+        let attr: String = code[start + 2..attr_end]
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .collect();
+        if attr != "cfg(test)" && !attr.starts_with("cfg(all(test,") {
+            out.push_str(&code[i..attr_end + 1]);
+            i = attr_end + 1;
+            continue;
+        }
+        out.push_str(&code[i..start]);
+        // The item: to a `;` outside brackets, or through its first top-level block.
+        let mut j = attr_end + 1;
+        let mut depth = 0i32;
+        while j < b.len() {
+            match b[j] {
+                b'(' | b'[' => depth += 1,
+                b')' | b']' => depth -= 1,
+                b';' if depth == 0 => break,
+                b'{' if depth == 0 => {
+                    j = closing(b, j).unwrap_or(b.len() - 1);
+                    break;
+                }
+                _ => {}
+            }
+            j += 1;
+        }
+        i = (j + 1).min(b.len());
+    }
+    out.push_str(&code[i..]);
+    out
+}
+
+/// Position of the bracket closing the one at `open` (`(`, `[` or `{`), counting all
+/// three kinds.
+fn closing(b: &[u8], open: usize) -> Option<usize> {
+    let mut depth = 0i32;
+    for (k, &c) in b.iter().enumerate().skip(open) {
+        match c {
+            b'(' | b'[' | b'{' => depth += 1,
+            b')' | b']' | b'}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return Some(k);
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// `text` without comments, string literals (left as `""`) and char literals.
+fn without_comments(text: &str) -> String {
     let b = text.as_bytes();
     let mut out = String::with_capacity(b.len());
     let mut i = 0;
@@ -114,7 +190,8 @@ fn code_of(text: &str) -> String {
     out
 }
 
-fn sources(src: &Path) -> Vec<Source> {
+/// Every `.rs` file under `src`, sorted.
+fn rust_files(src: &Path) -> Vec<PathBuf> {
     let mut files = Vec::new();
     let mut dirs = vec![src.to_path_buf()];
     while let Some(dir) = dirs.pop() {
@@ -122,17 +199,20 @@ fn sources(src: &Path) -> Vec<Source> {
             let path = entry.unwrap().path();
             if path.is_dir() {
                 dirs.push(path);
-            } else if path.extension().is_some_and(|e| e == "rs")
-                && path.file_stem().is_some_and(|s| s != "tests")
-            {
-                // A `tests.rs` file is a test module.
+            } else if path.extension().is_some_and(|e| e == "rs") {
                 files.push(path);
             }
         }
     }
     files.sort();
     files
+}
+
+fn sources(src: &Path) -> Vec<Source> {
+    rust_files(src)
         .into_iter()
+        // A `tests.rs` file is a test module.
+        .filter(|path| path.file_stem().is_some_and(|s| s != "tests"))
         .map(|file| {
             let (module, is_facade) = module_path(src, &file);
             let code = code_of(&fs::read_to_string(&file).unwrap());
@@ -475,4 +555,62 @@ fn the_reader_finds_the_paths_it_must() {
     };
     assert!(has("lanes::rk4", "geometry"), "{edges:?}");
     assert!(has("model", "params"));
+}
+
+/// Whether the identifier `name` stands alone in `code` (not part of a longer one).
+fn names(code: &str, name: &str) -> bool {
+    code.match_indices(name).any(|(at, _)| {
+        !code[..at].chars().last().is_some_and(is_ident)
+            && !code[at + name.len()..].chars().next().is_some_and(is_ident)
+    })
+}
+
+#[test]
+fn only_the_bindings_know_python() {
+    // Every file, tests included: `cargo test` builds none of the Python crates.
+    let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src");
+    let bindings = src.join("python");
+    let mut wrong = Vec::new();
+    for file in rust_files(&src) {
+        if file.starts_with(&bindings) {
+            continue;
+        }
+        let code = without_comments(&fs::read_to_string(&file).unwrap());
+        for name in PYTHON_NAMES.iter().filter(|n| names(&code, n)) {
+            wrong.push(format!("{} names {name}", file.display()));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "Python outside src/python/:\n{}",
+        wrong.join("\n")
+    );
+    // The check itself sees what it must, and only that.
+    let sample =
+        without_comments("use pyo3::prelude::*; // numpy\nlet s = \"numpy\"; let numpy_like = 1;");
+    assert!(names(&sample, "pyo3") && !names(&sample, "numpy"));
+    let bound = without_comments(&fs::read_to_string(bindings.join("mod.rs")).unwrap());
+    assert!(names(&bound, "pyo3") && names(&bound, "pymodule"));
+}
+
+#[test]
+fn test_items_are_left_out_and_the_code_after_them_read() {
+    let code = code_of(
+        "use crate::a;\n#[cfg(test)]\nmod tests {\n    use crate::t1;\n    fn f() { if x { crate::t2(); } }\n}\n\
+         fn g() -> [u8; 2] { crate::b::c() }\n\
+         #[cfg(all(test, target_arch = \"x86_64\"))]\n#[allow(unused)]\nfn h() -> [u8; 2] { crate::t3() }\n\
+         #[cfg(test)]\nconst N: [u8; 2] = [0; 2];\n#[inline]\nfn k() { crate::d::e(); }",
+    );
+    let paths = paths_in(&code);
+    for expected in ["crate::a", "crate::b::c", "crate::d::e"] {
+        assert!(
+            paths.iter().any(|p| p == expected),
+            "{expected} in {paths:?}"
+        );
+    }
+    assert!(
+        !paths.iter().any(|p| p.starts_with("crate::t")),
+        "{paths:?}"
+    );
+    assert!(code.contains("#[inline]") && !code.contains("const N"));
 }

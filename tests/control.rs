@@ -3,9 +3,7 @@
 //! planner's generic copy of it): plans reach their targets open-loop, and the tracking
 //! and receding-horizon controllers reach them from perturbed starts.
 
-use chaincart::control::mpc::MpcOptions;
-use chaincart::control::planner::{Plan, PlanOptions, Planner};
-use chaincart::control::vector::ScalarGeometry;
+use chaincart::control::{MpcOptions, Plan, PlanOptions, Planner, ScalarGeometry};
 use chaincart::geometry::Vector;
 use chaincart::integrate::{Method, StepOptions, Stepper};
 use chaincart::{Chain, ChainError, ChainParams, InputError, Planar, Spatial};

@@ -42,14 +42,18 @@ class EnvSettings:
 
     @property
     def n_links(self) -> int:
+        """The number of links of the model."""
         return int(self.model.n_links)
 
     @property
     def state_dim(self) -> int:
+        """The length of the model's state vector."""
         return int(self.model.state_dim)
 
     @property
     def obs_dim(self) -> int:
+        """The length of an observation: the state, then the target's signs on goal-conditioned
+        scenes."""
         return self.state_dim + (self.n_links if self.goal_observation else 0)
 
 

@@ -106,10 +106,13 @@ class TipTrail:
         self.clear()
 
     def clear(self) -> None:
+        """Forget every position (a new episode starts a new trail)."""
         self._count = self._next = self._since = 0
         self._has_head = False
 
     def add(self, tip: npt.ArrayLike) -> None:
+        """Record the tip's position after a step: kept if it is an ``every``-th one, else
+        as the newest position until the next one comes."""
         if len(self._points) == 0:
             return
         if self._since % self._every == 0:

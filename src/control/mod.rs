@@ -6,6 +6,16 @@
 //!   the RK4 control step written once for values and derivatives.
 //! * [`chart`]: increments on the spheres about any state; [`jacobian`]: the control
 //!   step and its exact derivatives in that chart.
+//! * [`cost`]: the planner's cost; [`boxqp`] and [`ilqr`]: control-limited iLQR on the
+//!   chart.
+//! * [`planner`]: a [`Plan`] between a state or equilibrium and an equilibrium
+//!   ([`plan`]); [`tvlqr`]: the [`Tracker`] that follows it; [`mpc`]: receding-horizon
+//!   iLQR along it ([`Mpc`]); [`energy`]: energy shaping for one link, then the LQR
+//!   catch ([`EnergyController`]).
+//! * [`any`]: all of these with the scene chosen at run time, for front ends.
+//!
+//! The names below are the surface others use; the modules stay public for the
+//! derivatives' tests and benchmarks.
 
 pub mod any;
 pub mod boxqp;
@@ -21,3 +31,12 @@ pub mod plan;
 pub mod planner;
 pub mod tvlqr;
 pub mod vector;
+
+pub use any::{AnyEnergy, AnyMpc, AnyPlan, AnyTracker};
+pub use cost::CostWeights;
+pub use energy::{EnergyController, EnergyOptions};
+pub use mpc::{Mpc, MpcOptions, MpcStats, Reference};
+pub use plan::{Plan, PlanReport};
+pub use planner::{PlanOptions, Planner};
+pub use tvlqr::Tracker;
+pub use vector::ScalarGeometry;

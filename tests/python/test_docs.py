@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -37,3 +38,104 @@ def test_the_readme_states_the_steps_the_main_job_trains() -> None:
     rollout = recipe.num_envs * recipe.hyperparameters["n_steps"]
     trained = -(-recipe.timesteps // rollout) * rollout
     assert f"# the main job trains {trained:,} steps" in (ROOT / "README.md").read_text()
+
+
+# The maps of the tree (ARCHITECTURE.md, README's "Repository layout") against the tree.
+
+PACKAGE = ROOT / "chaincart_env"
+_CODE = re.compile(r"`([^`\n]+)`")
+
+
+def _section(page: Path, heading: str) -> str:
+    """The text of ``page`` from the heading ``heading`` to the next heading of its level."""
+    text = page.read_text()
+    level = heading.split(" ")[0]
+    start = text.index(heading + "\n")
+    end = text.find("\n" + level + " ", start + len(heading))
+    return text[start : end if end >= 0 else len(text)]
+
+
+def _row(text: str, first_cell: str) -> str:
+    """The table row of ``text`` whose first cell is ``first_cell``."""
+    return next(line for line in text.splitlines() if line.startswith(f"| {first_cell} |"))
+
+
+def _src_modules() -> set[str]:
+    return {p.stem for p in (ROOT / "src").iterdir() if p.is_dir() or (p.suffix == ".rs" and p.stem != "lib")}
+
+
+def _package_entries(folder: Path) -> set[str]:
+    """The modules of ``folder`` as a map names them (``x.py``, ``x.pyi``, ``x/``), without
+    ``__init__.py`` and caches."""
+    entries = set()
+    for p in folder.iterdir():
+        if p.is_dir() and p.name != "__pycache__":
+            entries.add(p.name + "/")
+        elif p.suffix in (".py", ".pyi") and p.name != "__init__.py":
+            entries.add(p.name)
+    return entries
+
+
+#: File names the maps use for a kind of file, not one path.
+_KINDS = {"mod.rs"}
+
+
+def _paths_named(text: str) -> set[str]:
+    """The code spans of ``text`` that name a file or folder (a ``/`` or a file suffix)."""
+    return {
+        span
+        for span in _CODE.findall(text)
+        if " " not in span
+        and "<" not in span
+        and span not in _KINDS
+        and ("/" in span or re.search(r"\.(py|pyi|rs|md|toml|yml)$", span))
+    }
+
+
+def _exists(path: str) -> bool:
+    """Whether ``path`` is a file or folder of the repository, of ``src/`` or of the package."""
+    return any((base / path).exists() for base in (ROOT, ROOT / "src", PACKAGE, PACKAGE / "tools"))
+
+
+def test_architecture_names_every_module_of_the_tree() -> None:
+    page = ROOT / "ARCHITECTURE.md"
+    core = set(_CODE.findall(_section(page, "## The Rust core: a ladder")))
+    python = _section(page, "## The Python package")
+    named = set(_CODE.findall(python))
+    tools = set(_CODE.findall(_row(python, "`tools/`")))
+    assert _src_modules() - core == set(), "src/ modules ARCHITECTURE.md does not place"
+    assert _package_entries(PACKAGE) - named == set(), "package modules ARCHITECTURE.md does not name"
+    tool_modules = {e.removesuffix(".py").removesuffix("/") for e in _package_entries(PACKAGE / "tools")}
+    assert tool_modules - tools == set(), "tools ARCHITECTURE.md does not name"
+
+
+def test_the_readme_layout_names_every_core_module_and_tool() -> None:
+    layout = _section(ROOT / "README.md", "## Repository layout")
+    bullets = {line.split("`")[1]: line for line in re.split(r"\n(?=\* )", layout) if line.startswith("* `")}
+    assert _src_modules() - set(_CODE.findall(bullets["src/"])) == set()
+    named = set(_CODE.findall(bullets["chaincart_env/"].split("`chaincart_env/tools/`")[1]))
+    tool_modules = {e.removesuffix(".py").removesuffix("/") for e in _package_entries(PACKAGE / "tools")}
+    assert tool_modules - named == set()
+    assert "docs/" in bullets
+
+
+@pytest.mark.parametrize("page, heading", [("ARCHITECTURE.md", "# Architecture"), ("README.md", "## Repository layout")])
+def test_every_path_the_maps_name_exists(page: str, heading: str) -> None:
+    text = _section(ROOT / page, heading)
+    paths = _paths_named(text)
+    assert len(paths) >= 5, paths
+    assert sorted(p for p in paths if not _exists(p)) == []
+
+
+def test_every_module_the_maps_name_exists() -> None:
+    architecture = ROOT / "ARCHITECTURE.md"
+    ladder = [line for line in _section(architecture, "## The Rust core: a ladder").splitlines() if line.startswith("| ")]
+    rust = {span for line in ladder[2:] for span in _CODE.findall(line.split("|")[2])}
+    assert "model" in rust and rust - _src_modules() == set()
+    tools_row = _row(_section(architecture, "## The Python package"), "`tools/`").split("|")[2]
+    layout = _section(ROOT / "README.md", "## Repository layout")
+    readme_tools = layout.split("`chaincart_env/tools/`")[1].split(")")[0]
+    for text in (tools_row, readme_tools):
+        tools = {span for span in _CODE.findall(text) if span.isidentifier()}
+        assert "bench" in tools
+        assert sorted(t for t in tools if not _exists(t) and not _exists(t + ".py")) == []

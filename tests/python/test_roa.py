@@ -1,4 +1,4 @@
-"""The LQR baseline's region of attraction (``python -m chaincart_env roa``): the
+"""The LQR baseline's region of attraction (``chaincart_env.roa``, ``python -m chaincart_env roa``): the
 success curve on the default scene, its statistics and its outputs."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from scipy.stats import binomtest
 
 from chaincart_env import ChainCartEnv, LQRPolicy
 from chaincart_env.__main__ import main
-from chaincart_env.tools.roa import region_of_attraction, success_fractions, wilson_interval
+from chaincart_env.roa import region_of_attraction, success_fractions, wilson_interval
 from chaincart_env.config import ChainCartConfig
 
 
@@ -77,3 +77,10 @@ def test_roa_command_writes_table_csv_and_png(tmp_path: Path, capsys: pytest.Cap
     with Image.open(tmp_path / "roa_inverted-2.png") as image:
         image.load()
         assert image.format == "PNG" and np.asarray(image).std() > 0
+
+
+def test_the_package_root_exports_the_librarys_curve() -> None:
+    import chaincart_env
+    import chaincart_env.roa
+
+    assert chaincart_env.region_of_attraction is chaincart_env.roa.region_of_attraction

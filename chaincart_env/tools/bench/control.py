@@ -35,6 +35,8 @@ def _mpc_step_times(model: ChainCart, plan, steps: int) -> np.ndarray:  # type: 
 
 
 def control_section(ctx: BenchContext) -> None:
+    """Time planning each swing-up scene and the MPC steps along its plan, and report
+    them."""
     ctx.report.heading("Large motions: planning and MPC")
     repeats = ctx.settings.repeats
     rows, results = [], {}

@@ -48,6 +48,8 @@ def _untrained_ppo(config: Any) -> dict[str, Any]:
 
 
 def cells_section(ctx: BenchContext) -> None:
+    """Time the default study's cells serially and as Ray tasks on a local cluster and
+    report both (a note instead without Ray)."""
     ctx.report.heading("A study's cells: serially vs as Ray tasks on a local cluster")
     if not rllib_available():
         ctx.report.paragraph(MISSING_NOTE)
