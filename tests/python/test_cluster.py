@@ -117,6 +117,7 @@ def test_compare_with_rllib_places_env_runners_on_both_nodes(cluster: Cluster, t
     run = json.loads((out / "seed-0" / "run.json").read_text())
     # Two runners of one CPU each on two nodes of one CPU each: one on each node.
     assert sorted(run["runner_nodes"]) == node_ids(cluster)
+    assert run["runner_restarts"] == 0  # no runner was lost
     assert run["cluster"].endswith("2 node(s), 2 CPUs") and run["timesteps_trained"] >= 200
     for name in OUTPUT_FILES:
         assert (out / name).exists(), name
