@@ -142,9 +142,9 @@ def test_cells_run_as_tasks_on_both_nodes_with_the_serial_results(connected: Clu
 
 
 class CountedSteps(VectorWrapper):
-    """A runner's env that writes how many env steps it took, as RLlib counts them (an
-    env in its next-step autoreset step is not counted), to a file named by its process.
-    The first runner process on the node ``die_on`` to reach its vector step ``die_at``
+    """A runner's env that appends, after every vector step, how many env steps it took
+    so far, as RLlib counts them (an env in its next-step autoreset step is not counted),
+    to a file named by its process (one line per vector step). The first runner process on the node ``die_on`` to reach its vector step ``die_at``
     kills itself (SIGKILL), leaving its process id in the file ``killed``."""
 
     def __init__(self, env: VectorEnv, folder: str, die_at: int, die_on: str) -> None:
@@ -172,7 +172,8 @@ class CountedSteps(VectorWrapper):
         out = self.env.step(actions)
         self.counted += int((~self.resetting).sum())
         self.resetting = out[2] | out[3]
-        (self.folder / f"steps-{os.getpid()}").write_text(str(self.counted))
+        with (self.folder / f"steps-{os.getpid()}").open("a") as log:
+            log.write(f"{self.counted}\n")
         return out
 
 
@@ -239,14 +240,23 @@ def test_training_goes_on_when_a_runner_or_a_node_is_lost(connected: Cluster, tm
         assert pid != first[w][0] and seeds == [(seed + w) * envs + i for i in range(envs)]
     assert runners[on_worker][1] == new_node.node_id
     # Samples lost: every env step the runners took, minus those that reached the learner.
-    stepped = sum(int(path.read_text()) for path in tmp_path.glob("steps-*"))
+    counts = {int(path.name.split("-")[1]): [int(n) for n in path.read_text().split()]
+              for path in tmp_path.glob("steps-*")}  # fmt: skip
+    stepped = sum(life[-1] for life in counts.values())
     lost = stepped - lifetimes[-1]
-    assert int((tmp_path / "killed").read_text()) == next(pid for pid, node in first.values() if node == head)
-    # The runner died 75 vector steps into its life, 25 into its second sample() of 50:
-    # those 50 env steps (fewer by the envs in an autoreset step) never reached the learner.
-    # The node went between iterations: nothing in flight was lost with it.
-    print(f"samples lost: {lost} env steps (runner killed mid-sample), of {stepped} taken")
-    assert 0 < lost <= 25 * envs
+    killed = int((tmp_path / "killed").read_text())
+    assert killed == next(pid for pid, node in first.values() if node == head)
+    # The killed runner died after 75 vector steps, in its second sample(): a sample()
+    # ends at the vector step at which the runner has counted its share of the batch,
+    # 100 env steps. What it had counted in the unfinished sample (at most 25 vector
+    # steps of 2 envs, fewer by the envs in an autoreset step) never reached the learner,
+    # and that is all that was lost: the node went between iterations, with nothing in flight.
+    life = counts[killed]
+    first_sample_end = next(i for i, n in enumerate(life) if n >= batch // 2)
+    in_flight = life[-1] - life[first_sample_end]
+    print(f"samples lost: {lost} env steps (runner killed mid-sample: {in_flight}), of {stepped} taken")
+    assert len(life) == 75 and 0 < in_flight <= 25 * envs
+    assert lost == in_flight
 
 
 # -- driver kill, then resume -----------------------------------------------------------
