@@ -42,6 +42,7 @@ from chaincart_env.__main__ import main
 from chaincart_env.tools.compare import rllib_training
 from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.job import OUTPUT_FILES
+from chaincart_env.tools.compare.run_files import settled_directory
 from chaincart_env.rllib import make_runner_env, ppo_config, register, start_seeds_of
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -262,9 +263,18 @@ def test_training_goes_on_when_a_runner_or_a_node_is_lost(connected: Cluster, tm
 # -- driver kill, then resume -----------------------------------------------------------
 
 
+def checkpoint_steps(state: pathlib.Path) -> int:
+    """The env steps of the checkpoint whose ``state.json`` is ``state`` (-1: none now,
+    e.g. between the two renames of a checkpoint swap)."""
+    try:
+        return int(json.loads(state.read_text())["steps"])
+    except FileNotFoundError:
+        return -1
+
+
 def wait_for_checkpoint(state: pathlib.Path, process: subprocess.Popen[bytes], steps: int, log: pathlib.Path) -> None:
     deadline = time.monotonic() + 300
-    while not (state.is_file() and json.loads(state.read_text())["steps"] >= steps):
+    while checkpoint_steps(state) < steps:
         assert process.poll() is None, f"compare ended ({process.returncode}) before a checkpoint: {log.read_text()}"
         assert time.monotonic() < deadline, f"no checkpoint at {steps} env steps in 300 s: {log.read_text()}"
         time.sleep(0.2)
@@ -300,11 +310,13 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
             driver.wait(timeout=60)
     seed_dir = out / "seed-0"
     assert json.loads((out / "run.json").read_text())["status"] == "training"  # no chance to say more
-    state = json.loads((seed_dir / "checkpoints" / "state.json").read_text())
+    # The checkpoint as resume finds it, also if the kill came between the swap's renames.
+    checkpoint = settled_directory(seed_dir / rllib_training.RESUME_DIR)
+    state = json.loads((checkpoint / "state.json").read_text())
     logged = read_csv(seed_dir / "training_episodes.csv")
     assert len(logged) >= state["episodes"] > 0
 
-    saved = seed_dir / "checkpoints" / "algorithm"
+    saved = checkpoint / "algorithm"
     learner_file = saved / "learner_group" / "learner"
     saved_module = pickle.loads((learner_file / "rl_module" / "default_policy" / "module_state.pkl").read_bytes())
     saved_optimizer = pickle.loads((learner_file / "state.pkl").read_bytes())["optimizer"]
