@@ -145,8 +145,9 @@ def test_cells_run_as_tasks_on_both_nodes_with_the_serial_results(connected: Clu
 class CountedSteps(VectorWrapper):
     """A runner's env that appends, after every vector step, how many env steps it took
     so far, as RLlib counts them (an env in its next-step autoreset step is not counted),
-    to a file named by its process (one line per vector step). The first runner process on the node ``die_on`` to reach its vector step ``die_at``
-    kills itself (SIGKILL), leaving its process id in the file ``killed``."""
+    to a file named by its process (one line per vector step). The first runner process
+    on the node ``die_on`` to reach its vector step ``die_at`` kills itself (SIGKILL),
+    leaving its process id in the file ``killed``."""
 
     def __init__(self, env: VectorEnv, folder: str, die_at: int, die_on: str) -> None:
         super().__init__(env)
