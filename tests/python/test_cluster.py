@@ -37,6 +37,12 @@ import ray  # the rllib extra, installed by scripts/setup.sh
 import torch
 from gymnasium.vector import VectorEnv, VectorWrapper
 from ray.cluster_utils import Cluster
+from ray.rllib.core import (
+    COMPONENT_ENV_RUNNER,
+    COMPONENT_ENV_TO_MODULE_CONNECTOR,
+    COMPONENT_MODULE_TO_ENV_CONNECTOR,
+    COMPONENT_RL_MODULE,
+)
 
 from chaincart_env.__main__ import main
 from chaincart_env.tools.compare import rllib_training
@@ -293,6 +299,15 @@ def equal_trees(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
+CONNECTORS = (COMPONENT_ENV_TO_MODULE_CONNECTOR, COMPONENT_MODULE_TO_ENV_CONNECTOR)
+
+
+def connector_states(runner: Any) -> dict[str, Any]:
+    """A runner's connector states (run via ``foreach_env_runner``)."""
+    state = runner.get_state(not_components=COMPONENT_RL_MODULE)
+    return {name: state[name] for name in CONNECTORS}
+
+
 def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
     cluster: Cluster, tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -321,6 +336,8 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
     learner_file = saved / "learner_group" / "learner"
     saved_module = pickle.loads((learner_file / "rl_module" / "default_policy" / "module_state.pkl").read_bytes())
     saved_optimizer = pickle.loads((learner_file / "state.pkl").read_bytes())["optimizer"]
+    saved_connectors = {name: pickle.loads((saved / COMPONENT_ENV_RUNNER / name / "state.pkl").read_bytes())
+                        for name in CONNECTORS}  # fmt: skip
     restored: dict[str, Any] = {}
 
     def restore_and_look(algo: Any, directory: pathlib.Path) -> Any:
@@ -330,6 +347,7 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
             module=copy.deepcopy(learner.module["default_policy"].state_dict()),
             optimizer=copy.deepcopy(learner.get_state(components="optimizer")["optimizer"]),
             runners=algo.env_runner_group.foreach_env_runner(lambda r: r.module.state_dict(), local_env_runner=False),
+            connectors=algo.env_runner_group.foreach_env_runner(connector_states, local_env_runner=True),
             iteration=algo.iteration,
             steps=algo.metrics.peek(("env_runners", "num_env_steps_sampled_lifetime")),
             log_rows=len(read_csv(directory / "training_episodes.csv")),
@@ -340,14 +358,19 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
     monkeypatch.setattr(rllib_training, "restore_training", restore_and_look)
     assert main(["compare", "--resume", str(out)]) == 0
 
-    # Restored exactly: the networks, the optimizer, the runners' weights, the counters;
-    # the episode log cut back to the checkpoint.
+    # Restored exactly: the networks, the optimizer, the runners' weights, the connector
+    # states, the counters; the episode log cut back to the checkpoint.
     assert equal_trees({k: v.numpy() for k, v in restored["module"].items()}, dict(saved_module))
     assert equal_trees(restored["optimizer"], saved_optimizer)
     assert len(restored["runners"]) == 2
     for weights in restored["runners"]:
         assert weights.keys() <= saved_module.keys()
         assert all(np.array_equal(weights[k].numpy(), saved_module[k]) for k in weights)
+    # The connector states of the local runner and both remote ones are the checkpoint's:
+    # empty, as RLlib's default connector pipelines (what compare uses) keep no state.
+    assert saved_connectors == {name: {} for name in CONNECTORS}
+    assert len(restored["connectors"]) == 3
+    assert all(equal_trees(states, saved_connectors) for states in restored["connectors"])
     assert (restored["iteration"], restored["steps"], restored["log_rows"]) == (
         state["iterations"], state["steps"], state["episodes"])  # fmt: skip
 
@@ -357,9 +380,14 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
     for name in OUTPUT_FILES:
         assert (out / name).exists(), name
     rows = read_csv(seed_dir / "training_episodes.csv")
+    assert len(rows) > state["episodes"]
     assert rows[: state["episodes"]] == logged[: state["episodes"]]  # the log up to the checkpoint, kept
     assert [int(r["episode"]) for r in rows] == list(range(1, len(rows) + 1))
     assert all(int(r["timesteps"]) > state["steps"] for r in rows[state["episodes"]:])
+    # The wall time continues from the checkpoint's, in the log and in run.json.
+    wall = [float(r["wall_time_s"]) for r in rows]
+    assert wall == sorted(wall) and all(w > state["wall_time_s"] for w in wall[state["episodes"]:])
+    assert run["training_wall_time_s"] > state["wall_time_s"]
 
 
 # -- the study spread over the cluster --------------------------------------------------
