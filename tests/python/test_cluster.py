@@ -4,8 +4,9 @@ each on this machine), shared by the tests of this module. RLlib's env runners p
 both nodes by ``compare --trainer rllib``; training going on when a runner's process or
 a whole node is lost (and the samples lost, counted); a driver killed mid-run and its
 run resumed from the checkpoint (what is restored, compared with the checkpoint); the
-study's pieces as Ray tasks giving the serial run's tables, and the leaderboard's agents
-and cells giving the serial run's rows.
+study's pieces as Ray tasks (each task recorded as it runs) giving the serial run's
+tables, and the leaderboard's agents and cells, as tasks too, giving the serial run's
+rows.
 
 The cluster keeps its files (and the address file Ray leaves for ``ray.init("auto")``)
 in a folder of its own, ignores ``RAY_ADDRESS`` and never joins a cluster already
@@ -27,7 +28,9 @@ import subprocess
 import sys
 import tempfile
 import time
+import uuid
 import zipfile
+from collections import Counter
 from functools import partial
 from typing import Any, Iterator
 
@@ -45,6 +48,7 @@ from ray.rllib.core import (
 )
 
 from chaincart_env.__main__ import main
+from chaincart_env.tools.compare import cells as study_cells
 from chaincart_env.tools.compare import rllib_training
 from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.job import OUTPUT_FILES
@@ -393,15 +397,50 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
 # -- the study spread over the cluster --------------------------------------------------
 
 
+def record_tasks(monkeypatch: pytest.MonkeyPatch, folder: pathlib.Path) -> None:
+    """From now on each cell that ``map_cells`` runs as a Ray task leaves a record in
+    ``folder`` (every node of the test cluster is this machine): the cell's function,
+    and the process, node and Ray task it ran in. A serial run leaves none."""
+    folder.mkdir()
+    real = study_cells._run_cell
+
+    def run_cell(function: Any, shared: Any, cell: Any, torch_threads: Any) -> Any:
+        context = ray.get_runtime_context()
+        record = dict(function=function.__name__, pid=os.getpid(), node=context.get_node_id(),
+                      task=context.get_task_id())  # fmt: skip
+        (folder / f"{uuid.uuid4().hex}.json").write_text(json.dumps(record))
+        return real(function, shared, cell, torch_threads)
+
+    monkeypatch.setattr(study_cells, "_run_cell", run_cell)
+
+
+def tasks_run(folder: pathlib.Path, cluster: Cluster) -> Counter[str]:
+    """How many cells of each function ran as Ray tasks (records of :func:`record_tasks`),
+    each checked to have run in a Ray task, in a worker process of the cluster."""
+    records = [json.loads(path.read_text()) for path in folder.glob("*.json")]
+    nodes = node_ids(cluster)
+    for record in records:
+        assert record["task"] and record["pid"] != os.getpid() and record["node"] in nodes, record
+    return Counter(record["function"] for record in records)
+
+
 def zip_member(path: pathlib.Path, name: str) -> bytes:
     with zipfile.ZipFile(io.BytesIO(path.read_bytes())) as archive:
         return archive.read(name)
 
 
-def test_a_study_on_the_cluster_gives_the_serial_tables(cluster: Cluster, tmp_path: pathlib.Path) -> None:
+def test_a_study_on_the_cluster_gives_the_serial_tables(
+    cluster: Cluster, tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     serial, spread = tmp_path / "serial", tmp_path / "spread"
+    record_tasks(monkeypatch, tmp_path / "tasks")
     assert main(["compare", *SB3_TINY, "--out", str(serial)]) == 0
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter()
     assert main(["compare", *SB3_TINY, "--address", cluster.address, "--out", str(spread)]) == 0
+    # Every seed trained, and every policy evaluated on the scene and each of the 2 sweep
+    # values, in a task of the cluster.
+    policies = len(read_csv(serial / "comparison.csv"))
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter(train_seed_cell=2, evaluate_cell=3 * policies)
     for name in TABLES:
         assert (spread / name).read_bytes() == (serial / name).read_bytes(), name
     for seed in (3, 4):
@@ -414,18 +453,26 @@ def test_a_study_on_the_cluster_gives_the_serial_tables(cluster: Cluster, tmp_pa
     run = json.loads((spread / "run.json").read_text())
     assert run["settings"]["address"] == cluster.address and run["cluster"].endswith("2 node(s), 2 CPUs")
     assert list(run["seed_runs"]) == ["3", "4"]
-    # evaluate on the cluster too: the same tables again.
+    # evaluate on the cluster too: the same tables again, from the same cells as tasks.
+    record_tasks(monkeypatch, tmp_path / "evaluate-tasks")
     assert main(["evaluate", str(spread), "--address", cluster.address, "--out", str(tmp_path / "again")]) == 0
+    assert tasks_run(tmp_path / "evaluate-tasks", cluster) == Counter(evaluate_cell=3 * policies)
     for name in TABLES:
         assert (tmp_path / "again" / name).read_bytes() == (serial / name).read_bytes(), name
 
 
-def test_a_leaderboard_on_the_cluster_gives_the_serial_cells(cluster: Cluster, tmp_path: pathlib.Path) -> None:
+def test_a_leaderboard_on_the_cluster_gives_the_serial_cells(
+    cluster: Cluster, tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     serial, spread = tmp_path / "serial", tmp_path / "spread"
     argv = ["leaderboard", "--scenes", "inverted-1", "--policies", "lqr,ppo", "--quick", "--axes", "mismatch,delay",
             "--episodes", "2", "--seeds", "0,1", "--no-progress"]  # fmt: skip
+    record_tasks(monkeypatch, tmp_path / "tasks")
     assert main([*argv, "--out", str(serial)]) == 0
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter()
     assert main([*argv, "--address", cluster.address, "--out", str(spread)]) == 0
+    # Both PPO agents trained, and every cell (a row of cells.csv) evaluated, in a task.
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter(train_agent_cell=2, evaluate_cell_job=2 * 2 * 2 * 2)
     # The same rows but for the measured compute time.
     untimed = lambda rows: [{**row, "us_per_step": ""} for row in rows]  # noqa: E731
     rows = read_csv(spread / "cells.csv")
