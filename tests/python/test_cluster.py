@@ -4,8 +4,9 @@ each on this machine), shared by the tests of this module. RLlib's env runners p
 both nodes by ``compare --trainer rllib``; training going on when a runner's process or
 a whole node is lost (and the samples lost, counted); a driver killed mid-run and its
 run resumed from the checkpoint (what is restored, compared with the checkpoint); the
-study's pieces as Ray tasks giving the serial run's tables, and the leaderboard's agents
-and cells giving the serial run's rows.
+study's pieces as Ray tasks (each task recorded as it runs) giving the serial run's
+tables, and the leaderboard's agents and cells, as tasks too, giving the serial run's
+rows.
 
 The cluster keeps its files (and the address file Ray leaves for ``ray.init("auto")``)
 in a folder of its own, ignores ``RAY_ADDRESS`` and never joins a cluster already
@@ -27,7 +28,9 @@ import subprocess
 import sys
 import tempfile
 import time
+import uuid
 import zipfile
+from collections import Counter
 from functools import partial
 from typing import Any, Iterator
 
@@ -37,11 +40,19 @@ import ray  # the rllib extra, installed by scripts/setup.sh
 import torch
 from gymnasium.vector import VectorEnv, VectorWrapper
 from ray.cluster_utils import Cluster
+from ray.rllib.core import (
+    COMPONENT_ENV_RUNNER,
+    COMPONENT_ENV_TO_MODULE_CONNECTOR,
+    COMPONENT_MODULE_TO_ENV_CONNECTOR,
+    COMPONENT_RL_MODULE,
+)
 
 from chaincart_env.__main__ import main
+from chaincart_env.tools.compare import cells as study_cells
 from chaincart_env.tools.compare import rllib_training
 from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.job import OUTPUT_FILES
+from chaincart_env.tools.compare.run_files import settled_directory
 from chaincart_env.rllib import make_runner_env, ppo_config, register, start_seeds_of
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -117,6 +128,7 @@ def test_compare_with_rllib_places_env_runners_on_both_nodes(cluster: Cluster, t
     run = json.loads((out / "seed-0" / "run.json").read_text())
     # Two runners of one CPU each on two nodes of one CPU each: one on each node.
     assert sorted(run["runner_nodes"]) == node_ids(cluster)
+    assert run["runner_restarts"] == 0  # no runner was lost
     assert run["cluster"].endswith("2 node(s), 2 CPUs") and run["timesteps_trained"] >= 200
     for name in OUTPUT_FILES:
         assert (out / name).exists(), name
@@ -141,10 +153,11 @@ def test_cells_run_as_tasks_on_both_nodes_with_the_serial_results(connected: Clu
 
 
 class CountedSteps(VectorWrapper):
-    """A runner's env that writes how many env steps it took, as RLlib counts them (an
-    env in its next-step autoreset step is not counted), to a file named by its process.
-    The first runner process on the node ``die_on`` to reach its vector step ``die_at``
-    kills itself (SIGKILL), leaving its process id in the file ``killed``."""
+    """A runner's env that appends, after every vector step, how many env steps it took
+    so far, as RLlib counts them (an env in its next-step autoreset step is not counted),
+    to a file named by its process (one line per vector step). The first runner process
+    on the node ``die_on`` to reach its vector step ``die_at`` kills itself (SIGKILL),
+    leaving its process id in the file ``killed``."""
 
     def __init__(self, env: VectorEnv, folder: str, die_at: int, die_on: str) -> None:
         super().__init__(env)
@@ -171,7 +184,8 @@ class CountedSteps(VectorWrapper):
         out = self.env.step(actions)
         self.counted += int((~self.resetting).sum())
         self.resetting = out[2] | out[3]
-        (self.folder / f"steps-{os.getpid()}").write_text(str(self.counted))
+        with (self.folder / f"steps-{os.getpid()}").open("a") as log:
+            log.write(f"{self.counted}\n")
         return out
 
 
@@ -238,22 +252,40 @@ def test_training_goes_on_when_a_runner_or_a_node_is_lost(connected: Cluster, tm
         assert pid != first[w][0] and seeds == [(seed + w) * envs + i for i in range(envs)]
     assert runners[on_worker][1] == new_node.node_id
     # Samples lost: every env step the runners took, minus those that reached the learner.
-    stepped = sum(int(path.read_text()) for path in tmp_path.glob("steps-*"))
+    counts = {int(path.name.split("-")[1]): [int(n) for n in path.read_text().split()]
+              for path in tmp_path.glob("steps-*")}  # fmt: skip
+    stepped = sum(life[-1] for life in counts.values())
     lost = stepped - lifetimes[-1]
-    assert int((tmp_path / "killed").read_text()) == next(pid for pid, node in first.values() if node == head)
-    # The runner died 75 vector steps into its life, 25 into its second sample() of 50:
-    # those 50 env steps (fewer by the envs in an autoreset step) never reached the learner.
-    # The node went between iterations: nothing in flight was lost with it.
-    print(f"samples lost: {lost} env steps (runner killed mid-sample), of {stepped} taken")
-    assert 0 < lost <= 25 * envs
+    killed = int((tmp_path / "killed").read_text())
+    assert killed == next(pid for pid, node in first.values() if node == head)
+    # The killed runner died after 75 vector steps, in its second sample(): a sample()
+    # ends at the vector step at which the runner has counted its share of the batch,
+    # 100 env steps. What it had counted in the unfinished sample (at most 25 vector
+    # steps of 2 envs, fewer by the envs in an autoreset step) never reached the learner,
+    # and that is all that was lost: the node went between iterations, with nothing in flight.
+    life = counts[killed]
+    first_sample_end = next(i for i, n in enumerate(life) if n >= batch // 2)
+    in_flight = life[-1] - life[first_sample_end]
+    print(f"samples lost: {lost} env steps (runner killed mid-sample: {in_flight}), of {stepped} taken")
+    assert len(life) == 75 and 0 < in_flight <= 25 * envs
+    assert lost == in_flight
 
 
 # -- driver kill, then resume -----------------------------------------------------------
 
 
+def checkpoint_steps(state: pathlib.Path) -> int:
+    """The env steps of the checkpoint whose ``state.json`` is ``state`` (-1: none now,
+    e.g. between the two renames of a checkpoint swap)."""
+    try:
+        return int(json.loads(state.read_text())["steps"])
+    except FileNotFoundError:
+        return -1
+
+
 def wait_for_checkpoint(state: pathlib.Path, process: subprocess.Popen[bytes], steps: int, log: pathlib.Path) -> None:
     deadline = time.monotonic() + 300
-    while not (state.is_file() and json.loads(state.read_text())["steps"] >= steps):
+    while checkpoint_steps(state) < steps:
         assert process.poll() is None, f"compare ended ({process.returncode}) before a checkpoint: {log.read_text()}"
         assert time.monotonic() < deadline, f"no checkpoint at {steps} env steps in 300 s: {log.read_text()}"
         time.sleep(0.2)
@@ -269,6 +301,15 @@ def equal_trees(a: Any, b: Any) -> bool:
         x, y = (v.detach().numpy() if isinstance(v, torch.Tensor) else np.asarray(v) for v in (a, b))
         return x.dtype == y.dtype and np.array_equal(x, y)
     return bool(a == b)
+
+
+CONNECTORS = (COMPONENT_ENV_TO_MODULE_CONNECTOR, COMPONENT_MODULE_TO_ENV_CONNECTOR)
+
+
+def connector_states(runner: Any) -> dict[str, Any]:
+    """A runner's connector states (run via ``foreach_env_runner``)."""
+    state = runner.get_state(not_components=COMPONENT_RL_MODULE)
+    return {name: state[name] for name in CONNECTORS}
 
 
 def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
@@ -289,14 +330,18 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
             driver.wait(timeout=60)
     seed_dir = out / "seed-0"
     assert json.loads((out / "run.json").read_text())["status"] == "training"  # no chance to say more
-    state = json.loads((seed_dir / "checkpoints" / "state.json").read_text())
+    # The checkpoint as resume finds it, also if the kill came between the swap's renames.
+    checkpoint = settled_directory(seed_dir / rllib_training.RESUME_DIR)
+    state = json.loads((checkpoint / "state.json").read_text())
     logged = read_csv(seed_dir / "training_episodes.csv")
     assert len(logged) >= state["episodes"] > 0
 
-    saved = seed_dir / "checkpoints" / "algorithm"
+    saved = checkpoint / "algorithm"
     learner_file = saved / "learner_group" / "learner"
     saved_module = pickle.loads((learner_file / "rl_module" / "default_policy" / "module_state.pkl").read_bytes())
     saved_optimizer = pickle.loads((learner_file / "state.pkl").read_bytes())["optimizer"]
+    saved_connectors = {name: pickle.loads((saved / COMPONENT_ENV_RUNNER / name / "state.pkl").read_bytes())
+                        for name in CONNECTORS}  # fmt: skip
     restored: dict[str, Any] = {}
 
     def restore_and_look(algo: Any, directory: pathlib.Path) -> Any:
@@ -306,6 +351,7 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
             module=copy.deepcopy(learner.module["default_policy"].state_dict()),
             optimizer=copy.deepcopy(learner.get_state(components="optimizer")["optimizer"]),
             runners=algo.env_runner_group.foreach_env_runner(lambda r: r.module.state_dict(), local_env_runner=False),
+            connectors=algo.env_runner_group.foreach_env_runner(connector_states, local_env_runner=True),
             iteration=algo.iteration,
             steps=algo.metrics.peek(("env_runners", "num_env_steps_sampled_lifetime")),
             log_rows=len(read_csv(directory / "training_episodes.csv")),
@@ -316,14 +362,19 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
     monkeypatch.setattr(rllib_training, "restore_training", restore_and_look)
     assert main(["compare", "--resume", str(out)]) == 0
 
-    # Restored exactly: the networks, the optimizer, the runners' weights, the counters;
-    # the episode log cut back to the checkpoint.
+    # Restored exactly: the networks, the optimizer, the runners' weights, the connector
+    # states, the counters; the episode log cut back to the checkpoint.
     assert equal_trees({k: v.numpy() for k, v in restored["module"].items()}, dict(saved_module))
     assert equal_trees(restored["optimizer"], saved_optimizer)
     assert len(restored["runners"]) == 2
     for weights in restored["runners"]:
         assert weights.keys() <= saved_module.keys()
         assert all(np.array_equal(weights[k].numpy(), saved_module[k]) for k in weights)
+    # The connector states of the local runner and both remote ones are the checkpoint's:
+    # empty, as RLlib's default connector pipelines (what compare uses) keep no state.
+    assert saved_connectors == {name: {} for name in CONNECTORS}
+    assert len(restored["connectors"]) == 3
+    assert all(equal_trees(states, saved_connectors) for states in restored["connectors"])
     assert (restored["iteration"], restored["steps"], restored["log_rows"]) == (
         state["iterations"], state["steps"], state["episodes"])  # fmt: skip
 
@@ -333,12 +384,44 @@ def test_a_killed_driver_resumes_from_its_rllib_checkpoint(
     for name in OUTPUT_FILES:
         assert (out / name).exists(), name
     rows = read_csv(seed_dir / "training_episodes.csv")
+    assert len(rows) > state["episodes"]
     assert rows[: state["episodes"]] == logged[: state["episodes"]]  # the log up to the checkpoint, kept
     assert [int(r["episode"]) for r in rows] == list(range(1, len(rows) + 1))
     assert all(int(r["timesteps"]) > state["steps"] for r in rows[state["episodes"]:])
+    # The wall time continues from the checkpoint's, in the log and in run.json.
+    wall = [float(r["wall_time_s"]) for r in rows]
+    assert wall == sorted(wall) and all(w > state["wall_time_s"] for w in wall[state["episodes"]:])
+    assert run["training_wall_time_s"] > state["wall_time_s"]
 
 
 # -- the study spread over the cluster --------------------------------------------------
+
+
+def record_tasks(monkeypatch: pytest.MonkeyPatch, folder: pathlib.Path) -> None:
+    """From now on each cell that ``map_cells`` runs as a Ray task leaves a record in
+    ``folder`` (every node of the test cluster is this machine): the cell's function,
+    and the process, node and Ray task it ran in. A serial run leaves none."""
+    folder.mkdir()
+    real = study_cells._run_cell
+
+    def run_cell(function: Any, shared: Any, cell: Any, torch_threads: Any) -> Any:
+        context = ray.get_runtime_context()
+        record = dict(function=function.__name__, pid=os.getpid(), node=context.get_node_id(),
+                      task=context.get_task_id())  # fmt: skip
+        (folder / f"{uuid.uuid4().hex}.json").write_text(json.dumps(record))
+        return real(function, shared, cell, torch_threads)
+
+    monkeypatch.setattr(study_cells, "_run_cell", run_cell)
+
+
+def tasks_run(folder: pathlib.Path, cluster: Cluster) -> Counter[str]:
+    """How many cells of each function ran as Ray tasks (records of :func:`record_tasks`),
+    each checked to have run in a Ray task, in a worker process of the cluster."""
+    records = [json.loads(path.read_text()) for path in folder.glob("*.json")]
+    nodes = node_ids(cluster)
+    for record in records:
+        assert record["task"] and record["pid"] != os.getpid() and record["node"] in nodes, record
+    return Counter(record["function"] for record in records)
 
 
 def zip_member(path: pathlib.Path, name: str) -> bytes:
@@ -346,10 +429,18 @@ def zip_member(path: pathlib.Path, name: str) -> bytes:
         return archive.read(name)
 
 
-def test_a_study_on_the_cluster_gives_the_serial_tables(cluster: Cluster, tmp_path: pathlib.Path) -> None:
+def test_a_study_on_the_cluster_gives_the_serial_tables(
+    cluster: Cluster, tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     serial, spread = tmp_path / "serial", tmp_path / "spread"
+    record_tasks(monkeypatch, tmp_path / "tasks")
     assert main(["compare", *SB3_TINY, "--out", str(serial)]) == 0
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter()
     assert main(["compare", *SB3_TINY, "--address", cluster.address, "--out", str(spread)]) == 0
+    # Every seed trained, and every policy evaluated on the scene and each of the 2 sweep
+    # values, in a task of the cluster.
+    policies = len(read_csv(serial / "comparison.csv"))
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter(train_seed_cell=2, evaluate_cell=3 * policies)
     for name in TABLES:
         assert (spread / name).read_bytes() == (serial / name).read_bytes(), name
     for seed in (3, 4):
@@ -362,18 +453,26 @@ def test_a_study_on_the_cluster_gives_the_serial_tables(cluster: Cluster, tmp_pa
     run = json.loads((spread / "run.json").read_text())
     assert run["settings"]["address"] == cluster.address and run["cluster"].endswith("2 node(s), 2 CPUs")
     assert list(run["seed_runs"]) == ["3", "4"]
-    # evaluate on the cluster too: the same tables again.
+    # evaluate on the cluster too: the same tables again, from the same cells as tasks.
+    record_tasks(monkeypatch, tmp_path / "evaluate-tasks")
     assert main(["evaluate", str(spread), "--address", cluster.address, "--out", str(tmp_path / "again")]) == 0
+    assert tasks_run(tmp_path / "evaluate-tasks", cluster) == Counter(evaluate_cell=3 * policies)
     for name in TABLES:
         assert (tmp_path / "again" / name).read_bytes() == (serial / name).read_bytes(), name
 
 
-def test_a_leaderboard_on_the_cluster_gives_the_serial_cells(cluster: Cluster, tmp_path: pathlib.Path) -> None:
+def test_a_leaderboard_on_the_cluster_gives_the_serial_cells(
+    cluster: Cluster, tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     serial, spread = tmp_path / "serial", tmp_path / "spread"
     argv = ["leaderboard", "--scenes", "inverted-1", "--policies", "lqr,ppo", "--quick", "--axes", "mismatch,delay",
             "--episodes", "2", "--seeds", "0,1", "--no-progress"]  # fmt: skip
+    record_tasks(monkeypatch, tmp_path / "tasks")
     assert main([*argv, "--out", str(serial)]) == 0
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter()
     assert main([*argv, "--address", cluster.address, "--out", str(spread)]) == 0
+    # Both PPO agents trained, and every cell (a row of cells.csv) evaluated, in a task.
+    assert tasks_run(tmp_path / "tasks", cluster) == Counter(train_agent_cell=2, evaluate_cell_job=2 * 2 * 2 * 2)
     # The same rows but for the measured compute time.
     untimed = lambda rows: [{**row, "us_per_step": ""} for row in rows]  # noqa: E731
     rows = read_csv(spread / "cells.csv")

@@ -148,6 +148,17 @@ def test_configure_sets_up_any_algorithm_config() -> None:
         ppo_config(n_links=0)
 
 
+def test_configure_states_the_fault_tolerance_settings() -> None:
+    # Set otherwise first, so the values read back are the ones configure put there.
+    other = dict(restart_failed_env_runners=False, max_num_env_runner_restarts=3, restart_failed_sub_environments=True)
+    for algo_config in (configure(APPOConfig().fault_tolerance(**other)), ppo_config()):
+        # A lost runner is restarted whole (with its worker index), up to 1000 times;
+        # an error inside one env fails the runner rather than rebuilding that env.
+        assert algo_config.restart_failed_env_runners is True
+        assert algo_config.max_num_env_runner_restarts == 1000
+        assert algo_config.restart_failed_sub_environments is False
+
+
 def test_the_saved_module_acts_as_the_runners_do(algo: Any, tmp_path: pathlib.Path) -> None:
     algo.save_to_path(str(tmp_path))
     policy = RLlibPolicy.load(tmp_path)

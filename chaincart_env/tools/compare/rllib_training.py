@@ -249,9 +249,10 @@ def restore_training(algo: Any, directory: Path) -> TrainingProgress:
 
     Restored exactly: the policy and value networks and the optimizer's state (so the
     next update starts from the same parameters and Adam moments), the weights every
-    env runner acts with, the connector states, the lifetime counters (env steps
-    sampled, hence the budget still to go) and the iteration count; the episode log
-    and the wall time continue from the checkpoint.
+    env runner acts with, the connector states (empty: RLlib's default connector
+    pipelines, used here, keep none), the lifetime counters (env steps sampled, hence
+    the budget still to go) and the iteration count; the episode log and the wall time
+    continue from the checkpoint.
 
     Not restored: the envs' episodes in progress and their random streams (the
     runners are new processes: runner ``w``'s env ``i`` starts its stream
