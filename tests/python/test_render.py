@@ -2,7 +2,7 @@
 tiles of vector envs, the animate command, human mode without a display, and bad
 input. Geometry of the flat views is checked against the documented conventions (e1
 to the right, gravity down) by locating coloured pixels; the 3-D view's pictures are
-held against stored images in ``test_render_golden.py``."""
+held against stored images in ``test_render_3d.py``."""
 
 from __future__ import annotations
 
