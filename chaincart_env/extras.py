@@ -46,7 +46,9 @@ def _animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
         needs["plot"] = ("PIL",)
     if suffix == ".mp4":
         needs["plot"] = ("PIL", "imageio", "imageio_ffmpeg")
-    if any(str(p) not in ("lqr", "zero", "random") for p in args.policies or ()):  # a saved model
+    from chaincart_env.tools.animate import POLICY_NAMES
+
+    if any(str(p) not in POLICY_NAMES for p in args.policies or ()):  # a saved model in some slot
         needs["sb3"] = ("stable_baselines3",)
     return needs
 

@@ -1,8 +1,11 @@
 """``python -m chaincart_env animate``: a GIF (Pillow) or MP4 (imageio with
 imageio-ffmpeg) of one episode of any scene under one or several policies side by
-side from the same start, or a PNG still of chosen moments: ``random``, ``zero``,
-``lqr`` or a saved stable-baselines3 model (a ``.zip``, or a run folder written by
-``compare`` holding ``model.zip``, ``config.json`` and ``run.json``).
+side from the same start, or a PNG still of chosen moments. Each ``--policy`` is, on
+its own, a built-in one (``random``, ``zero``, ``lqr``, ``trajectory``, ``mpc``,
+``energy``) or a saved stable-baselines3 model (a ``.zip``, or a run folder written by
+``compare`` holding ``model.zip``, ``config.json`` and ``run.json``), so built-in
+policies and saved models mix in any order. Without ``--scene`` the scene is the saved
+models' (they must agree), else the default.
 
 Frames are drawn by the env's ``rgb_array`` rendering in the 3-D view (``--view``
 picks another), each under a band naming its policy with the time stamp, one every
@@ -164,12 +167,13 @@ def load_sb3_model(path: Path) -> Any:
     raise InvalidInputError(f"could not load {model_path} as an SB3 model ({'; '.join(failures)})")
 
 
-def _sb3_policy(model: Any, env: ChainCartEnv) -> Policy:
+def _sb3_policy(name: str, model: Any, env: ChainCartEnv) -> Policy:
     expected = tuple(env.observation_space.shape or ())
     if tuple(model.observation_space.shape) != expected:
         raise InvalidInputError(
-            f"the model observes shape {tuple(model.observation_space.shape)} but this scene's observation has "
-            f"shape {expected}: expected the scene the model was trained on (drop --scene, or pick it)"
+            f"policy {name!r}: the model observes shape {tuple(model.observation_space.shape)} but scene "
+            f"{env.config.scene!r} observes shape {expected}: expected the scene the model was trained on "
+            "(drop --scene, or pick it)"
         )
     return lambda obs: model.predict(obs, deterministic=True)[0]
 
@@ -178,9 +182,12 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
     """``obs -> action`` for ``random`` (seeded), ``zero``, ``lqr`` (the paper's
     controller for the env's target), the large-motion controllers ``trajectory``,
     ``mpc`` and ``energy`` (designed on the env's model; the episode starts at the first
-    call), or a loaded SB3 ``model``."""
+    call), a loaded SB3 ``model``, or else the SB3 model saved at the path ``name``
+    (see :func:`load_sb3_model`)."""
     if model is not None:
-        return _sb3_policy(model, env)
+        return _sb3_policy(name, model, env)
+    if name not in POLICY_NAMES:
+        return _sb3_policy(name, load_sb3_model(Path(name)), env)
     if name == "zero":
         zero = np.zeros(env.config.force_dim, dtype=np.float32)
         return lambda obs: zero
@@ -205,7 +212,7 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
         except NotApplicable as error:
             raise InvalidInputError(f"--policy {name}: {error}") from None
         return lambda obs: controller.predict(obs)[0]
-    raise InvalidInputError(f"policy {name!r}: expected one of {list(POLICY_NAMES)} or a saved model")
+    raise AssertionError(f"policy {name!r} is in POLICY_NAMES but has no branch")  # unreachable
 
 
 # -- writing ---------------------------------------------------------------------------
@@ -401,9 +408,10 @@ def animate(
     trail: float = DEFAULT_TRAIL,
     times: Optional[Sequence[float]] = None,
 ) -> Animation:
-    """Writes an animation of one episode of ``config`` under ``policy`` (a name or
-    path; several side by side, each from the same ``seed``; a loaded SB3 ``model``
-    is used for the first) to ``out``: ``.gif`` or ``.mp4``, at most ``steps`` env
+    """Writes an animation of one episode of ``config`` under ``policy`` (each a
+    built-in name or the path of a saved SB3 model, in any mix; several side by side,
+    each from the same ``seed``; a loaded SB3 ``model``, if given, is used for the
+    first instead of loading it) to ``out``: ``.gif`` or ``.mp4``, at most ``steps`` env
     steps, or ``seconds`` of simulated time, or else the whole episode; or ``.png``,
     a still of the moments ``times`` (seconds; default: evenly spaced). Frames are of
     ``view`` (``"3d"`` default, seen by ``camera``, with the tip's path over the last
@@ -434,10 +442,10 @@ def animate(
     width, height = (default_frame_size(view)[0] if width is None else width,
                      default_frame_size(view)[1] if height is None else height)
     runs = []
-    for k, name in enumerate(names):
+    for k, (name, label) in enumerate(zip(names, _policy_labels(names))):
         env = ChainCartEnv(shown, render_mode="rgb_array", render_width=width, render_height=height,
                            render_camera=camera, render_trail=trail)
-        runs.append(_Run(_policy_label(name), env, make_policy(name, env, seed, model if k == 0 else None), seed))
+        runs.append(_Run(label, env, make_policy(name, env, seed, model if k == 0 else None), seed))
     out.parent.mkdir(parents=True, exist_ok=True)
     tally: dict[str, Any] = {}
     if container == "png":
@@ -471,6 +479,13 @@ def _policy_label(name: str) -> str:
     return name if name in POLICY_NAMES else Path(name).stem if Path(name).suffix else Path(name).name
 
 
+def _policy_labels(names: Sequence[str]) -> list[str]:
+    """The labels of side-by-side policies: :func:`_policy_label`, or a saved model's
+    path as given when that label would be shared with another policy's."""
+    short = [_policy_label(str(n)) for n in names]
+    return [s if short.count(s) == 1 or n in POLICY_NAMES else str(n) for n, s in zip(names, short)]
+
+
 # -- command line ----------------------------------------------------------------------
 
 
@@ -491,7 +506,8 @@ def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentP
         "--policy", dest="policies", action="append", default=None, metavar="POLICY",
         help="random, zero, lqr (default), trajectory, mpc, energy (the large-motion controllers) or a saved SB3 "
              "model: a .zip or a compare run folder; "
-             "repeat it to show several side by side from the same start",
+             "repeat it to show several side by side from the same start (each a built-in policy or a saved "
+             "model, in any order)",
     )
     length = parser.add_mutually_exclusive_group()
     length.add_argument("--seconds", type=float, default=None, help="simulated seconds (default: one episode)")
@@ -545,21 +561,40 @@ def _times_from_args(text: Optional[str]) -> Optional[list[float]]:
         raise InvalidInputError(f"--times {text!r}: expected seconds separated by commas, e.g. 0,0.5,1") from e
 
 
+def _saved_keywords(policies: Sequence[str]) -> dict[str, Any]:
+    """The env keywords the saved models among ``policies`` were trained with (their
+    ``config.json``), which must be the same config for all; ``{}`` when none says."""
+    found: list[tuple[str, dict[str, Any]]] = []
+    for name in policies:
+        if name not in POLICY_NAMES:
+            keywords = saved_config(Path(name))
+            if keywords is not None:
+                found.append((name, keywords))
+    if not found:
+        return {}
+    first_name, first = found[0]
+    first_config = ChainCartConfig(**first).to_dict()
+    for name, keywords in found[1:]:
+        other = ChainCartConfig(**keywords).to_dict()
+        if other != first_config:
+            differing = sorted(k for k in first_config.keys() | other.keys() if first_config.get(k) != other.get(k))
+            raise InvalidInputError(
+                f"policies {first_name!r} and {name!r} were saved with different configs (differing in "
+                f"{', '.join(differing)}): expected saved models of one config, or a scene picked with --scene"
+            )
+    return first
+
+
 def _animation_from_args(args: argparse.Namespace) -> Animation:
     settings = parse_settings(args.settings)
     policies = args.policies or ["lqr"]
-    model = None
-    keywords: dict[str, Any] = {}
-    if policies[0] not in POLICY_NAMES:
-        model = load_sb3_model(Path(policies[0]))
-        if args.scene is None:
-            keywords = saved_config(Path(policies[0])) or {}
-    if args.scene is not None:
-        keywords = {"scene": args.scene}
+    # Each slot is checked and loaded on its own when the animation starts; the scene
+    # is --scene, else the saved models' own.
+    keywords = {"scene": args.scene} if args.scene is not None else _saved_keywords(policies)
     config = ChainCartConfig(**{**keywords, **settings})
     out = args.out if args.out is not None else Path(f"{config.scene}.gif")
     return animate(
         config, out, policies, seconds=args.seconds, steps=args.steps, fps=args.fps,
-        width=args.width, height=args.height, seed=args.seed, model=model, view=args.view,
+        width=args.width, height=args.height, seed=args.seed, view=args.view,
         camera=_camera_from_args(args), trail=args.trail, times=_times_from_args(args.times),
     )

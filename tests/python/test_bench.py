@@ -217,3 +217,22 @@ def test_cells_section_times_serial_and_distributed_cells() -> None:
     timing = ctx.results["cells"]
     assert timing["serial_s"] > 0 and timing["distributed_s"] > 0 and timing["cold_s"] > 0
     assert "| as Ray tasks" in ctx.report.text()
+
+
+def test_render_section_reports_every_view_with_the_3d_goal() -> None:
+    from chaincart_env.tools.bench.render_fps import CASES, GOAL_3D_FPS, render_section
+    from chaincart_env.tools.bench.report import Report
+    from chaincart_env.tools.bench.suite import BenchContext, BenchSettings
+
+    ctx = BenchContext(BenchSettings(quick=True), Report(echo=False))
+    render_section(ctx)  # quick: about 0.02 s per measurement
+    fps = ctx.results["render_fps"]
+    assert set(fps) == set(CASES) and ("3d", 480, 480) in fps and all(r > 0 for r in fps.values())
+    text = ctx.report.text()
+    assert "## Render frames per second" in text
+    for view, width, height in CASES:
+        assert f"| {view} | {width}x{height} | " in text
+    verdict = "met" if fps[("3d", 480, 480)] >= GOAL_3D_FPS else "NOT met"
+    assert f"| 3d | 480x480 | {fps[('3d', 480, 480)]:.0f} | " in text and f">= {GOAL_3D_FPS}: {verdict} |" in text
+    for scene in ("inverted-2", "paper-fig3"):  # the env-level rows
+        assert f"| {scene} | env | 480x240 |" in text and f"| {scene} | vector, 4 tiles | 960x480 |" in text

@@ -2,7 +2,7 @@
 tiles of vector envs, the animate command, human mode without a display, and bad
 input. Geometry of the flat views is checked against the documented conventions (e1
 to the right, gravity down) by locating coloured pixels; the 3-D view's pictures are
-held against stored images in ``test_render_golden.py``."""
+held against stored images in ``test_render_3d.py``."""
 
 from __future__ import annotations
 
@@ -469,6 +469,113 @@ def test_animate_a_saved_sb3_model(tmp_path: Path) -> None:
     with pytest.raises(SystemExit):  # trained on 5 spatial links, shown the default scene: a usage error
         main(["animate", "--policy", str(tmp_path / "sac.zip"), "--scene", "inverted-2", "--steps", "2",
               "--out", str(tmp_path / "x.gif")])
+
+
+def saved_ppo_run(folder: Path, scene: str, seed: int, *, with_json: bool = True) -> Path:
+    """A tiny untrained PPO model saved as ``compare`` saves one (``model.zip`` with
+    ``config.json`` and ``run.json``), or as a bare ``.zip`` when ``with_json`` is false."""
+    import json
+
+    from stable_baselines3 import PPO
+
+    from chaincart_env import ChainCartVecEnv
+
+    config = ChainCartConfig(scene=scene)
+    folder.mkdir(parents=True)
+    model = PPO("MlpPolicy", ChainCartVecEnv(1, config), n_steps=16, batch_size=16, seed=seed, device="cpu")
+    if not with_json:
+        model.save(folder / f"{folder.name}.zip")
+        return folder / f"{folder.name}.zip"
+    model.save(folder / "model.zip")
+    (folder / "config.json").write_text(json.dumps(config.to_dict()))
+    (folder / "run.json").write_text(json.dumps({"algo": "ppo"}))
+    return folder
+
+
+def panels(frame: np.ndarray, width: int) -> list[np.ndarray]:
+    """The side-by-side panels of an animation frame, each ``width`` pixels wide."""
+    assert frame.shape[1] % width == 0
+    return [frame[:, c * width:(c + 1) * width] for c in range(frame.shape[1] // width)]
+
+
+def test_animate_a_built_in_policy_beside_saved_models_in_later_slots(tmp_path: Path) -> None:
+    first = saved_ppo_run(tmp_path / "first", "inverted-1", seed=1)
+    bare = saved_ppo_run(tmp_path / "bare", "inverted-1", seed=2, with_json=False)
+    w, h = 48, 32
+    band = _label_height(h)
+    args = ["animate", "--policy", "lqr", "--policy", str(first), "--policy", str(bare), "--steps", "6",
+            "--width", str(w), "--height", str(h), "--seed", "4"]
+    outs = [tmp_path / "one.gif", tmp_path / "two.gif"]
+    for out in outs:
+        # No --scene: the saved run's config.json picks inverted-1 (not the default scene).
+        assert main([*args, "--out", str(out)]) == 0
+    assert outs[0].read_bytes() == outs[1].read_bytes()  # deterministic
+    frames = decoded_frames(outs[0])
+    # dt = 20 ms at 25 fps: a frame every 2 steps, plus the start: 0, 2, 4, 6.
+    assert len(frames) == 4 and all(f.shape == (h + band, 3 * w, 3) for f in frames)
+    start = panels(frames[0], w)
+    for panel in start:
+        assert panel[:band].min() < 100  # each panel's label
+    # All three start from the same seeded state: the same picture under each label.
+    assert np.array_equal(start[0][band:], start[1][band:]) and np.array_equal(start[0][band:], start[2][band:])
+    # The second panel is the saved model's own episode, drawn by the env.
+    from chaincart_env.tools.animate import load_sb3_model as load
+
+    model = load(first)
+    env = ChainCartEnv(scene="inverted-1", render_view="3d", render_mode="rgb_array", render_width=w, render_height=h)
+    obs, _ = env.reset(seed=4)
+    for _ in range(6):
+        obs, *_ = env.step(model.predict(obs, deterministic=True)[0])
+    assert np.abs(panels(frames[-1], w)[1][band:].astype(int) - env.render()).mean() < 3
+    assert not np.array_equal(panels(frames[-1], w)[0][band:], panels(frames[-1], w)[1][band:])
+    # Through the API: the labels name each policy, and every slot runs its own episode.
+    result = animate(ChainCartConfig(scene="inverted-1"), tmp_path / "api.gif", ["lqr", str(first), str(bare)],
+                     steps=6, width=w, height=h, seed=4)
+    assert result.policies == ("lqr", "first", "bare") and result.width == w and len(result.returns) == 3
+    assert result.path.read_bytes() == outs[0].read_bytes()
+
+
+def test_animate_two_saved_models_side_by_side_in_an_mp4(tmp_path: Path) -> None:
+    import imageio.v3 as iio
+
+    # Two runs whose folders share a name: each label is then the path given.
+    a = saved_ppo_run(tmp_path / "a" / "seed-0", "inverted-1", seed=1)
+    b = saved_ppo_run(tmp_path / "b" / "seed-0", "inverted-1", seed=2)
+    w, h = 64, 32
+    outs = [tmp_path / "one.mp4", tmp_path / "two.mp4"]
+    for out in outs:
+        assert main(["animate", "--policy", str(a), "--policy", str(b), "--steps", "8", "--out", str(out),
+                     "--width", str(w), "--height", str(h)]) == 0
+    frames = iio.imread(outs[0])
+    assert frames.shape == (5, h + _label_height(h), 2 * w, 3) and frames.dtype == np.uint8
+    assert np.array_equal(frames, iio.imread(outs[1]))  # deterministic
+    result = animate(ChainCartConfig(scene="inverted-1"), tmp_path / "api.mp4", [str(a), str(b)], steps=2,
+                     width=w, height=h)
+    assert result.policies == (str(a), str(b))
+
+
+def test_animate_refuses_saved_models_of_different_configs_and_bad_later_slots(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    one = saved_ppo_run(tmp_path / "one", "inverted-1", seed=1)
+    two = saved_ppo_run(tmp_path / "two", "inverted-2", seed=1)
+    out = tmp_path / "x.gif"
+    cases = [
+        ([str(one), str(two)], f"policies {str(one)!r} and {str(two)!r} were saved with different configs"),
+        (["lqr", "smart"], "policy 'smart': expected one of ['random', 'zero', 'lqr', 'trajectory', 'mpc', 'energy']"),
+        (["lqr", str(tmp_path / "none.zip")], f"policy {str(tmp_path / 'none.zip')!r}: expected one of"),
+    ]
+    for policies, message in cases:
+        with pytest.raises(SystemExit) as exit_:
+            main(["animate", "--steps", "2", "--out", str(out), *[a for p in policies for a in ("--policy", p)]])
+        assert exit_.value.code == 2
+        assert message in capsys.readouterr().err
+    # With --scene, a model trained on another scene says which policy and what it expected.
+    with pytest.raises(SystemExit):
+        main(["animate", "--scene", "inverted-2", "--policy", "zero", "--policy", str(one), "--steps", "2",
+              "--out", str(out)])
+    assert f"policy {str(one)!r}: the model observes shape" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_animate_writes_an_mp4(tmp_path: Path) -> None:

@@ -23,8 +23,12 @@ CASES = (("3d", 480, 480), ("3d", 960, 720), ("side", 480, 240), ("side+top", 48
 GOAL_3D_FPS = 2000
 
 
+#: Seconds each env-level render measurement runs (``--quick``: a smoke run).
+ENV_SECONDS, QUICK_ENV_SECONDS = 0.5, 0.02
+
+
 def _renderer_report(ctx: BenchContext) -> None:
-    result: Any = render_benchmark()
+    result: Any = render_benchmark(seconds=QUICK_ENV_SECONDS if ctx.settings.quick else ENV_SECONDS)
     ctx.report.paragraph("`chaincart_env.tools.bench.render_benchmark.render_benchmark()`:")
     rows = [result] if isinstance(result, Mapping) else list(result) if isinstance(result, Sequence) else []
     if rows and all(isinstance(r, Mapping) for r in rows):
