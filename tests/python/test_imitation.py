@@ -124,9 +124,9 @@ def test_training_with_an_imitation_evaluates_it_first(tmp_path) -> None:
     from chaincart_env.tools.compare.training import train
 
     config = ChainCartConfig(scene="transitions-2")
-    train(config, timesteps=128, num_envs=4, directory=tmp_path, eval_seeds=[1_000_000, 1_000_001],
+    result = train(config, timesteps=128, num_envs=4, directory=tmp_path, eval_seeds=[1_000_000, 1_000_001],
                    eval_every=128, checkpoint_every=128, progress_bar=False,
                    hyperparameters={"n_steps": 32, "batch_size": 64}, normalize={"norm_obs": True}, imitation=TINY)
-    assert (tmp_path / IMITATION_FILE).is_file()
+    assert (tmp_path / IMITATION_FILE).is_file() and result.imitation["round"] == TINY.rounds
     with (tmp_path / "evaluations.csv").open(newline="") as file:
         assert float(next(csv.DictReader(file))["timesteps"]) == 0.0  # the imitation, before any training

@@ -183,7 +183,7 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                        normalize=training.get("normalize"), imitation=_imitation(training))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations,
-                       normalize=training.get("normalize"))
+                       normalize=training.get("normalize"), imitation=result.imitation)
     print(f"{algo.upper()} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],

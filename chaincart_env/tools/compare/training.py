@@ -99,6 +99,9 @@ class TrainingResult:
     evaluations: dict[str, Any]
     #: Timesteps at which this call started (0, or the checkpoint it resumed from).
     resumed_from: int
+    #: The imitation's last round (``imitation.csv``'s columns; its wall time is not in
+    #: ``wall_time_s``), or ``None`` without one.
+    imitation: Optional[dict[str, Any]] = None
 
 
 #: Files of a training directory.
@@ -204,8 +207,7 @@ def train(
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs, normalize)
-    if imitation is not None and not resuming:
-        imitate(model, config, imitation, seed, directory)
+    imitated = imitate(model, config, imitation, seed, directory) if imitation is not None and not resuming else None
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
     if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise
@@ -218,4 +220,4 @@ def train(
     model.learn(total_timesteps=max(0, planned - resumed_from), callback=[logger, evaluation, checkpoints],
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)
     return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs, evaluation.summary(),
-                          resumed_from)
+                          resumed_from, imitated)
