@@ -130,3 +130,41 @@ def test_training_with_an_imitation_evaluates_it_first(tmp_path) -> None:
     assert (tmp_path / IMITATION_FILE).is_file() and result.imitation["round"] == TINY.rounds
     with (tmp_path / "evaluations.csv").open(newline="") as file:
         assert float(next(csv.DictReader(file))["timesteps"]) == 0.0  # the imitation, before any training
+
+
+def test_focus_rounds_draw_the_transitions_the_learner_misses_and_stop_when_none(tmp_path, monkeypatch) -> None:
+    from chaincart_env.tools.compare import imitation as module
+
+    config = ChainCartConfig(scene="transitions-2")
+    solved = {config.pairs[0], config.pairs[5]}
+    asked = []
+
+    def pair_success(act, config, pair, starts, seed):
+        asked.append((pair, starts))
+        return 1.0 if pair in solved else 0.0
+
+    monkeypatch.setattr(module, "_pair_success", pair_success)
+    focused = Imitation.from_record({**TINY.record(), "rounds": 1, "focus_rounds": 3, "focus_starts": 2})
+    module.imitate(_agent(config), config, focused, 0, tmp_path)
+    with (tmp_path / IMITATION_FILE).open(newline="") as file:
+        drawn = [int(row["drawn_pairs"]) for row in csv.DictReader(file)]
+    # The fit, one round on all 12, then focus rounds: the 10 missed, all 12, the 10 missed.
+    assert drawn == [12, 12, 10, 12, 10]
+    assert len(asked) == 2 * 12 and {starts for _, starts in asked} == {2}
+
+    solved.update(config.pairs)  # the learner misses none: the focus rounds end at once
+    module.imitate(_agent(config), config, focused, 0, tmp_path)
+    with (tmp_path / IMITATION_FILE).open(newline="") as file:
+        assert [int(row["drawn_pairs"]) for row in csv.DictReader(file)] == [12, 12]
+
+
+def test_pair_success_counts_the_first_episode_of_each_start() -> None:
+    from chaincart_env.policies import TrajectoryPolicy
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.imitation import _pair_success
+
+    config = ChainCartConfig(scene="transitions-2")
+    pair = ((-1, -1), (1, 1))
+    expert = TrajectoryPolicy.from_env(ChainCartVecEnv(1, config.replace(transitions=[pair])))
+    assert _pair_success(lambda obs, _: expert.predict(obs)[0], config, pair, 2, 5) == 1.0
+    assert _pair_success(lambda obs, _: np.zeros((obs.shape[0], 1), np.float32), config, pair, 2, 5) == 0.0

@@ -34,7 +34,7 @@ __all__ = ["IMITATING_ALGOS", "IMITATION_FILE", "SCENE_IMITATIONS", "Imitation",
 
 #: The per-round log of an imitation, in the training directory.
 IMITATION_FILE = "imitation.csv"
-_COLUMNS = ("round", "samples", "learner_episodes", "learner_success", "fit_loss", "wall_time_s")
+_COLUMNS = ("round", "drawn_pairs", "samples", "learner_episodes", "learner_success", "fit_loss", "wall_time_s")
 
 
 @dataclass(frozen=True)
@@ -57,13 +57,19 @@ class Imitation:
     batch_size: int = 4096
     #: The policy's exploration standard deviation once imitation is over.
     action_std: float = 0.1
+    #: Further DAgger rounds on goal-conditioned scenes, every other one drawing only the
+    #: transitions the learner still misses (measured before it from
+    #: :attr:`focus_starts` seeded starts of each transition); they stop early when it
+    #: misses none.
+    focus_rounds: int = 0
+    focus_starts: int = 4
 
     def __post_init__(self) -> None:
-        for name in ("demonstration_steps", "epochs", "rounds", "round_steps", "round_epochs", "batch_size"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < (0 if name == "rounds" else 1):
-                raise InvalidInputError(f"imitation {name} = {value!r}: expected an integer >= "
-                                        f"{0 if name == 'rounds' else 1}")
+        for name in ("demonstration_steps", "epochs", "rounds", "round_steps", "round_epochs", "batch_size",
+                     "focus_rounds", "focus_starts"):
+            value, least = getattr(self, name), 0 if name in ("rounds", "focus_rounds") else 1
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise InvalidInputError(f"imitation {name} = {value!r}: expected an integer >= {least}")
         if not self.noise or not all(isinstance(v, (int, float)) and 0.0 <= v < 1.0 for v in self.noise):
             raise InvalidInputError(f"imitation noise = {self.noise!r}: expected standard deviations in [0, 1)")
         for name in ("learning_rate", "action_std"):
@@ -86,7 +92,7 @@ class Imitation:
 #: The scenes whose PPO agents start from an imitation of the planner: the
 #: goal-conditioned transitions of two links, where PPO alone learned only the
 #: transitions to hanging (docs/main-job.md).
-SCENE_IMITATIONS: dict[str, Imitation] = {"transitions-2": Imitation()}
+SCENE_IMITATIONS: dict[str, Imitation] = {"transitions-2": Imitation(focus_rounds=8)}
 #: The algorithms whose policy an imitation can fit (a Gaussian actor-critic).
 IMITATING_ALGOS = ("ppo", "a2c")
 
@@ -193,23 +199,47 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
         return statistics.normalize_obs(raw_observations) if statistics is not None else raw_observations
 
     loss = fit.run(normalized(raw), np.concatenate(labels), imitation.epochs)
-    log.add(_row(0, raw.shape[0], [], loss, start))
-    for round_ in range(1, imitation.rounds + 1):
-        venv, expert = envs(len(imitation.noise) + round_)
-        seen, said, successes = _rollout(venv, expert, imitation.round_steps, lambda obs, _: fit.act(normalized(obs)))
+    pairs = config.pairs or []
+    log.add(_row(0, len(pairs), raw.shape[0], [], loss, start))
+    learner = lambda obs, _: fit.act(normalized(obs))  # noqa: E731
+    focus = imitation.focus_rounds if pairs else 0
+    for round_ in range(1, imitation.rounds + focus + 1):
+        drawn = config
+        if round_ > imitation.rounds and (round_ - imitation.rounds) % 2 == 1:
+            missed = [pair for pair in pairs
+                      if _pair_success(learner, config, pair, imitation.focus_starts, seed + 200_000 + round_) < 1.0]
+            if not missed:
+                break
+            drawn = config.replace(transitions=missed)
+        venv = ChainCartVecEnv(n_envs, drawn, seed=seed + 100_000 + (len(imitation.noise) + round_) * n_envs)
+        seen, said, successes = _rollout(venv, TrajectoryPolicy.from_env(venv), imitation.round_steps, learner)
         observations.append(seen)
         labels.append(said)
         raw = np.concatenate(observations)
         loss = fit.run(normalized(raw), np.concatenate(labels), imitation.round_epochs)
-        log.add(_row(round_, raw.shape[0], successes, loss, start))
+        log.add(_row(round_, len(drawn.pairs or []), raw.shape[0], successes, loss, start))
     with fit.torch.no_grad():  # the exploration of the training that follows
         policy.log_std.fill_(math.log(imitation.action_std))
     return log.last
 
 
-def _row(round_: int, samples: int, successes: list[bool], loss: float, start: float) -> dict[str, Any]:
+def _pair_success(act: Any, config: Any, pair: Any, starts: int, seed: int) -> float:
+    """The success of ``act`` over the first episodes of ``starts`` seeded envs of one transition."""
+    from chaincart_env.sb3 import ChainCartVecEnv
+
+    venv = ChainCartVecEnv(starts, config.replace(transitions=[pair]), seed=seed)
+    observation, ended = venv.reset(), np.zeros(starts, dtype=bool)
+    success = np.zeros(starts, dtype=bool)
+    while not ended.all():
+        observation, _, done, infos = venv.step(act(observation, None))
+        for i in np.flatnonzero(done & ~ended):
+            ended[i], success[i] = True, bool(infos[i].get("is_success", False))
+    return float(success.mean())
+
+
+def _row(round_: int, pairs: int, samples: int, successes: list[bool], loss: float, start: float) -> dict[str, Any]:
     return {
-        "round": round_, "samples": samples, "learner_episodes": len(successes),
+        "round": round_, "drawn_pairs": pairs, "samples": samples, "learner_episodes": len(successes),
         "learner_success": float(np.mean(successes)) if successes else float("nan"),
         "fit_loss": loss, "wall_time_s": round(time.perf_counter() - start, 3),
     }
