@@ -5,7 +5,6 @@ needs, checked before any work starts so that a missing one is one clear line
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
 from typing import Any, Iterable
 
 from chaincart_env.errors import MissingExtraError
@@ -39,20 +38,6 @@ def require(purpose: str, needs: dict[str, tuple[str, ...]]) -> None:
         raise MissingExtraError(f"{purpose} needs {modules}, not installed: pip install 'chaincart-env[{extras}]'")
 
 
-def _animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
-    needs: dict[str, tuple[str, ...]] = {}
-    suffix = ".gif" if args.out is None else Path(str(args.out)).suffix.lower()  # default: SCENE.gif
-    if suffix in (".gif", ".png", ".mp4"):  # Pillow draws the labels of every kind
-        needs["plot"] = ("PIL",)
-    if suffix == ".mp4":
-        needs["plot"] = ("PIL", "imageio", "imageio_ffmpeg")
-    from chaincart_env.tools.animate import POLICY_NAMES
-
-    if any(str(p) not in POLICY_NAMES for p in args.policies or ()):  # a saved model in some slot
-        needs["sb3"] = ("stable_baselines3",)
-    return needs
-
-
 def _cluster_needs(args: Any) -> dict[str, tuple[str, ...]]:
     """A Ray cluster (``--address``) needs Ray, from the rllib extra."""
     return {"rllib": ("ray",)} if getattr(args, "address", None) is not None else {}
@@ -68,8 +53,6 @@ def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
         return {**needs, **_cluster_needs(args)}
     if command in ("figures", "roa"):
         return {"plot": ("matplotlib",)}
-    if command == "animate":
-        return _animate_needs(args)
     if command == "transitions" and getattr(args, "figure", False):
         return {"plot": ("matplotlib",)}
     return {}

@@ -489,6 +489,20 @@ def _policy_labels(names: Sequence[str]) -> list[str]:
 # -- command line ----------------------------------------------------------------------
 
 
+def animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
+    """``{extra: modules}`` the animate command needs: Pillow for the labels, imageio and
+    its ffmpeg for an MP4, stable-baselines3 for a saved model in any ``--policy`` slot."""
+    needs: dict[str, tuple[str, ...]] = {}
+    suffix = ".gif" if args.out is None else Path(str(args.out)).suffix.lower()  # default: SCENE.gif
+    if suffix in (".gif", ".png", ".mp4"):
+        needs["plot"] = ("PIL",)
+    if suffix == ".mp4":
+        needs["plot"] = ("PIL", "imageio", "imageio_ffmpeg")
+    if any(str(p) not in POLICY_NAMES for p in args.policies or ()):
+        needs["sb3"] = ("stable_baselines3",)
+    return needs
+
+
 def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
     """Adds ``animate`` to a subcommand set (its ``handler`` default runs it)."""
     parser = commands.add_parser(
@@ -532,7 +546,7 @@ def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentP
     parser.add_argument("--height", type=int, default=None, help="frame height in pixels (default: the view's)")
     parser.add_argument("--seed", type=int, default=0, help="reset seed (and the random policy's)")
     # Usage errors print this subcommand's usage, not the top level's.
-    parser.set_defaults(handler=lambda args, _top=None: run_animate_command(args, parser))
+    parser.set_defaults(handler=lambda args, _top=None: run_animate_command(args, parser), needs=animate_needs)
 
 
 def run_animate_command(args: argparse.Namespace, parser: Optional[argparse.ArgumentParser] = None) -> int:

@@ -68,12 +68,14 @@ def test_a_missing_extra_is_named_before_any_work(argv, missing, expected, monke
 def test_built_in_animate_policies_need_no_sb3_and_a_saved_model_in_any_slot_does() -> None:
     from argparse import Namespace
 
-    from chaincart_env.extras import command_needs
+    from chaincart_env.tools.animate import animate_needs
 
     built_in = ["random", "zero", "lqr", "trajectory", "mpc", "energy"]
-    assert command_needs("animate", Namespace(out=None, policies=built_in)) == {"plot": ("PIL",)}
+    assert animate_needs(Namespace(out=None, policies=built_in)) == {"plot": ("PIL",)}
     mixed = Namespace(out=None, policies=["lqr", "runs/ppo"])
-    assert command_needs("animate", mixed)["sb3"] == ("stable_baselines3",)
+    assert animate_needs(mixed)["sb3"] == ("stable_baselines3",)
+    mp4 = Namespace(out="a.mp4", policies=["lqr"])
+    assert animate_needs(mp4) == {"plot": ("PIL", "imageio", "imageio_ffmpeg")}
 
 
 def test_the_vecenv_class_names_its_extra(monkeypatch: pytest.MonkeyPatch) -> None:
