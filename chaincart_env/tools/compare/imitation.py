@@ -174,9 +174,9 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     fit = _Fit(model, imitation, seed)
     log = _Log(Path(directory) / IMITATION_FILE)
 
-    def envs(block: int) -> tuple[Any, Any]:
+    def envs(block: int, drawn: Any = config) -> tuple[Any, Any]:
         # Seeds apart from the training envs' (seed + i) and the evaluations' (1 000 000 + k).
-        venv = ChainCartVecEnv(n_envs, config, seed=seed + 100_000 + block * n_envs)
+        venv = ChainCartVecEnv(n_envs, drawn, seed=seed + 100_000 + block * n_envs)
         return venv, TrajectoryPolicy.from_env(venv)
 
     observations, labels = [], []
@@ -211,8 +211,8 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
             if not missed:
                 break
             drawn = config.replace(transitions=missed)
-        venv = ChainCartVecEnv(n_envs, drawn, seed=seed + 100_000 + (len(imitation.noise) + round_) * n_envs)
-        seen, said, successes = _rollout(venv, TrajectoryPolicy.from_env(venv), imitation.round_steps, learner)
+        venv, expert = envs(len(imitation.noise) + round_, drawn)
+        seen, said, successes = _rollout(venv, expert, imitation.round_steps, learner)
         observations.append(seen)
         labels.append(said)
         raw = np.concatenate(observations)
