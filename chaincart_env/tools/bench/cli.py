@@ -34,7 +34,7 @@ def add_bench_arguments(bench: argparse.ArgumentParser) -> None:
                        help="numbers of links n for the throughput section (default: 1,2,5,10)")  # fmt: skip
     bench.add_argument("--out", type=Path, default=None, help="directory for the PNG plots (default: no plots)")
     bench.add_argument("--markdown", type=Path, default=None, help="also write the report as the docs' performance page (docs/performance.md) to this file")
-    bench.add_argument("--note", default="", help="free text added to the machine line (e.g. what else was running)")
+    bench.add_argument("--note", default="", help="free text added to the machine line (e.g. the load during the run)")
 
 
 def run_from_args(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
