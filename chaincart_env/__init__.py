@@ -29,6 +29,7 @@ from chaincart_env.errors import (  # noqa: E402
     InvalidTypeError,
     MissingExtraError,
     PlanningError,
+    UnknownKeyError,
 )
 from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
 from chaincart_env.env import ChainCartEnv  # noqa: E402
@@ -48,6 +49,7 @@ __all__ = [
     "IntegrationError",
     "InvalidInputError",
     "InvalidTypeError",
+    "UnknownKeyError",
     "MissingExtraError",
     "ChainCart",
     "ChainCartConfig",

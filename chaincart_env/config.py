@@ -8,9 +8,10 @@ canonical form (scalars stay scalars, sequences become tuples, names stay names)
 checked, the task against the model; a bad value raises
 :class:`~chaincart_env.errors.InvalidInputError` (a ``ValueError``) or
 :class:`~chaincart_env.errors.InvalidTypeError` (a ``TypeError``) naming the value and
-what was expected. The core hands back one native object (``_core.ResolvedConfig``)
-holding the model and the task; envs build their batches from it, so the
-configuration crosses into Rust once.
+what was expected; a keyword that does not exist raises
+:class:`~chaincart_env.errors.UnknownKeyError` (both) naming the closest one. The
+core hands back one native object (``_core.ResolvedConfig``) holding the model and the
+task; envs build their batches from it, so the configuration crosses into Rust once.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from chaincart_env import _core
-from chaincart_env.errors import InvalidInputError, InvalidTypeError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError, UnknownKeyError
 from chaincart_env.model import ChainCart
 
 __all__ = [
@@ -190,7 +191,7 @@ class ChainCartConfig:
         # Before the generated __init__, whose TypeError would name no keyword to use.
         for name in kwargs:
             if name not in _KEYWORDS:
-                raise InvalidTypeError(f"ChainCartConfig: {unknown_keyword_message(name)}")
+                raise UnknownKeyError(f"ChainCartConfig: {unknown_keyword_message(name)}")
         return super().__new__(cls)
 
     def __post_init__(self) -> None:

@@ -7,6 +7,9 @@ class                   also a                          raised for
 ``InvalidInputError``   ``ValueError``                  an argument with a wrong value
 ``InvalidTypeError``    ``InvalidInputError``,          an argument of a wrong type (a string
                         ``TypeError``                   where a number is needed, a non-bool mask)
+``UnknownKeyError``     ``InvalidInputError``,          a configuration keyword that does not exist
+                        ``TypeError``                   (the message names the closest one and
+                                                        lists them all, once)
 ``IntegrationError``    ``RuntimeError``                ``ChainCart.simulate``/``step`` failing
                                                         numerically (``time``, ``reason``)
 ``AnalysisError``       ``numpy.linalg.LinAlgError``    linearisation, LQR and Lyapunov solves
@@ -28,6 +31,7 @@ __all__ = [
     "ChainCartError",
     "InvalidInputError",
     "InvalidTypeError",
+    "UnknownKeyError",
     "IntegrationError",
     "AnalysisError",
     "PlanningError",
@@ -45,6 +49,25 @@ class InvalidInputError(ChainCartError, ValueError):
 class InvalidTypeError(InvalidInputError, TypeError):
     """An argument has the wrong type (both a ``TypeError`` and an
     :class:`InvalidInputError`, so code catching ``ValueError`` still catches it)."""
+
+
+class UnknownKeyError(InvalidInputError, TypeError):
+    """A configuration keyword that does not exist (``n_link=3``): the message names the
+    closest keyword (``did you mean "n_links"?``) and lists every keyword.
+
+    A ``TypeError`` as Python's own unexpected keyword argument is, and as
+    ``gymnasium.make`` expects of an env constructor; an :class:`InvalidInputError` (a
+    ``ValueError``) like every other bad configuration value.
+
+    Its message is complete, so it hides the exception it was raised while handling:
+    ``gymnasium.make`` re-raises an env constructor's ``TypeError`` as a new exception of
+    the same type whose message is the old one plus the env id and keywords, and the
+    traceback then shows the keyword list once, not once per exception.
+    """
+
+    def __init__(self, *args: object) -> None:
+        super().__init__(*args)
+        self.__suppress_context__ = True
 
 
 class IntegrationError(ChainCartError, RuntimeError):

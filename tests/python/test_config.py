@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import pickle
+import traceback
 from pathlib import Path
 
 import gymnasium as gym
@@ -16,7 +17,7 @@ from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartEnv, 
 from chaincart_env import RewardWeights
 from chaincart_env import _core
 from chaincart_env.config import CONFIG_KEYS, REALITY_KEYS
-from chaincart_env.errors import InvalidInputError, InvalidTypeError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError, UnknownKeyError
 from chaincart_env.spec import plain_value
 
 REALITY_NAMES = [k[0] for k in REALITY_KEYS]
@@ -127,7 +128,7 @@ def test_bad_config_raises_a_clear_error(kwargs: dict, message: str) -> None:
 
 
 def test_unknown_keywords_are_type_errors_suggesting_the_closest_keyword() -> None:
-    with pytest.raises(TypeError, match=r'unknown config key "n_link" \(did you mean "n_links"\?\): expected one of'):
+    with pytest.raises(UnknownKeyError, match=r'unknown config key "n_link" \(did you mean "n_links"\?\): expected one of'):
         ChainCartConfig(n_link=2)  # type: ignore[call-arg]
     with pytest.raises(InvalidInputError, match=r'"link_length" \(did you mean "link_lengths"\?\)'):
         ChainCartConfig(n_links=2, link_length=0.3)  # type: ignore[call-arg]
@@ -148,8 +149,36 @@ def test_unknown_keywords_are_type_errors_suggesting_the_closest_keyword() -> No
     ],
 )
 def test_every_env_constructor_suggests_the_closest_keyword(make) -> None:
-    with pytest.raises(InvalidTypeError, match=r'unknown config key "n_link" \(did you mean "n_links"\?\)'):
+    with pytest.raises(UnknownKeyError, match=r'unknown config key "n_link" \(did you mean "n_links"\?\)'):
         make()
+
+
+#: The keyword list an unknown keyword's message ends with, from the core's own keys.
+KEY_LIST = "expected one of " + ", ".join(f'"{name}"' for name, *_ in CONFIG_KEYS)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: gym.make("ChainCart-v0", n_link=3),
+        lambda: gym.make("ChainCart-swingup-2-v0", n_link=3),
+        lambda: ChainCartEnv(n_link=3),
+        lambda: ChainCartVectorEnv(4, n_link=3),
+        lambda: chaincart_env.ChainCartVecEnv(4, n_link=3),
+    ],
+    ids=["gym.make", "gym.make-scene", "ChainCartEnv", "ChainCartVectorEnv", "ChainCartVecEnv"],
+)
+def test_an_unknown_keyword_is_reported_once_under_its_own_name(make) -> None:
+    with pytest.raises(UnknownKeyError) as info:
+        make()
+    error = info.value
+    assert isinstance(error, TypeError) and isinstance(error, ValueError) and isinstance(error, InvalidInputError)
+    assert not isinstance(error, InvalidTypeError)
+    printed = "".join(traceback.format_exception(error))
+    assert len(CONFIG_KEYS) > 30 and KEY_LIST in str(error)
+    assert printed.count(KEY_LIST) == 1, printed
+    assert printed.count('(did you mean "n_links"?)') == 1, printed
+    assert printed.count("chaincart_env.errors.UnknownKeyError: ") == 1 and "InvalidTypeError" not in printed, printed
 
 
 def test_a_mistyped_scene_suggests_the_closest_scene() -> None:

@@ -22,6 +22,7 @@ from chaincart_env import (
     InvalidInputError,
     InvalidTypeError,
     MissingExtraError,
+    UnknownKeyError,
     _core,
 )
 
@@ -32,6 +33,8 @@ def test_the_hierarchy() -> None:
     assert issubclass(IntegrationError, ChainCartError) and issubclass(IntegrationError, RuntimeError)
     assert issubclass(AnalysisError, ChainCartError) and issubclass(AnalysisError, np.linalg.LinAlgError)
     assert issubclass(MissingExtraError, ChainCartError) and issubclass(MissingExtraError, ImportError)
+    assert issubclass(UnknownKeyError, InvalidInputError) and issubclass(UnknownKeyError, TypeError)
+    assert not issubclass(UnknownKeyError, InvalidTypeError)
     assert not issubclass(IntegrationError, ValueError) and not issubclass(InvalidInputError, TypeError)
     for name in ("ChainCartError", "InvalidInputError", "InvalidTypeError", "IntegrationError", "AnalysisError"):
         assert getattr(_core, name) is getattr(chaincart_env, name)
@@ -89,6 +92,19 @@ def test_wrong_values_raise_value_error_not_type_error(name: str) -> None:
     with pytest.raises(ValueError) as error:
         WRONG_VALUES[name]()
     assert isinstance(error.value, InvalidInputError) and not isinstance(error.value, TypeError)
+
+
+def test_an_unknown_keyword_is_a_type_error_as_python_and_gymnasium_make_expect() -> None:
+    import gymnasium as gym
+
+    for make in (lambda: ChainCartEnv(n_link=3), lambda: gym.make("ChainCart-v0", n_link=3)):
+        with pytest.raises(TypeError) as info:
+            make()
+        assert type(info.value) is UnknownKeyError and isinstance(info.value, ValueError)
+        assert '(did you mean "n_links"?)' in str(info.value)
+    with pytest.raises(UnknownKeyError) as info:
+        ChainCartEnv(n_link=3)
+    assert pickle.loads(pickle.dumps(info.value)).args == info.value.args
 
 
 def test_a_failed_integration_is_a_runtime_error_with_time_and_reason() -> None:
