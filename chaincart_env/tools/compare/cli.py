@@ -91,6 +91,13 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="train PPO from scratch on scenes whose recipe first imitates the planner's controller "
                         "(transitions-2)")
     _add_rllib_options(parser)
+    parser.add_argument("--curriculum", choices=("none", "plan"), default=None,
+                        help="where the training episodes start: plan = a share of them (--plan-fraction) at states "
+                        "drawn along the planner's swing-up, the rest at the scene's starts; none = the scene's starts "
+                        "only (default: the scene's curriculum, none on most scenes)")
+    parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
+                        help="with --curriculum plan: the share of training episodes that start on the plan, in "
+                        "(0, 1] (default: 0.5)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_evaluation_options(parser, defaults=True)
     add_scene_options(parser)
@@ -161,6 +168,19 @@ def _algo_kwargs(texts: Sequence[str]) -> tuple[dict[str, Any], dict[str, dict[s
 
 def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
     """``--sweep`` options as axis -> values (``None``: the default sweeps)."""
+def _curriculum(name: Optional[str], fraction: Optional[float]) -> Any:
+    """``--curriculum`` and ``--plan-fraction`` as ``run_compare``'s ``curriculum``."""
+    from chaincart_env.tools.compare.curriculum import PlanStarts
+
+    if fraction is not None and name != "plan":
+        raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan: expected both or neither")
+    if name is None:
+        return "scene"
+    if name == "none":
+        return None
+    return PlanStarts() if fraction is None else PlanStarts(fraction)
+
+
     if not texts:
         return None
     sweeps: dict[str, list[float]] = {}
@@ -184,6 +204,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         sweeps = _sweeps(args.sweeps)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
+        curriculum = _curriculum(args.curriculum, args.plan_fraction)
     if args.policies is not None:
         policies = [args.policies]
     elif args.algo is not None:
@@ -199,7 +220,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     torch_threads=args.torch_threads, hyperparameters=hyperparameters,
                     algo_hyperparameters=algo_hyperparameters, trainer=args.trainer,
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
-                    address=args.address, imitation=not args.no_imitation)
+                    address=args.address, imitation=not args.no_imitation, curriculum=curriculum)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

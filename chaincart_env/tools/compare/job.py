@@ -180,10 +180,12 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                        directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
                        checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
                        hyperparameters=training["hyperparameters"], resume=resume,
-                       normalize=training.get("normalize"), imitation=_imitation(training))
+                       normalize=training.get("normalize"), imitation=_imitation(training),
+                       curriculum=_curriculum(training))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations,
-                       normalize=training.get("normalize"), imitation=result.imitation)
+                       normalize=training.get("normalize"), imitation=result.imitation,
+                       curriculum=training.get("curriculum"))
     print(f"{algo.upper()} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
@@ -201,6 +203,32 @@ def _imitation(training: Mapping[str, Any]) -> Any:
 
     record = training.get("imitation")
     return None if record is None else Imitation.from_record(record)
+
+
+def _curriculum(training: Mapping[str, Any]) -> Any:
+    from chaincart_env.tools.compare.curriculum import PlanStarts
+
+    record = training.get("curriculum")
+    return None if record is None else PlanStarts.from_record(record)
+
+
+def _chosen_curriculum(config: ChainCartConfig, trainer: str, curriculum: Any) -> Optional[dict[str, Any]]:
+    """The curriculum record of the study's SB3 training: the scene's for ``"scene"``, none
+    for ``None`` or ``"none"``, else ``curriculum`` (a ``PlanStarts``), checked against the
+    scene and the trainer."""
+    from chaincart_env.tools.compare.curriculum import PlanStarts, check_plan_scene, scene_curriculum
+
+    if curriculum == "scene":
+        chosen = scene_curriculum(config.scene) if trainer == "sb3" else None
+        return None if chosen is None else chosen.record()
+    if curriculum is None or curriculum == "none":
+        return None
+    if not isinstance(curriculum, PlanStarts):
+        raise InvalidInputError(f"curriculum = {curriculum!r}: expected 'scene', 'none' or PlanStarts(...)")
+    if trainer != "sb3":
+        raise InvalidInputError(f"--curriculum plan with --trainer {trainer}: plan starts are built for the sb3 trainer")
+    check_plan_scene(config)
+    return curriculum.record()
 
 
 def _train_rllib(
@@ -367,18 +395,20 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
 def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
-    imitation: bool = True,
+    imitation: bool = True, curriculum: Any = "scene",
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
     algorithm, then those given for it alone; with ``imitation``, the scene's imitation
-    of the planner first (SB3 only; ``None`` where the scene has none)."""
+    of the planner first (SB3 only; ``None`` where the scene has none); ``curriculum``: see
+    :func:`_chosen_curriculum`."""
     unknown = sorted(set(algo_hyperparameters) - set(learned))
     if unknown:
         raise InvalidInputError(
             f"keywords for {', '.join(unknown)}: expected a learned algorithm of the study, one of {list(learned)}"
         )
     out = {}
+    chosen_curriculum = _chosen_curriculum(config, trainer, curriculum) if learned else None
     for algo in learned:
         recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
         keywords = {**recipe.hyperparameters, **hyperparameters, **algo_hyperparameters.get(algo, {})}
@@ -391,6 +421,7 @@ def _training_settings(
                          hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize)
         warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" else None
         out[algo]["imitation"] = None if warm_start is None else warm_start.record()
+        out[algo]["curriculum"] = chosen_curriculum
     return out
 
 
@@ -417,6 +448,7 @@ def run_compare(
     rllib: Optional[dict[str, Any]] = None,
     address: Optional[str] = None,
     imitation: bool = True,
+    curriculum: Any = "scene",
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -435,7 +467,12 @@ def run_compare(
     evaluation cells) run as Ray tasks, with the same results as without it; RLlib's
     env runners run there too. ``imitation=False`` trains from scratch where the scene's
     PPO recipe starts from an imitation of the planner
-    (:data:`~chaincart_env.tools.compare.imitation.SCENE_IMITATIONS`)."""
+    (:data:`~chaincart_env.tools.compare.imitation.SCENE_IMITATIONS`). ``curriculum``: where
+    the SB3 training episodes start: ``"scene"`` (the scene's curriculum,
+    :data:`~chaincart_env.tools.compare.curriculum.SCENE_CURRICULA`, none on most scenes),
+    ``None`` (the scene's starts only) or a
+    :class:`~chaincart_env.tools.compare.curriculum.PlanStarts` (a share of them along the
+    planner's plan)."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
     names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")
@@ -448,7 +485,7 @@ def run_compare(
         eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every, progress_bar=progress_bar,
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
-                                    dict(algo_hyperparameters or {}), imitation),
+                                    dict(algo_hyperparameters or {}), imitation, curriculum),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve

@@ -15,6 +15,8 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
 from chaincart_env.tools.compare.algorithms import algorithm_class
+from chaincart_env.tools.compare.curriculum import PlanStarts
+from chaincart_env.tools.compare.plan_start_envs import plan_start_envs
 from chaincart_env.tools.compare.imitation import Imitation, imitate
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.errors import InvalidInputError
@@ -132,14 +134,17 @@ def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
 
 def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
-    normalize: Optional[Mapping[str, Any]] = None,
+    normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
 ) -> BaseAlgorithm:
     from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
 
     keywords = sb3_keywords(kwargs)  # checked before the envs are built
+    native: Any = ChainCartVecEnv(num_envs, config, seed=seed)
+    if curriculum is not None:
+        native = plan_start_envs(native, config, curriculum, seed)
     # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the true rewards.
-    venv = normalized_envs(VecMonitor(ChainCartVecEnv(num_envs, config, seed=seed)), normalize)
+    venv = normalized_envs(VecMonitor(native), normalize)
     try:
         model = algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
     except TypeError as error:  # an unknown or ill-typed keyword
@@ -181,6 +186,7 @@ def train(
     resume: bool = False,
     normalize: Optional[Mapping[str, Any]] = None,
     imitation: Optional[Imitation] = None,
+    curriculum: Optional[PlanStarts] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -193,7 +199,9 @@ def train(
     :func:`~chaincart_env.tools.compare.normalization.save_agent`), ``None`` for none; a resumed
     run keeps its checkpoint's. ``imitation``: a new agent first imitates the planner's
     controller (:func:`~chaincart_env.tools.compare.imitation.imitate`, logged in
-    ``imitation.csv``); the first evaluation, at step 0, scores the imitation."""
+    ``imitation.csv``); the first evaluation, at step 0, scores the imitation. ``curriculum``:
+    a share of the training episodes starts along the planner's plan
+    (:mod:`~chaincart_env.tools.compare.curriculum`; a resumed run keeps its checkpoint's)."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
@@ -206,7 +214,8 @@ def train(
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
-    model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs, normalize)
+    model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs, normalize,
+                                                                    curriculum)
     imitated = imitate(model, config, imitation, seed, directory) if imitation is not None and not resuming else None
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)

@@ -1,0 +1,99 @@
+"""Start states along the planner's swing-up: a training curriculum for learned agents.
+
+A swing-up rewards an agent only once the chain is up, and from hanging starts PPO needs
+millions of steps before its own motions get there often enough to learn to hold the
+top. Starting part of the training episodes from states the planner's swing-up passes
+through (reference state initialisation, as in DeepMimic, Peng et al. 2018; the reset
+distributions of Kakade and Langford, 2002) shows the agent every phase of the motion
+from the first rollout: episodes that start late in the plan teach it to catch and hold
+the top, those that start early teach it to pump.
+
+:class:`PlanStarts` says how: a fixed share of the training episodes, ``fraction``,
+starts at a state drawn uniformly along the plan (the planner's control-limited iLQR
+plan from the scene's start equilibrium to its target, on the nominal model: what
+:class:`~chaincart_env.policies.TrajectoryPolicy` tracks); the others start as the scene
+says (hanging, with its start noise). :class:`~chaincart_env.tools.compare.plan_start_envs.PlanStartEnvs` applies it to the native
+envs: after an env's episode ends (the native batch resets it in the same step), the
+env is moved to its drawn plan state and its first observation replaced
+(:mod:`~chaincart_env.tools.compare.plan_start_envs`; this module imports no
+stable-baselines3). The draws come from their own seeded generator, so a run with a
+curriculum is as reproducible as one without, and the wrapper pickles with its generator
+(checkpoints resume bit for bit).
+
+Evaluations are untouched: they run the scene's own starts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any, Mapping, Optional
+
+import numpy as np
+
+from chaincart_env.errors import InvalidInputError
+
+__all__ = ["CURRICULA", "SCENE_CURRICULA", "PlanStarts", "check_plan_scene", "plan_states", "scene_curriculum"]
+
+#: The curricula ``compare --curriculum`` offers.
+CURRICULA = ("none", "plan")
+#: Offset of the curriculum's generator seed from the run's seed (apart from the envs' seeds).
+SEED_OFFSET = 300_000
+
+
+@dataclass(frozen=True)
+class PlanStarts:
+    """A share ``fraction`` of the training episodes starts at a state drawn uniformly
+    along the planner's plan (the rest as the scene says)."""
+
+    fraction: float = 0.5
+
+    def __post_init__(self) -> None:
+        value = self.fraction
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+            math.isfinite(value) and 0.0 < value <= 1.0
+        ):
+            raise InvalidInputError(f"plan-start fraction = {value!r}: expected a number in (0, 1]")
+
+    def record(self) -> dict[str, Any]:
+        """The settings as ``run.json`` records them."""
+        return {"kind": "plan", **asdict(self)}
+
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> "PlanStarts":
+        """The settings :meth:`record` wrote."""
+        if record.get("kind") != "plan":
+            raise InvalidInputError(f"curriculum record {dict(record)!r}: expected kind 'plan'")
+        return cls(**{key: value for key, value in record.items() if key != "kind"})
+
+
+#: The scenes whose learned agents train with plan starts unless ``--curriculum none``.
+SCENE_CURRICULA: dict[str, PlanStarts] = {}
+
+
+def scene_curriculum(scene: Optional[str]) -> Optional[PlanStarts]:
+    """The curriculum ``scene``'s agents train with by default, or ``None``."""
+    return SCENE_CURRICULA.get(scene or "")
+
+
+def check_plan_scene(config: Any) -> None:
+    """Refuses, by name, a scene without one start and one target to plan between."""
+    if config.goal_conditioned:
+        raise InvalidInputError(f"--curriculum plan on scene {config.scene!r}: its episodes draw their start and "
+                                "target, so there is no single plan; expected a scene with one start and one target")
+
+
+def plan_states(config: Any) -> np.ndarray:
+    """The states (model layout) of the planner's plan from ``config``'s start
+    equilibrium to its target on the nominal model, shape ``(K + 1, state_dim)``;
+    a :class:`~chaincart_env.errors.PlanningError` if the planner misses the target."""
+    from chaincart_env.policies import TrajectoryPolicy
+    from chaincart_env.policies.settings import nearest_equilibrium
+    from chaincart_env.sb3 import ChainCartVecEnv
+
+    check_plan_scene(config)
+    probe = ChainCartVecEnv(1, config, seed=0)
+    probe.reset()
+    policy = TrajectoryPolicy.from_env(probe)
+    start = nearest_equilibrium(policy.settings.model, probe.get_attr("model_state", 0)[0])
+    return np.array(policy.plan(start, policy.settings.target).states, dtype=np.float64)

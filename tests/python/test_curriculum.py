@@ -1,0 +1,150 @@
+"""The plan-start curriculum: its settings and options are checked, its starts lie on the
+planner's plan in the share asked, a run with it is seeded, and it survives a checkpoint."""
+
+from __future__ import annotations
+
+import csv
+import pickle
+
+import numpy as np
+import pytest
+
+from chaincart_env import ChainCartConfig
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.curriculum import PlanStarts, plan_states, scene_curriculum
+
+SWINGUP = ChainCartConfig(scene="swingup-2")
+
+
+@pytest.mark.parametrize("fraction", [0.0, -0.5, 1.5, float("nan"), True, "half"])
+def test_bad_fractions_are_named(fraction) -> None:
+    with pytest.raises(InvalidInputError, match=r"plan-start fraction = .*expected a number in \(0, 1\]"):
+        PlanStarts(fraction)
+
+
+def test_settings_round_trip_through_their_record() -> None:
+    assert PlanStarts.from_record(PlanStarts(0.3).record()) == PlanStarts(0.3)
+    with pytest.raises(InvalidInputError, match="expected kind 'plan'"):
+        PlanStarts.from_record({"kind": "reverse", "fraction": 0.3})
+
+
+@pytest.fixture(scope="module")
+def states() -> np.ndarray:
+    return plan_states(SWINGUP)
+
+
+def test_the_plan_runs_from_hanging_to_upright(states) -> None:
+    from chaincart_env.policies.settings import nearest_equilibrium
+
+    model = SWINGUP.make_model()
+    assert states.ndim == 2 and states.shape[0] > 50
+    assert nearest_equilibrium(model, states[0]) == (1, 1)  # both links down
+    assert nearest_equilibrium(model, states[-1]) == (-1, -1)  # both links up
+
+
+def _on_plan(state: np.ndarray, states: np.ndarray) -> bool:
+    return bool(np.min(np.max(np.abs(states - state), axis=1)) < 1e-12)
+
+
+def test_every_start_lies_on_the_plan_with_fraction_one(states) -> None:
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
+
+    venv = PlanStartEnvs(ChainCartVecEnv(6, SWINGUP, seed=3), states, 1.0, seed=0)
+    observations = venv.reset()
+    model_states = venv.venv.get_attr("model_state")
+    assert all(_on_plan(y, states) for y in model_states)
+    np.testing.assert_array_equal(observations, venv.venv._batch.observations())
+    assert venv.plan_episodes == 6
+
+
+def test_a_share_of_the_episodes_starts_on_the_plan(states) -> None:
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
+
+    venv = PlanStartEnvs(ChainCartVecEnv(400, SWINGUP, seed=3), states, 0.25, seed=1)
+    venv.reset()
+    on_plan = sum(_on_plan(y, states) for y in venv.venv.get_attr("model_state"))
+    assert venv.plan_episodes == on_plan
+    assert 60 <= on_plan <= 140  # binomial(400, 0.25): mean 100, sd 8.7
+    steps = SWINGUP.max_episode_steps
+    for _ in range(steps):  # every episode ends by the horizon
+        _, _, dones, _ = venv.step(np.zeros((400, 1), dtype=np.float32))
+    assert venv.plan_episodes > on_plan  # the episodes that ended restarted, some on the plan
+
+
+def test_the_wrapper_pickles_and_continues_identically(states) -> None:
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
+
+    venv = PlanStartEnvs(ChainCartVecEnv(8, SWINGUP, seed=3), states, 0.5, seed=4)
+    venv.reset()
+    rng = np.random.default_rng(0)
+    for _ in range(SWINGUP.max_episode_steps // 2):
+        venv.step(rng.uniform(-1, 1, (8, 1)).astype(np.float32))
+    copy = pickle.loads(pickle.dumps(venv))
+    actions = rng.uniform(-1, 1, (SWINGUP.max_episode_steps, 8, 1)).astype(np.float32)
+    for a in actions:
+        first, second = venv.step(a), copy.step(a)
+        np.testing.assert_array_equal(first[0], second[0])
+        np.testing.assert_array_equal(first[2], second[2])
+    assert copy.plan_episodes == venv.plan_episodes > 0
+
+
+def _tiny_run(directory, curriculum):
+    from chaincart_env.tools.compare.training import train
+
+    return train(SWINGUP, timesteps=256, num_envs=4, seed=5, directory=directory, eval_seeds=[1_000_000],
+                 eval_every=128, checkpoint_every=10_000, progress_bar=False,
+                 hyperparameters={"n_steps": 32, "batch_size": 64, "policy_kwargs": "dict(net_arch=[16])"},
+                 normalize={"norm_obs": True, "norm_reward": False}, curriculum=curriculum)
+
+
+def _rows(path):
+    with path.open(newline="") as file:
+        return [{k: v for k, v in row.items() if k != "wall_time_s"} for row in csv.DictReader(file)]
+
+
+def test_a_curriculum_run_is_seeded(tmp_path) -> None:
+    results = [_tiny_run(tmp_path / name, PlanStarts(0.5)) for name in ("a", "b")]
+    parameters = [np.concatenate([p.detach().numpy().ravel() for p in r.model.policy.parameters()]) for r in results]
+    np.testing.assert_array_equal(parameters[0], parameters[1])
+    assert _rows(tmp_path / "a" / "evaluations.csv") == _rows(tmp_path / "b" / "evaluations.csv")
+    assert _rows(tmp_path / "a" / "training_episodes.csv") == _rows(tmp_path / "b" / "training_episodes.csv")
+    without = _tiny_run(tmp_path / "c", None)
+    other = np.concatenate([p.detach().numpy().ravel() for p in without.model.policy.parameters()])
+    assert not np.array_equal(other, parameters[0])  # the curriculum changed what the agent saw
+
+
+def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -> None:
+    from chaincart_env.tools.compare.job import _training_settings
+
+    chosen = _training_settings(SWINGUP, ["ppo", "sac"], "sb3", None, None, {}, {}, curriculum=PlanStarts(0.4))
+    assert chosen["ppo"]["curriculum"] == chosen["sac"]["curriculum"] == PlanStarts(0.4).record()
+    off = _training_settings(SWINGUP, ["ppo"], "sb3", None, None, {}, {}, curriculum=None)
+    assert off["ppo"]["curriculum"] is None
+    default = _training_settings(SWINGUP, ["ppo"], "sb3", None, None, {}, {})
+    expected = scene_curriculum("swingup-2")
+    assert default["ppo"]["curriculum"] == (None if expected is None else expected.record())
+    with pytest.raises(InvalidInputError, match="transitions-2.*no single plan"):
+        _training_settings(ChainCartConfig(scene="transitions-2"), ["ppo"], "sb3", None, None, {}, {},
+                           curriculum=PlanStarts())
+    with pytest.raises(InvalidInputError, match="--trainer rllib"):
+        _training_settings(SWINGUP, ["ppo"], "rllib", None, None, {}, {}, curriculum=PlanStarts())
+
+
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["--plan-fraction", "0.3"], "--plan-fraction 0.3 without --curriculum plan"),
+        (["--curriculum", "none", "--plan-fraction", "0.3"], "without --curriculum plan"),
+        (["--curriculum", "plan", "--plan-fraction", "1.5"], "plan-start fraction = 1.5"),
+        (["--curriculum", "plan", "--scene", "transitions-2"], "no single plan"),
+    ],
+)
+def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_path) -> None:
+    from chaincart_env.tools.compare.cli import compare_main
+
+    with pytest.raises(SystemExit):
+        compare_main(["--scene", "swingup-2", "--out", str(tmp_path), *argv])
+    assert named in capsys.readouterr().err
