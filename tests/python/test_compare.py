@@ -415,3 +415,13 @@ def test_a_checkpoint_swapped_in_whole_survives_an_interruption_between_its_rena
     final.rename(old)  # as if interrupted after moving the previous one aside
     assert (settled_directory(final) / "state.json").read_text() == "new" and not old.exists()
     assert settled_directory(final) == final  # nothing to do
+
+
+def test_a_zoo_dict_keyword_stays_one_string_on_the_command_line() -> None:
+    from chaincart_env.tools.compare.cli import _algo_kwargs
+    from chaincart_env.tools.compare.recipes import sb3_keywords
+
+    shared, per_algo = _algo_kwargs(["policy_kwargs=dict(net_arch=[64, 64])", "ppo:n_steps=128,"])
+    assert shared == {"policy_kwargs": "dict(net_arch=[64, 64])"}
+    assert sb3_keywords(shared)["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert per_algo == {"ppo": {"n_steps": (128,)}}  # other values with commas are still lists

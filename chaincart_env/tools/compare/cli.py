@@ -162,7 +162,9 @@ def _algo_kwargs(texts: Sequence[str]) -> tuple[dict[str, Any], dict[str, dict[s
                 f"--algo-kwarg {text!r}: expected [ALGO:]KEY=VALUE with ALGO one of {', '.join(LEARNED)}, "
                 "e.g. --algo-kwarg n_steps=256 or --algo-kwarg sac:learning_starts=1000"
             )
-        (per_algo.setdefault(algo, {}) if colon else shared)[key] = parse_value(value)
+        # A zoo-style "dict(key=..., ...)" stays one string (its commas are not a list's).
+        parsed = value.strip() if value.strip().startswith("dict(") else parse_value(value)
+        (per_algo.setdefault(algo, {}) if colon else shared)[key] = parsed
     return shared, per_algo
 
 
