@@ -55,7 +55,9 @@ class LQRPolicy:
     """LQR baseline: ``predict(obs) -> (action, None)`` like a stable-baselines3 model.
 
     Build it with :meth:`from_env` (gain for the env's target, force limit and scene)
-    or :meth:`from_model`. Works on one observation or a batch.
+    or :meth:`from_model`. Works on one observation or a batch. Keeps nothing from one
+    call to the next (gains designed per target are a cache), so one object serves
+    any number of episodes, with or without ``episode_start``.
     """
 
     def __init__(self, gain: np.ndarray, target: Sequence[float], max_force: float, planar: bool = False):

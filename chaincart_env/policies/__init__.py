@@ -10,7 +10,11 @@
 They live in a subpackage of their own because they share the episode bookkeeping
 (``planned.py``: a clock per env along its plan, plans cached per start and target, the
 goal read from the observation in goal-conditioned scenes) that the stateless
-:class:`~chaincart_env.LQRPolicy` does not need.
+:class:`~chaincart_env.LQRPolicy` does not need. One policy object serves episode after
+episode in the plain Gymnasium loop (``env.reset(seed=s)``, then ``predict(obs)`` and
+``env.step`` until the episode ends): without ``episode_start`` the plan followers
+notice a new episode themselves (the episode's time limit, or a jump of the observed
+positions no control period makes); ``EnergyPolicy`` keeps nothing between steps.
 """
 
 from __future__ import annotations

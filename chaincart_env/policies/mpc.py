@@ -17,7 +17,10 @@ class MPCPolicy(PlannedPolicy):
     from the measured state, warm-started by the previous solution shifted by one step,
     with the plan's cost-to-go as terminal cost and at most ``iterations`` iterations
     and ``budget`` seconds per step (``Plan.mpc``). It recovers from disturbances the
-    plan's feedback alone cannot. Build it with :meth:`from_env`."""
+    plan's feedback alone cannot. Build it with :meth:`from_env`. Like
+    :class:`~chaincart_env.policies.TrajectoryPolicy` it serves episode after episode
+    without ``episode_start`` or :meth:`reset`, noticing a new episode itself (see
+    :class:`~chaincart_env.policies.planned.PlannedPolicy`)."""
 
     def __init__(
         self,

@@ -9,12 +9,12 @@ from typing import Any, Optional
 
 import numpy as np
 
-from chaincart_env.errors import InvalidInputError, PlanningError
+from chaincart_env.errors import ChainCartError, InvalidInputError, PlanningError
 from chaincart_env.policies.settings import (
     SCENE_PLANS, EnvSettings, env_settings, goal_signs, nearest_equilibrium, observation_batch,
 )
 
-__all__ = ["ON_FAILURE", "PLAN_FROM", "PlannedPolicy"]
+__all__ = ["EPISODE_JUMP", "NOISE_MARGIN", "ON_FAILURE", "PLAN_FROM", "PlannedPolicy"]
 
 Pair = tuple[tuple[int, ...], tuple[int, ...]]
 
@@ -25,13 +25,41 @@ ON_FAILURE = ("raise", "track")
 #: plan per pair, cached), or that observed state itself (one plan per episode).
 PLAN_FROM = ("equilibrium", "state")
 
+#: How far (m, or components of a link's unit vector) an observed position may lie from
+#: where the model puts it one control period after the previous observation, under the
+#: force the policy asked for then, before the observation is taken for the first of a
+#: new episode. Within an episode the positions move as the model says up to a few
+#: millimetres per period, even at the strongest model mismatch (40 %), control delay
+#: (4 periods), force noise (50 %) and force-rate limit (200 N/s) of the leaderboard;
+#: a reset moves the cart from wherever the last episode left it (off the track, when
+#: it ended early) and the links from wherever they were to the start.
+EPISODE_JUMP = 0.3
+#: Standard deviations of the env's observation noise added to :data:`EPISODE_JUMP`:
+#: two noisy observations differ by sqrt(2) of it, and ten of it is never reached.
+NOISE_MARGIN = 10.0
+
 
 class PlannedPolicy:
     """Base class: subclasses say what controller follows a plan (:meth:`_controller`)
     and how it computes a force (:meth:`_force`).
 
     An env's episode begins where ``episode_start`` is true (SB3's convention; on the
-    first call every env begins), or where the observed target changes. Its start
+    first call every env begins), or where the observed target changes. Called without
+    ``episode_start`` (the plain Gymnasium loop, ``policy.predict(obs)`` after every
+    ``env.reset()``), the policy notices a new episode by itself, so that one policy
+    object serves episode after episode:
+
+    * its episode has lasted the env's ``max_episode_steps``, which no episode outlasts
+      (an episode that reached its time limit), or
+    * the observed positions (cart, links) lie more than :attr:`jump_tolerance` from
+      where the model puts them one control period after the previous observation
+      under the force asked for then: a jump no control period makes (a reset after
+      an episode that ended early, on the track limit, or that the caller stopped).
+
+    The tolerance (:data:`EPISODE_JUMP` plus :data:`NOISE_MARGIN` standard deviations of
+    the env's observation noise) is far above what observation noise, control delay,
+    model mismatch, force noise and force-rate limits do within an episode, and far
+    below a reset's jump. :meth:`reset` forgets every episode at once. Its start
     equilibrium is the one nearest to the first observation; the plan from it to the
     target is computed once and cached (:meth:`plan`), so a seeded start near an
     equilibrium reuses the same plan and the feedback absorbs the difference. With
@@ -60,9 +88,16 @@ class PlannedPolicy:
         self.plan_from = plan_from
         self.plan_options = plan_options
         self._plans: dict[Pair, Any] = {}
+        #: Largest gap between observed and predicted positions within one episode
+        #: (class docstring): :data:`EPISODE_JUMP` plus :data:`NOISE_MARGIN` standard
+        #: deviations of the env's observation noise.
+        self.jump_tolerance = EPISODE_JUMP + NOISE_MARGIN * settings.obs_noise
+        self._positions = _position_indices(settings.model)
         self._clock = np.zeros(0, dtype=np.int64)
         self._pairs: list[Optional[Pair]] = []
         self._controllers: list[Any] = []
+        self._last_states = np.zeros((0, settings.state_dim))
+        self._last_forces = np.zeros((0, settings.model.force_dim))
 
     @classmethod
     def from_env(
@@ -105,8 +140,9 @@ class PlannedPolicy:
 
     def plan_from_state(self, state: np.ndarray, start: tuple[int, ...], target: tuple[int, ...]) -> Any:
         """A plan from the full ``state`` to ``target``, or, if it misses, the plan from the
-        equilibrium ``start`` (:meth:`plan`)."""
-        plan = self._planned(np.asarray(state, dtype=np.float64), target)
+        equilibrium ``start`` (:meth:`plan`). A noisy observation is first brought onto the
+        states the model has (unit link directions, spins normal to them)."""
+        plan = self._planned(_on_manifold(self.settings.model, state), target)
         return plan if plan.converged else self.plan(start, target)
 
     def _planned(self, start: Any, target: tuple[int, ...]) -> Any:
@@ -119,8 +155,7 @@ class PlannedPolicy:
 
     def reset(self) -> None:
         """Forgets every env's episode (the next call begins new ones)."""
-        self._clock = np.zeros(0, dtype=np.int64)
-        self._pairs, self._controllers = [], []
+        self._resize(0)
 
     def _controller(self, plan: Any, previous: Any) -> Any:
         raise NotImplementedError
@@ -132,6 +167,28 @@ class PlannedPolicy:
         if n != len(self._pairs):
             self._clock = np.zeros(n, dtype=np.int64)
             self._pairs, self._controllers = [None] * n, [None] * n
+            self._last_states = np.zeros((n, self.settings.state_dim))
+            self._last_forces = np.zeros((n, self.settings.model.force_dim))
+
+    def _new_episode(self, i: int, state: np.ndarray) -> bool:
+        """Whether env ``i``'s observed ``state`` begins an episode nobody announced: its
+        episode has lasted as long as the env's can, or the state jumped (class docstring)."""
+        limit = self.settings.max_episode_steps
+        if limit and self._clock[i] >= limit:
+            return True
+        return self.jump(i, state) > self.jump_tolerance
+
+    def jump(self, i: int, state: np.ndarray) -> float:
+        """The largest gap (m, or unit-vector components) between env ``i``'s observed
+        positions in ``state`` and the model's prediction from its previous observation
+        under the force asked for then (``inf`` where the model cannot step from it)."""
+        previous = _on_manifold(self.settings.model, self._last_states[i])
+        s = self.settings
+        try:
+            predicted = s.model.step(previous, self._last_forces[i], s.dt, "rk4", s.substeps)
+        except ChainCartError:
+            return float("inf")
+        return float(np.max(np.abs(state[self._positions] - predicted[self._positions])))
 
     def forces(self, observation: Any, episode_start: Optional[Any] = None) -> np.ndarray:
         """Forces in newtons, shape (N, force_dim), advancing each env's clock."""
@@ -146,7 +203,10 @@ class PlannedPolicy:
             state = batch[i, : s.state_dim]
             target = goal_signs(batch[i], s.n_links) if s.goal_observation else s.target
             pair = self._pairs[i]
-            begins = starts[i] if episode_start is not None else pair is None
+            if episode_start is not None:
+                begins = bool(starts[i])
+            else:
+                begins = pair is None or self._new_episode(i, state)
             if begins or pair is None or pair[1] != target:
                 start = nearest_equilibrium(s.model, state)
                 from_state = self.plan_from == "state"
@@ -155,6 +215,9 @@ class PlannedPolicy:
                 self._pairs[i], self._clock[i] = (start, target), 0
             out[i] = self._force(self._controllers[i], int(self._clock[i]), state)
             self._clock[i] += 1
+            # What the env applies (it clips the action to [-1, 1]): the next call's prediction.
+            self._last_states[i] = state
+            self._last_forces[i] = np.clip(out[i], -s.max_force, s.max_force)
         return out
 
     def predict(
@@ -165,8 +228,10 @@ class PlannedPolicy:
         deterministic: bool = True,
     ) -> tuple[np.ndarray, Optional[Any]]:
         """Actions in the env's normalised space, clipped to [-1, 1], for one observation
-        or a batch. Without ``episode_start`` an env's episode begins on its first call
-        (and when its target changes); call :meth:`reset` between episodes then."""
+        or a batch. ``episode_start`` (one bool per env) says where episodes begin;
+        without it an env's episode begins on its first call, when its target changes,
+        and where the policy notices a new one (class docstring), so the plain
+        Gymnasium loop needs neither ``episode_start`` nor :meth:`reset`."""
         single = np.asarray(observation).ndim == 1
         forces = self.forces(observation, episode_start)
         actions = np.clip(forces / self.settings.max_force, -1.0, 1.0).astype(np.float32)
@@ -174,3 +239,25 @@ class PlannedPolicy:
 
     def __call__(self, observation: Any) -> np.ndarray:
         return self.predict(observation)[0]
+
+
+def _position_indices(model: Any) -> np.ndarray:
+    """The entries of a state that are positions: the cart's and the links' directions."""
+    layout = model.state_layout
+    return np.concatenate([np.arange(*layout["x"]), np.arange(*layout["q"])])
+
+
+def _on_manifold(model: Any, state: np.ndarray) -> np.ndarray:
+    """``state`` with unit link directions and (spatial) spins normal to them, as the
+    model steps only such states; a noisy observation is close to one."""
+    out = np.array(state, dtype=np.float64)
+    n = model.n_links
+    q_start, q_stop = model.state_layout["q"]
+    w_start, w_stop = model.state_layout["w"]
+    q = out[q_start:q_stop].reshape(n, -1)
+    norms = np.linalg.norm(q, axis=1, keepdims=True)
+    q /= np.where(norms > 0.0, norms, 1.0)
+    if not model.planar:
+        w = out[w_start:w_stop].reshape(n, -1)
+        w -= np.sum(w * q, axis=1, keepdims=True) * q
+    return out

@@ -39,6 +39,10 @@ class EnvSettings:
     goal_observation: bool
     #: The scene the env's configuration started from ("" for none).
     scene: str = ""
+    #: The env's episode length in control periods (0: not known): no episode is longer.
+    max_episode_steps: int = 0
+    #: The largest standard deviation of the env's observation noise (state units).
+    obs_noise: float = 0.0
 
     @property
     def n_links(self) -> int:
@@ -86,6 +90,8 @@ def env_settings(env: Any, oracle: bool = False) -> EnvSettings:
         target=tuple(int(s) for s in config.target_signs),
         goal_observation=bool(getattr(config, "goal_observation", False)),
         scene=str(getattr(config, "scene", None) or ""),
+        max_episode_steps=int(getattr(config, "max_episode_steps", 0) or 0),
+        obs_noise=float(np.max(config.obs_noise)) if getattr(config, "obs_noise", None) is not None else 0.0,
     )
 
 

@@ -15,7 +15,11 @@ class TrajectoryPolicy(PlannedPolicy):
     """The classical swing-up: a feed-forward plan (``ChainCart.plan``, control-limited
     iLQR) from the episode's start equilibrium to its target, tracked with time-varying
     LQR on the exact step Jacobians, then the target's LQR (same weights) once the plan
-    is over. Build it with :meth:`from_env`; ``predict`` like an SB3 model."""
+    is over. Build it with :meth:`from_env`; ``predict`` like an SB3 model. One object
+    serves episode after episode: with ``episode_start`` (SB3's convention), after
+    :meth:`reset`, or in the plain Gymnasium loop without either, where it notices a
+    new episode itself (its time limit, or a jump of the observed positions; see
+    :class:`~chaincart_env.policies.planned.PlannedPolicy`) and plans anew."""
 
     def _controller(self, plan: Any, previous: Any) -> Any:
         return plan.tracker()
