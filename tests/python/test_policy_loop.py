@@ -171,3 +171,43 @@ def test_episode_start_and_reset_still_say_where_episodes_begin() -> None:
     policy.predict(start)
     policy.reset()
     np.testing.assert_array_equal(policy.predict(start)[0], first)
+
+
+
+def _vector_run(mode: Any, flags: bool, steps: int) -> tuple[np.ndarray, int]:
+    """Observations of a two-env vector env with autoreset ``mode`` driven by one
+    policy for ``steps`` steps, and how many episodes ended; ``flags``: pass
+    ``episode_start`` where an env's observation is a reset's."""
+    from gymnasium.vector import AutoresetMode
+
+    from chaincart_env import ChainCartVectorEnv
+
+    env = ChainCartVectorEnv(2, scene="swingup-2", max_episode_steps=120, track_limit=1.0, autoreset_mode=mode)
+    policy = TrajectoryPolicy.from_env(ChainCartEnv(scene="swingup-2"))
+    obs, _ = env.reset(seed=7)
+    starts, previous_done, ended, seen = np.ones(2, dtype=bool), np.zeros(2, dtype=bool), 0, [obs]
+    for _ in range(steps):
+        actions, _ = policy.predict(obs, episode_start=starts if flags else None)
+        obs, _, terminated, truncated, _ = env.step(actions)
+        done = terminated | truncated
+        ended += int(done.sum())
+        # Same-step autoreset: a done step's observation is already the reset's;
+        # next-step: the observation after a done one is.
+        starts = done if mode == AutoresetMode.SAME_STEP else previous_done
+        previous_done = done
+        seen.append(obs)
+    return np.array(seen), ended
+
+
+@pytest.mark.parametrize("mode", ["next_step", "same_step"])
+def test_a_vector_env_s_autoresets_are_noticed_per_env(mode: str) -> None:
+    """Episodes shortened (120 steps, a 1 m track) so that the envs end at different
+    steps, on the time limit or the track's; without the flags the observations are
+    the same as with them."""
+    from chaincart_env.vector import autoreset_mode_of
+
+    kind = autoreset_mode_of(mode)
+    plain, ended = _vector_run(kind, flags=False, steps=400)
+    told, _ = _vector_run(kind, flags=True, steps=400)
+    assert ended >= 4
+    np.testing.assert_array_equal(plain, told)
