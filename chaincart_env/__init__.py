@@ -8,6 +8,8 @@ environments, its physics and RL task in Rust (``chaincart_env._core``).
   :class:`ChainCartVectorEnv` (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``).
 * :class:`ChainCartVecEnv`: a stable-baselines3 VecEnv on the same Rust batch
   (imported on first use; needs the ``sb3`` extra).
+* :func:`pretrained`: a shipped pretrained agent (``pretrained("inverted-2", "ppo")``),
+  plain arrays acting in numpy: no torch, no unpickling.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 if TYPE_CHECKING:
     from chaincart_env.lqr import LQRPolicy
     from chaincart_env.policies import EnergyPolicy, MPCPolicy, TrajectoryPolicy
+    from chaincart_env.pretrained_agents import pretrained
     from chaincart_env.roa import region_of_attraction
     from chaincart_env.sb3 import ChainCartVecEnv
 
@@ -66,6 +69,7 @@ __all__ = [
     "SCENES",
     "TrajectoryPolicy",
     "__version__",
+    "pretrained",
     "region_of_attraction",
     "scene_env_id",
 ]
@@ -95,6 +99,10 @@ def __getattr__(name: str) -> Any:
         from chaincart_env import policies
 
         return getattr(policies, name)
+    if name == "pretrained":
+        from chaincart_env.pretrained_agents import pretrained
+
+        return pretrained
     if name == "region_of_attraction":
         from chaincart_env.roa import region_of_attraction
 

@@ -56,6 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_transitions_command(commands)  # transitions: sets args.handler
 
+    from chaincart_env.tools.export_agent import add_export_command
+
+    add_export_command(commands)  # export-agent: sets args.handler
+
     from chaincart_env.tools.config_docs import add_docs_command
 
     add_docs_command(commands)  # docs: sets args.handler

@@ -3,9 +3,10 @@ imageio-ffmpeg) of one episode of any scene under one or several policies side b
 side from the same start, or a PNG still of chosen moments. Each ``--policy`` is, on
 its own, a built-in one (``random``, ``zero``, ``lqr``, ``trajectory``, ``mpc``,
 ``energy``) or a saved stable-baselines3 model (a ``.zip``, or a run folder written by
-``compare`` holding ``model.zip``, ``config.json`` and ``run.json``), so built-in
-policies and saved models mix in any order. Without ``--scene`` the scene is the saved
-models' (they must agree), else the default.
+``compare`` holding ``model.zip``, ``config.json`` and ``run.json``) or a shipped agent
+(``pretrained:<scene>/<name>``), so built-in policies and saved models mix in any
+order. Without ``--scene`` the scene is the saved models' and shipped agents' (they
+must agree), else the default.
 
 Frames are drawn by the env's ``rgb_array`` rendering in the 3-D view (``--view``
 picks another), each under a band naming its policy with the time stamp, one every
@@ -31,6 +32,7 @@ from chaincart_env.cli_text import plain, scene_help
 from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
 from chaincart_env.errors import ChainCartError, InvalidInputError, MissingExtraError
 from chaincart_env.env import ChainCartEnv
+from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
 from chaincart_env.rendering import RENDER_VIEWS, Camera, default_frame_size
 
 __all__ = ["Animation", "animate", "add_animate_command", "load_sb3_model", "parse_settings", "make_policy"]
@@ -182,10 +184,14 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
     """``obs -> action`` for ``random`` (seeded), ``zero``, ``lqr`` (the paper's
     controller for the env's target), the large-motion controllers ``trajectory``,
     ``mpc`` and ``energy`` (designed on the env's model; the episode starts at the first
-    call), a loaded SB3 ``model``, or else the SB3 model saved at the path ``name``
-    (see :func:`load_sb3_model`)."""
+    call), a loaded SB3 ``model``, a shipped agent ``pretrained:<scene>/<name>``, or else
+    the SB3 model saved at the path ``name`` (see :func:`load_sb3_model`)."""
     if model is not None:
         return _sb3_policy(name, model, env)
+    if is_pretrained_slot(name):
+        agent = pretrained(*parse_pretrained_slot(name))
+        agent.check_config(env.config)
+        return lambda obs: agent.predict(obs)[0]
     if name not in POLICY_NAMES:
         return _sb3_policy(name, load_sb3_model(Path(name)), env)
     if name == "zero":
@@ -475,8 +481,10 @@ def animate(
 
 
 def _policy_label(name: str) -> str:
-    """A policy's label: its name, or a saved model's folder or file name."""
-    return name if name in POLICY_NAMES else Path(name).stem if Path(name).suffix else Path(name).name
+    """A policy's label: its name (a shipped agent's slot), or a saved model's folder or file name."""
+    if name in POLICY_NAMES or is_pretrained_slot(name):
+        return name
+    return Path(name).stem if Path(name).suffix else Path(name).name
 
 
 def _policy_labels(names: Sequence[str]) -> list[str]:
@@ -498,7 +506,7 @@ def animate_needs(args: Any) -> dict[str, tuple[str, ...]]:
         needs["plot"] = ("PIL",)
     if suffix == ".mp4":
         needs["plot"] = ("PIL", "imageio", "imageio_ffmpeg")
-    if any(str(p) not in POLICY_NAMES for p in args.policies or ()):
+    if any(str(p) not in POLICY_NAMES and not is_pretrained_slot(str(p)) for p in args.policies or ()):
         needs["sb3"] = ("stable_baselines3",)
     return needs
 
@@ -518,8 +526,8 @@ def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentP
     )
     parser.add_argument(
         "--policy", dest="policies", action="append", default=None, metavar="POLICY",
-        help="random, zero, lqr (default), trajectory, mpc, energy (the large-motion controllers) or a saved SB3 "
-             "model: a .zip or a compare run folder; "
+        help="random, zero, lqr (default), trajectory, mpc, energy (the large-motion controllers), a shipped agent "
+             "pretrained:<scene>/<name>, or a saved SB3 model: a .zip or a compare run folder; "
              "repeat it to show several side by side from the same start (each a built-in policy or a saved "
              "model, in any order)",
     )
@@ -576,11 +584,14 @@ def _times_from_args(text: Optional[str]) -> Optional[list[float]]:
 
 
 def _saved_keywords(policies: Sequence[str]) -> dict[str, Any]:
-    """The env keywords the saved models among ``policies`` were trained with (their
-    ``config.json``), which must be the same config for all; ``{}`` when none says."""
+    """The env keywords the saved models and shipped agents among ``policies`` were
+    trained with (``config.json``, the agent's record), which must be the same config
+    for all; ``{}`` when none says."""
     found: list[tuple[str, dict[str, Any]]] = []
     for name in policies:
-        if name not in POLICY_NAMES:
+        if is_pretrained_slot(name):
+            found.append((name, pretrained(*parse_pretrained_slot(name)).record["config"]))
+        elif name not in POLICY_NAMES:
             keywords = saved_config(Path(name))
             if keywords is not None:
                 found.append((name, keywords))

@@ -8,6 +8,10 @@ label it has in tables and pictures, and where its class lives.
   ``lqr`` (:class:`~chaincart_env.LQRPolicy`), ``mpc``, ``trajectory`` and ``energy``
   (``MPCPolicy``, ``TrajectoryPolicy``, ``EnergyPolicy`` of ``chaincart_env.policies``).
 
+A ``--policies`` name may also be a shipped agent, ``pretrained:<scene>/<name>``
+(:mod:`chaincart_env.pretrained_agents`): learned, but not trained by the run; it acts
+as shipped.
+
 Classes are imported by name when a controller is built, so that listing or checking
 names imports nothing heavy, and a class that this installation lacks is a clear error
 naming it. How each controller is drawn is in :mod:`chaincart_env.tools.compare.styles`.
@@ -33,6 +37,7 @@ __all__ = [
     "build_model_based",
     "controller_class",
     "controller_of_label",
+    "is_learned",
     "label_of",
     "parse_controllers",
 ]
@@ -80,14 +85,20 @@ def _closest(name: str) -> str:
 
 
 def parse_controllers(text: str, option: str = "--policies") -> list[str]:
-    """``"ppo,lqr"`` (any case) into checked names, in the given order: each known,
-    none twice, at least one."""
+    """``"ppo,lqr"`` (any case) into checked names, in the given order: each known (a
+    controller, or ``pretrained:<scene>/<name>`` of a shipped agent), none twice, at
+    least one."""
+    from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot
+
     names = [name.strip().lower() for name in str(text).split(",") if name.strip()]
-    expected = f"expected distinct names among {', '.join(CONTROLLERS)}, separated by commas"
+    expected = (f"expected distinct names among {', '.join(CONTROLLERS)} or pretrained:<scene>/<name>, separated by "
+                "commas")
     if not names:
         raise InvalidInputError(f"{option} {text!r}: {expected}")
     for name in names:
-        if name not in CONTROLLERS:
+        if is_pretrained_slot(name):
+            parse_pretrained_slot(name, option)
+        elif name not in CONTROLLERS:
             raise InvalidInputError(f"{option} {text!r}: unknown controller {name!r}{_closest(name)}: {expected}")
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:
@@ -131,8 +142,16 @@ def build_model_based(name: str, config: ChainCartConfig, oracle: bool = False) 
 
 
 def label_of(name: str) -> str:
-    """The label of controller ``name`` in tables and legends (``"PPO"``, ``"MPC"``)."""
-    return CONTROLLERS[name].label
+    """The label of controller ``name`` in tables and legends (``"PPO"``, ``"MPC"``; a
+    shipped agent's is its slot, ``pretrained:<scene>/<name>``)."""
+    return name if name not in CONTROLLERS else CONTROLLERS[name].label
+
+
+def is_learned(name: str) -> bool:
+    """Whether ``name`` is a learned policy: a learned controller or a shipped agent."""
+    from chaincart_env.pretrained_agents import is_pretrained_slot
+
+    return name in LEARNED or is_pretrained_slot(name)
 
 
 _SEED = re.compile(r" \(seed \d+\)$")

@@ -58,7 +58,8 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                           help=f"the controllers to compare, in any order, among: {', '.join(CONTROLLERS)}. "
                           f"Learned ones ({', '.join(LEARNED)}) train once per training seed with their recipe; "
                           "model-based ones are designed on the scene's nominal model. All run from the same seeded "
-                          "starts on the same true systems (default: ppo,lqr)")
+                          "starts on the same true systems; pretrained:<scene>/<name> adds a shipped agent as it is "
+                          "(default: ppo,lqr)")
     policies.add_argument("--algo", type=str.lower, choices=LEARNED, default=None,
                           help="one stable-baselines3 algorithm compared with the LQR: --algo sac is --policies sac,lqr")
     seeds = parser.add_mutually_exclusive_group()
@@ -125,7 +126,8 @@ def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
 def _configure_evaluate(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path,
                         help="a run folder written by compare, or one training run's folder (seed-<s>/ or "
-                        "<algo>/seed-<s>/) or its model.zip or rllib_checkpoint")
+                        "<algo>/seed-<s>/) or its model.zip or rllib_checkpoint, or pretrained:<scene>/<name> (a "
+                        "shipped agent, against the LQR on its scene)")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: MODEL_DIR/evaluation)")
     parser.add_argument("--address", default=None,
                         help="Ray cluster ('auto', HOST:PORT, or 'local' for a new one here) on which the evaluation "
@@ -229,11 +231,17 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
 
 
 def _run_evaluate_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from chaincart_env.pretrained_agents import is_pretrained_slot
     from chaincart_env.tools.compare.job import run_evaluate
 
+    runner: Callable[..., Any] = run_evaluate
+    if is_pretrained_slot(str(args.model)):  # a shipped agent, not a saved run
+        from chaincart_env.tools.compare.pretrained_evaluation import evaluate_pretrained
+
+        runner = evaluate_pretrained
     try:
-        run_evaluate(args.model, out=args.out, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
-                     torch_threads=args.torch_threads, address=args.address)
+        runner(args.model, out=args.out, eval_episodes=args.eval_episodes, eval_seed=args.eval_seed,
+               torch_threads=args.torch_threads, address=args.address)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

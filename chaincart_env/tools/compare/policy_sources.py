@@ -3,8 +3,9 @@ and the model-based controllers, loaded where an evaluation cell runs (this proc
 Ray worker; :mod:`chaincart_env.tools.compare.cells`).
 
 A :class:`PolicySource` holds an SB3 model's file contents, an RLlib RLModule's folder
-packed into a tar archive, or a model-based controller's name and the scene
-configuration it is designed on.
+packed into a tar archive, a model-based controller's name and the scene
+configuration it is designed on, or the scene and name of a shipped agent (which
+every installation of the package has).
 :meth:`PolicySource.load` builds the policy; each process keeps the policies it loaded,
 so a worker that evaluates one policy on many scene variants loads it once.
 """
@@ -41,7 +42,8 @@ class PolicySource:
     observation normalisation file, if it has one), ``"rllib"`` (the RLModule folder as
     a tar archive) or ``"model"`` (a model-based controller: ``payload`` holds its name
     and the scene's ``ChainCartConfig`` keywords; ``oracle``: the per-episode design on
-    the true parameters)."""
+    the true parameters) or ``"pretrained"`` (a shipped agent: ``payload`` holds its
+    scene and name)."""
 
     kind: str
     payload: Any
@@ -78,6 +80,11 @@ class PolicySource:
     def lqr(cls, config: ChainCartConfig, oracle: bool = False) -> "PolicySource":
         """The LQR baseline of ``config`` (``oracle``: designed on each episode's true parameters)."""
         return cls.model_based("lqr", config, oracle)
+
+    @classmethod
+    def pretrained(cls, scene: str, name: str) -> "PolicySource":
+        """The shipped agent ``pretrained:<scene>/<name>``."""
+        return cls("pretrained", {"scene": scene, "name": name})
 
     @classmethod
     def of_run(cls, directory: Path) -> "PolicySource":
@@ -136,7 +143,11 @@ class PolicySource:
 
             config = ChainCartConfig(**self.payload["config"])
             return build_model_based(self.payload["controller"], config, oracle=self.oracle)
-        raise InvalidInputError(f"policy source kind {self.kind!r}: expected 'sb3', 'rllib' or 'model'")
+        if self.kind == "pretrained":
+            from chaincart_env.pretrained_agents import pretrained
+
+            return pretrained(self.payload["scene"], self.payload["name"])
+        raise InvalidInputError(f"policy source kind {self.kind!r}: expected 'sb3', 'rllib', 'model' or 'pretrained'")
 
 
 def load_run(path: Path) -> SavedRun:

@@ -1,5 +1,7 @@
 """Evaluation of a study: every trained agent (the final and the best-by-evaluation
-model of each learned algorithm and training seed) and every model-based controller
+model of each learned algorithm and training seed), every shipped agent named
+(``pretrained:<scene>/<name>``, weighed as a learned policy of one training seed) and
+every model-based controller
 (with the oracle LQR where the true system can differ from the model), on the main
 evaluation starts and over every sweep axis, with the tables, pictures, ``report.md``
 and ``summary.png``."""
@@ -11,6 +13,7 @@ from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence
 
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
 from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.evaluation import (
     EPISODE_COLUMNS, METRIC_COLUMNS, TRANSITION_COLUMNS, Rollouts, evaluation_seeds, rollout, tabulate, transition_table,
@@ -30,7 +33,7 @@ from chaincart_env.tools.controllers import build_model_based, label_of
 __all__ = [
     "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES", "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation",
     "SweepPoint", "TrainedPolicy", "describe", "evaluate_cell", "evaluate_study", "lqr_baseline",
-    "model_based_sources", "policy_label", "seed_directory", "trained_policies",
+    "model_based_sources", "policy_label", "pretrained_policies", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
 #: What the evaluation of a study writes.
@@ -79,11 +82,13 @@ def _has_parameter_gap(config: ChainCartConfig, sweeps: Mapping[str, Sequence[fl
 
 @dataclass(frozen=True)
 class TrainedPolicy:
-    """One trained agent of a study: its label (shared by its seeds), seed and policy."""
+    """One trained agent of a study: its label (shared by its seeds), seed and policy
+    (``shipped``: a shipped agent, trained elsewhere with that seed)."""
 
     label: str
     seed: int
     source: PolicySource
+    shipped: bool = False
 
     @property
     def name(self) -> str:
@@ -109,14 +114,31 @@ def trained_policies(out: Path, runs: Sequence[TrainingRun]) -> list[TrainedPoli
     return policies
 
 
+def pretrained_policies(config: ChainCartConfig, names: Sequence[str]) -> list[TrainedPolicy]:
+    """The shipped agents among ``names`` (``pretrained:<scene>/<name>``), each loaded
+    once here and checked against ``config``'s spaces (another scene with the same
+    spaces is a warning)."""
+    policies = []
+    for name in (n for n in names if is_pretrained_slot(n)):
+        agent = pretrained(*parse_pretrained_slot(name, "--policies"))
+        agent.check_config(config)
+        seed = agent.record.get("training", {}).get("seed")
+        policies.append(TrainedPolicy(agent.label, int(seed or 0), PolicySource.pretrained(agent.scene, agent.name),
+                                      shipped=True))
+    return policies
+
+
 def model_based_sources(
     config: ChainCartConfig, controllers: Sequence[str], sweeps: Mapping[str, Sequence[float]]
 ) -> dict[str, PolicySource]:
     """The model-based controllers of a study by their name in the tables, each built
     once here so that one that cannot serve the scene fails before anything runs; with
-    the LQR, the oracle LQR where the true system can differ from the model."""
+    the LQR, the oracle LQR where the true system can differ from the model. Shipped
+    agents among ``controllers`` are checked here too, but are not among the sources
+    (:func:`pretrained_policies` has them)."""
+    pretrained_policies(config, controllers)
     sources: dict[str, PolicySource] = {}
-    for name in controllers:
+    for name in (n for n in controllers if not is_pretrained_slot(n)):
         build_model_based(name, config)
         sources[label_of(name)] = PolicySource.model_based(name, config)
     if "lqr" in controllers and _has_parameter_gap(config, sweeps):
@@ -263,7 +285,7 @@ def evaluate_study(
     torch_threads: Optional[int] = None,
 ) -> StudyEvaluation:
     """Evaluates the study in ``out`` (the agents of its training ``runs`` and the
-    ``model_based`` controllers, by name) and writes :data:`EVALUATION_FILES` into
+    ``model_based`` controllers and shipped agents, by name) and writes :data:`EVALUATION_FILES` into
     ``into`` (default ``out``; :data:`TRAINING_EVALUATION_FILES` only with a trained
     agent). The main comparison has one summary per trained policy and seed, then one
     per model-based controller, then the oracle LQR where the true system can differ
@@ -274,7 +296,7 @@ def evaluate_study(
     into.mkdir(parents=True, exist_ok=True)
     starts = tuple(evaluation_seeds(eval_seed, eval_episodes))
     designed = model_based_sources(config, model_based, sweeps)  # a controller that cannot serve fails here
-    trained = trained_policies(out, runs)
+    trained = trained_policies(out, runs) + pretrained_policies(config, model_based)
     sources = {**{t.name: t.source for t in trained}, **designed}
     points = _sweep_points(config, sweeps)
     cells = [EvaluationCell(name, variant, starts) for variant in [config] + [p.config for p in points]
@@ -316,7 +338,7 @@ def evaluate_study(
     print(write_markdown(into / "comparison.md", title, summaries, notes))
     # One start, one row per policy: the first seed's final agent of each learned policy, each design.
     first_seed = runs[0].seed if runs else None
-    shown = [t.name for t in trained if not t.label.endswith(" best") and t.seed == first_seed]
+    shown = [t.name for t in trained if not t.label.endswith(" best") and (t.seed == first_seed or t.shipped)]
     shown += [name for name in designed if name != ORACLE]
     first_runs = [run for run in runs_here if run.policy in shown]
     plot_errors(into / "errors.png", first_runs, config.success_tolerances)

@@ -88,7 +88,8 @@ def add_leaderboard_command(commands: "argparse._SubParsersAction[argparse.Argum
     parser.add_argument("--scenes", type=_scenes, required=True, help="scene names, separated by commas")
     parser.add_argument("--policies", required=True,
                         help=f"controllers, separated by commas, among: {', '.join(CONTROLLERS)} (the names the "
-                        "main job's compare --policies takes)")
+                        "main job's compare --policies takes), or pretrained:<scene>/<name>: a shipped agent, scored "
+                        "as it is on the scenes with its spaces")
     parser.add_argument("--out", type=Path, required=True, help="run directory (agents, cells.csv, scores.csv, report)")
     parser.add_argument("--seeds", type=_seeds, default=[0],
                         help="seeds: training seeds of learned controllers and blocks of evaluation starts (default: 0)")

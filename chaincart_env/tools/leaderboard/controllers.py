@@ -4,8 +4,13 @@ too), and the learned ones (``ppo``, ``sac``, ``td3``) trained on the scene with
 packaged recipe (:mod:`chaincart_env.tools.compare.recipes`), one agent per seed, kept
 in the run directory and reused when the leaderboard runs again.
 
+A shipped agent (``pretrained:<scene>/<name>``) acts as shipped on every scene with
+its observation and action spaces (another scene than its own is a warning); on a
+scene with other spaces it cannot act.
+
 A controller that cannot serve a scene (the energy controller on a chain of two links,
-say) is reported as such, not scored as a failure.
+say, or a shipped agent on a scene with other spaces) is reported as such, not scored
+as a failure.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ import numpy as np
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 
-__all__ = ["TINY_TRAINING", "TimedPolicy", "seeds_checked", "train_agent"]
+__all__ = ["TINY_TRAINING", "TimedPolicy", "fixed_source", "seeds_checked", "train_agent"]
 
 
 #: A tiny run's training settings on top of a recipe: rollouts and warm-up short enough
@@ -69,6 +74,25 @@ def train_agent(
 #: Periodic evaluations of a learned agent's training: how many over its budget, on how many
 #: seeded starts (drawn apart from the leaderboard's cells, which start at seed 0).
 EVALUATIONS, EVALUATION_STARTS, EVALUATION_SEED_BASE = 20, 20, 10_000_000
+
+
+def fixed_source(name: str, config: ChainCartConfig) -> Any:
+    """The ``PolicySource`` of a controller the leaderboard does not train: a
+    model-based one designed on ``config`` (built once here), or a shipped agent checked
+    against ``config``'s spaces; ``NotApplicable`` when it cannot serve the scene."""
+    from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
+    from chaincart_env.tools.compare.policy_sources import PolicySource
+    from chaincart_env.tools.controllers import NotApplicable, build_model_based
+
+    if not is_pretrained_slot(name):
+        build_model_based(name, config)
+        return PolicySource.model_based(name, config)
+    agent = pretrained(*parse_pretrained_slot(name, "--policies"))
+    try:
+        agent.check_config(config)
+    except InvalidInputError as error:
+        raise NotApplicable(str(error)) from None
+    return PolicySource.pretrained(agent.scene, agent.name)
 
 
 class TimedPolicy:

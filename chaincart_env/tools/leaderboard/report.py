@@ -28,7 +28,7 @@ import numpy as np
 from chaincart_env.tools.compare.statistics import wilson_interval
 from chaincart_env.tools.compare.styles import band, policy_style
 from chaincart_env.tools.compare.tables import write_csv
-from chaincart_env.tools.controllers import LEARNED
+from chaincart_env.tools.controllers import is_learned
 from chaincart_env.tools.leaderboard.statistics import (
     Estimate, iqm_estimate, performance_profile, probability_of_improvement, probability_of_improvement_estimate,
 )  # fmt: skip
@@ -121,8 +121,8 @@ def _verdicts(scores: Sequence[Mapping[str, Any]], rows: Sequence[Mapping[str, A
     """Where the best learned controller beats the best model-based one, axis by axis, as measured."""
     out = []
     for (scene,), mine in _group(scores, "scene").items():
-        learned = [s for s in mine if s["controller"] in LEARNED]
-        model = [s for s in mine if s["controller"] not in LEARNED]
+        learned = [s for s in mine if is_learned(s["controller"])]
+        model = [s for s in mine if not is_learned(s["controller"])]
         if not learned or not model:
             continue
         best_l = max(learned, key=lambda s: s["robustness"])

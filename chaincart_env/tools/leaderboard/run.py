@@ -26,10 +26,10 @@ from chaincart_env.tools.compare.cells import map_cells, torch_threads
 from chaincart_env.tools.compare.policy_sources import PolicySource
 from chaincart_env.tools.compare.run_files import MODEL_FILE, folder_contents, write_folder
 from chaincart_env.tools.compare.tables import write_csv
-from chaincart_env.tools.controllers import LEARNED, NotApplicable, build_model_based
+from chaincart_env.tools.controllers import LEARNED, NotApplicable
 from chaincart_env.tools.leaderboard.axes import AXES, RobustnessAxis, axis_values
 from chaincart_env.tools.leaderboard.cells import CELL_COLUMNS, Cell, cells_of, run_cell
-from chaincart_env.tools.leaderboard.controllers import seeds_checked, train_agent
+from chaincart_env.tools.leaderboard.controllers import fixed_source, seeds_checked, train_agent
 
 __all__ = [
     "AgentTraining", "CellJob", "LeaderboardSettings", "QUICK_EPISODES", "QUICK_TIMESTEPS", "evaluate_cell_job",
@@ -189,13 +189,12 @@ def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None]) 
         config = ChainCartConfig(scene=scene, **settings.extra)
         for name in settings.controllers:
             if name not in LEARNED:
-                try:
-                    build_model_based(name, config)  # one design per scene, whatever the seed
+                try:  # one design (or shipped agent) per scene, whatever the seed
+                    plan.designs[f"{scene}/{name}"] = fixed_source(name, config)
                 except NotApplicable as reason:
                     plan.skipped[(scene, name)] = str(reason)
                     log(f"leaderboard: {reason} (not scored)")
                     continue
-                plan.designs[f"{scene}/{name}"] = PolicySource.model_based(name, config)
             for seed in settings.seeds:
                 key = f"{scene}/{name}"
                 if name in LEARNED:
