@@ -4,6 +4,7 @@ planner's plan in the share asked, a run with it is seeded, and it survives a ch
 from __future__ import annotations
 
 import csv
+import json
 import pickle
 
 import numpy as np
@@ -22,8 +23,25 @@ def test_bad_fractions_are_named(fraction) -> None:
         PlanStarts(fraction)
 
 
+@pytest.mark.parametrize(
+    "changes, named",
+    [
+        (dict(window=0.0), "plan-start window = 0.0"),
+        (dict(threshold=2), "plan-start threshold = 2"),
+        (dict(judged=0), "plan-start judged = 0"),
+        (dict(judged=2.5), "plan-start judged = 2.5"),
+        (dict(reverse="yes"), "plan-start reverse = 'yes'"),
+    ],
+)
+def test_bad_reverse_settings_are_named(changes, named) -> None:
+    with pytest.raises(InvalidInputError, match=named):
+        PlanStarts(**changes)
+
+
 def test_settings_round_trip_through_their_record() -> None:
     assert PlanStarts.from_record(PlanStarts(0.3).record()) == PlanStarts(0.3)
+    reverse = PlanStarts(0.8, reverse=True, window=0.2, threshold=0.4, judged=10)
+    assert PlanStarts.from_record(json.loads(json.dumps(reverse.record()))) == reverse
     with pytest.raises(InvalidInputError, match="expected kind 'plan'"):
         PlanStarts.from_record({"kind": "reverse", "fraction": 0.3})
 
@@ -50,7 +68,7 @@ def test_every_start_lies_on_the_plan_with_fraction_one(states) -> None:
     from chaincart_env.sb3 import ChainCartVecEnv
     from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
 
-    venv = PlanStartEnvs(ChainCartVecEnv(6, SWINGUP, seed=3), states, 1.0, seed=0)
+    venv = PlanStartEnvs(ChainCartVecEnv(6, SWINGUP, seed=3), states, PlanStarts(1.0), seed=0)
     observations = venv.reset()
     model_states = venv.venv.get_attr("model_state")
     assert all(_on_plan(y, states) for y in model_states)
@@ -62,7 +80,7 @@ def test_a_share_of_the_episodes_starts_on_the_plan(states) -> None:
     from chaincart_env.sb3 import ChainCartVecEnv
     from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
 
-    venv = PlanStartEnvs(ChainCartVecEnv(400, SWINGUP, seed=3), states, 0.25, seed=1)
+    venv = PlanStartEnvs(ChainCartVecEnv(400, SWINGUP, seed=3), states, PlanStarts(0.25), seed=1)
     venv.reset()
     on_plan = sum(_on_plan(y, states) for y in venv.venv.get_attr("model_state"))
     assert venv.plan_episodes == on_plan
@@ -77,7 +95,7 @@ def test_the_wrapper_pickles_and_continues_identically(states) -> None:
     from chaincart_env.sb3 import ChainCartVecEnv
     from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
 
-    venv = PlanStartEnvs(ChainCartVecEnv(8, SWINGUP, seed=3), states, 0.5, seed=4)
+    venv = PlanStartEnvs(ChainCartVecEnv(8, SWINGUP, seed=3), states, PlanStarts(0.5, reverse=True, judged=4), seed=4)
     venv.reset()
     rng = np.random.default_rng(0)
     for _ in range(SWINGUP.max_episode_steps // 2):
@@ -89,6 +107,7 @@ def test_the_wrapper_pickles_and_continues_identically(states) -> None:
         np.testing.assert_array_equal(first[0], second[0])
         np.testing.assert_array_equal(first[2], second[2])
     assert copy.plan_episodes == venv.plan_episodes > 0
+    assert copy.windows == venv.windows and copy.steps == venv.steps
 
 
 def _tiny_run(directory, curriculum):
@@ -129,15 +148,15 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
     with pytest.raises(InvalidInputError, match="transitions-2.*no single plan"):
         _training_settings(ChainCartConfig(scene="transitions-2"), ["ppo"], "sb3", None, None, {}, {},
                            curriculum=PlanStarts())
-    with pytest.raises(InvalidInputError, match="--trainer rllib"):
-        _training_settings(SWINGUP, ["ppo"], "rllib", None, None, {}, {}, curriculum=PlanStarts())
+    with pytest.raises(InvalidInputError, match="--curriculum reverse with --trainer rllib"):
+        _training_settings(SWINGUP, ["ppo"], "rllib", None, None, {}, {}, curriculum=PlanStarts(reverse=True))
 
 
 @pytest.mark.parametrize(
     "argv, named",
     [
-        (["--plan-fraction", "0.3"], "--plan-fraction 0.3 without --curriculum plan"),
-        (["--curriculum", "none", "--plan-fraction", "0.3"], "without --curriculum plan"),
+        (["--plan-fraction", "0.3"], "--plan-fraction 0.3 without --curriculum plan or reverse"),
+        (["--curriculum", "none", "--plan-fraction", "0.3"], "without --curriculum plan or reverse"),
         (["--curriculum", "plan", "--plan-fraction", "1.5"], "plan-start fraction = 1.5"),
         (["--curriculum", "plan", "--scene", "transitions-2"], "no single plan"),
     ],
@@ -148,3 +167,29 @@ def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_
     with pytest.raises(SystemExit):
         compare_main(["--scene", "swingup-2", "--out", str(tmp_path), *argv])
     assert named in capsys.readouterr().err
+
+
+def test_the_reverse_window_starts_at_the_end_and_widens_on_success(states) -> None:
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
+
+    curriculum = PlanStarts(1.0, reverse=True, window=0.25, threshold=0.5, judged=8)
+    venv = PlanStartEnvs(ChainCartVecEnv(8, SWINGUP, seed=3), states, curriculum, seed=2)
+    venv.reset()
+    last = states.shape[0] - 1
+    late = states[int(0.75 * last):]
+    assert all(_on_plan(y, late) for y in venv.venv.get_attr("model_state"))  # the last quarter only
+    succeeded = [{"is_success": True}] * 8
+    venv._judge(np.arange(8), succeeded)  # 8 of 8 plan-start episodes succeeded
+    assert venv.window == 0.5 and venv.windows == [(0, 0.25), (0, 0.5)]
+    venv._judge(np.arange(8), [{"is_success": i < 3} for i in range(8)])  # 3 of 8: below the threshold
+    assert venv.window == 0.5 and len(venv.windows) == 2
+    for _ in range(3):
+        venv._judge(np.arange(8), succeeded)
+    assert venv.window == 1.0 and venv._first_index() == 0
+
+
+def test_a_curriculum_log_is_written_beside_the_training(tmp_path) -> None:
+    _tiny_run(tmp_path, PlanStarts(0.5, reverse=True))
+    with (tmp_path / "curriculum.csv").open(newline="") as file:
+        assert list(csv.DictReader(file)) == [{"env_steps": "0", "window": "0.1"}]

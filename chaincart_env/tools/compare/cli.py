@@ -91,13 +91,14 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-imitation", action="store_true",
                         help="train PPO from scratch on scenes whose recipe first imitates the planner's controller "
                         "(transitions-2)")
-    _add_rllib_options(parser)
-    parser.add_argument("--curriculum", choices=("none", "plan"), default=None,
+    parser.add_argument("--curriculum", choices=("none", "plan", "reverse"), default=None,
                         help="where the training episodes start: plan = a share of them (--plan-fraction) at states "
-                        "drawn along the planner's swing-up, the rest at the scene's starts; none = the scene's starts "
-                        "only (default: the scene's curriculum, none on most scenes)")
+                        "drawn along the planner's swing-up, the rest at the scene's starts; reverse = the same, drawn "
+                        "at first from the last tenth of the plan, a tenth more each time half of 256 such episodes "
+                        "succeed; none = the scene's starts only (default: the scene's curriculum, none on most "
+                        "scenes)")
     parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
-                        help="with --curriculum plan: the share of training episodes that start on the plan, in "
+                        help="with --curriculum plan or reverse: the share of training episodes that start on the plan, in "
                         "(0, 1] (default: 0.5)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_evaluation_options(parser, defaults=True)
@@ -176,14 +177,17 @@ def _curriculum(name: Optional[str], fraction: Optional[float]) -> Any:
     """``--curriculum`` and ``--plan-fraction`` as ``run_compare``'s ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
 
-    if fraction is not None and name != "plan":
-        raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan: expected both or neither")
+    if fraction is not None and name not in ("plan", "reverse"):
+        raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan or reverse: expected "
+                                "--curriculum plan or reverse with it")
     if name is None:
         return "scene"
     if name == "none":
         return None
-    return PlanStarts() if fraction is None else PlanStarts(fraction)
+    return PlanStarts(**({} if fraction is None else {"fraction": fraction}), reverse=name == "reverse")
 
+def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
+    """``--sweep`` options as axis -> values (``None``: the default sweeps)."""
 
     if not texts:
         return None
@@ -205,10 +209,10 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
             return 0
         config = config_from_options(args)
         hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
+        curriculum = _curriculum(args.curriculum, args.plan_fraction)
         sweeps = _sweeps(args.sweeps)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
-        curriculum = _curriculum(args.curriculum, args.plan_fraction)
     if args.policies is not None:
         policies = [args.policies]
     elif args.algo is not None:

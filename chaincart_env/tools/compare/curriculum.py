@@ -36,7 +36,7 @@ from chaincart_env.errors import InvalidInputError
 __all__ = ["CURRICULA", "SCENE_CURRICULA", "PlanStarts", "check_plan_scene", "plan_states", "scene_curriculum"]
 
 #: The curricula ``compare --curriculum`` offers.
-CURRICULA = ("none", "plan")
+CURRICULA = ("none", "plan", "reverse")
 #: Offset of the curriculum's generator seed from the run's seed (apart from the envs' seeds).
 SEED_OFFSET = 300_000
 
@@ -44,16 +44,38 @@ SEED_OFFSET = 300_000
 @dataclass(frozen=True)
 class PlanStarts:
     """A share ``fraction`` of the training episodes starts at a state drawn uniformly
-    along the planner's plan (the rest as the scene says)."""
+    along the planner's plan (the rest as the scene says). With ``reverse``, a reverse
+    curriculum (Florensa et al., 2017): the draw starts from the last ``window`` of the
+    plan (a share of its steps, the part nearest the target), and whenever ``judged``
+    episodes started on the plan since the last change and at least ``threshold`` of
+    them succeeded, the window grows by ``window`` towards the plan's start."""
 
     fraction: float = 0.5
+    reverse: bool = False
+    window: float = 0.1
+    threshold: float = 0.5
+    judged: int = 256
 
     def __post_init__(self) -> None:
-        value = self.fraction
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-            math.isfinite(value) and 0.0 < value <= 1.0
-        ):
-            raise InvalidInputError(f"plan-start fraction = {value!r}: expected a number in (0, 1]")
+        for name in ("fraction", "window", "threshold"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+                math.isfinite(value) and 0.0 < value <= 1.0
+            ):
+                raise InvalidInputError(f"plan-start {name} = {value!r}: expected a number in (0, 1]")
+        if not isinstance(self.reverse, bool):
+            raise InvalidInputError(f"plan-start reverse = {self.reverse!r}: expected true or false")
+        if isinstance(self.judged, bool) or not isinstance(self.judged, int) or self.judged < 1:
+            raise InvalidInputError(f"plan-start judged = {self.judged!r}: expected an integer >= 1 (episodes)")
+
+    @property
+    def name(self) -> str:
+        """The curriculum's name on the command line."""
+        return "reverse" if self.reverse else "plan"
+
+    def first_window(self) -> float:
+        """The share of the plan (from its end) drawn from at first."""
+        return self.window if self.reverse else 1.0
 
     def record(self) -> dict[str, Any]:
         """The settings as ``run.json`` records them."""
@@ -79,7 +101,7 @@ def scene_curriculum(scene: Optional[str]) -> Optional[PlanStarts]:
 def check_plan_scene(config: Any) -> None:
     """Refuses, by name, a scene without one start and one target to plan between."""
     if config.goal_conditioned:
-        raise InvalidInputError(f"--curriculum plan on scene {config.scene!r}: its episodes draw their start and "
+        raise InvalidInputError(f"plan starts on scene {config.scene!r}: its episodes draw their start and "
                                 "target, so there is no single plan; expected a scene with one start and one target")
 
 

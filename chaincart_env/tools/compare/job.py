@@ -226,7 +226,8 @@ def _chosen_curriculum(config: ChainCartConfig, trainer: str, curriculum: Any) -
     if not isinstance(curriculum, PlanStarts):
         raise InvalidInputError(f"curriculum = {curriculum!r}: expected 'scene', 'none' or PlanStarts(...)")
     if trainer != "sb3":
-        raise InvalidInputError(f"--curriculum plan with --trainer {trainer}: plan starts are built for the sb3 trainer")
+        raise InvalidInputError(f"--curriculum {curriculum.name} with --trainer {trainer}: plan starts are built for "
+                                "the sb3 trainer")
     check_plan_scene(config)
     return curriculum.record()
 

@@ -4,6 +4,7 @@ plan: the curriculum of :mod:`chaincart_env.tools.compare.curriculum` as an SB3
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -13,38 +14,68 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepR
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.curriculum import SEED_OFFSET, PlanStarts, plan_states
 
-__all__ = ["PlanStartEnvs", "plan_start_envs"]
+__all__ = ["CURRICULUM_FILE", "PlanStartEnvs", "plan_start_envs", "write_curriculum_log"]
+
+#: The curriculum's windows over training, in the training directory.
+CURRICULUM_FILE = "curriculum.csv"
 
 
 class PlanStartEnvs(VecEnvWrapper):
-    """The native ``ChainCartVecEnv`` ``venv`` with a share ``fraction`` of its episodes
-    starting at one of ``states`` (drawn uniformly), the draws seeded by ``seed``.
-    Place it directly around the native envs (inside ``VecMonitor``)."""
+    """The native ``ChainCartVecEnv`` ``venv`` with a share of its episodes starting at
+    one of ``states`` as ``curriculum`` says, the draws seeded by ``seed``. Place it
+    directly around the native envs (inside ``VecMonitor``). ``windows`` lists each
+    window the draw used, with the env steps at which it began (a reverse curriculum's
+    progress)."""
 
-    def __init__(self, venv: Any, states: np.ndarray, fraction: float, seed: int) -> None:
-        PlanStarts(fraction)  # validated
+    def __init__(self, venv: Any, states: np.ndarray, curriculum: PlanStarts, seed: int) -> None:
         states = np.asarray(states, dtype=np.float64)
         if states.ndim != 2 or states.shape[0] < 1:
             raise InvalidInputError(f"plan states of shape {states.shape}: expected (K + 1, state_dim) with K >= 0")
+        if not isinstance(curriculum, PlanStarts):
+            raise InvalidInputError(f"curriculum = {curriculum!r}: expected PlanStarts(...)")
         super().__init__(venv)
-        self.states, self.fraction = states, float(fraction)
+        self.states, self.curriculum = states, curriculum
         self.rng = np.random.default_rng(seed + SEED_OFFSET)
         self.plan_episodes = 0
+        self.steps = 0
+        self.window = curriculum.first_window()
+        self.windows: list[tuple[int, float]] = [(0, self.window)]
+        self._on_plan = np.zeros(self.num_envs, dtype=bool)
+        self._judged = self._successes = 0
+
+    def _first_index(self) -> int:
+        """The earliest plan step the draw may pick (the window's start)."""
+        last = self.states.shape[0] - 1
+        return max(0, min(last, int(math.floor((1.0 - self.window) * last + 1e-9))))
 
     def _start_on_plan(self, envs: np.ndarray, observations: np.ndarray) -> None:
         """Moves each of ``envs`` (just reset) onto the plan with probability ``fraction``."""
         draws = self.rng.random(len(envs))
-        picks = self.rng.integers(0, self.states.shape[0], len(envs))
-        chosen = [(int(i), int(k)) for i, k, u in zip(envs, picks, draws) if u < self.fraction]
+        picks = self.rng.integers(self._first_index(), self.states.shape[0], len(envs))
+        chosen = [(int(i), int(k)) for i, k, u in zip(envs, picks, draws) if u < self.curriculum.fraction]
+        self._on_plan[envs] = False
         if not chosen:
             return
         native = self.venv
         for i, k in chosen:
             native.env_method("set_state", self.states[k], indices=i)
+            self._on_plan[i] = True
         fresh = native._batch.observations()
         for i, _ in chosen:
             observations[i] = fresh[i]
         self.plan_episodes += len(chosen)
+
+    def _judge(self, ended: np.ndarray, infos: list[dict[str, Any]]) -> None:
+        """Counts the ended plan-start episodes; widens the window when enough succeeded."""
+        for i in ended[self._on_plan[ended]]:
+            self._judged += 1
+            self._successes += int(bool(infos[i].get("is_success", False)))
+        curriculum = self.curriculum
+        if self.window < 1.0 and self._judged >= curriculum.judged:
+            if self._successes >= curriculum.threshold * self._judged:
+                self.window = min(1.0, self.window + curriculum.window)
+                self.windows.append((self.steps, self.window))
+            self._judged = self._successes = 0
 
     def reset(self) -> VecEnvObs:
         observations = self.venv.reset()
@@ -53,23 +84,46 @@ class PlanStartEnvs(VecEnvWrapper):
 
     def step_wait(self) -> VecEnvStepReturn:
         observations, rewards, dones, infos = self.venv.step_wait()
+        self.steps += self.num_envs
         ended = np.flatnonzero(dones)
         if ended.size:
+            if self.curriculum.reverse:
+                self._judge(ended, infos)
             self._start_on_plan(ended, observations)
         return observations, rewards, dones, infos
 
     # VecEnvWrapper keeps its class's members in an attribute and does not pickle; the
     # checkpoints pickle the training envs, so the wrapper pickles as its parts.
+    _PROGRESS = ("plan_episodes", "steps", "window", "windows", "_on_plan", "_judged", "_successes")
+
     def __getstate__(self) -> dict[str, Any]:
-        return {"venv": self.venv, "states": self.states, "fraction": self.fraction,
-                "rng": self.rng.bit_generator.state, "plan_episodes": self.plan_episodes}
+        return {"venv": self.venv, "states": self.states, "curriculum": self.curriculum,
+                "rng": self.rng.bit_generator.state, **{name: getattr(self, name) for name in self._PROGRESS}}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(state["venv"], state["states"], state["fraction"], 0)
+        self.__init__(state["venv"], state["states"], state["curriculum"], 0)
         self.rng.bit_generator.state = state["rng"]
-        self.plan_episodes = state["plan_episodes"]
+        for name in self._PROGRESS:
+            setattr(self, name, state[name])
 
 
 def plan_start_envs(venv: Any, config: Any, curriculum: PlanStarts, seed: int) -> PlanStartEnvs:
     """``venv`` (native envs of ``config``) with ``curriculum``'s plan starts, seeded by ``seed``."""
-    return PlanStartEnvs(venv, plan_states(config), curriculum.fraction, seed)
+    return PlanStartEnvs(venv, plan_states(config), curriculum, seed)
+
+
+def write_curriculum_log(envs: Any, path: Any) -> bool:
+    """Writes the windows of the :class:`PlanStartEnvs` inside the wrapped training
+    ``envs`` (``env_steps,window,plan_episodes`` rows; the last row the end of training) to
+    ``path``; ``False`` when the envs have no plan starts."""
+    import csv
+
+    while envs is not None and not isinstance(envs, PlanStartEnvs):
+        envs = getattr(envs, "venv", None)
+    if envs is None:
+        return False
+    with open(path, "w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(("env_steps", "window"))
+        writer.writerows((steps, f"{window:.6g}") for steps, window in envs.windows)
+    return True

@@ -16,7 +16,7 @@ from stable_baselines3.common.vec_env import VecMonitor
 
 from chaincart_env.tools.compare.algorithms import algorithm_class
 from chaincart_env.tools.compare.curriculum import PlanStarts
-from chaincart_env.tools.compare.plan_start_envs import plan_start_envs
+from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, plan_start_envs, write_curriculum_log
 from chaincart_env.tools.compare.imitation import Imitation, imitate
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.errors import InvalidInputError
@@ -201,7 +201,8 @@ def train(
     controller (:func:`~chaincart_env.tools.compare.imitation.imitate`, logged in
     ``imitation.csv``); the first evaluation, at step 0, scores the imitation. ``curriculum``:
     a share of the training episodes starts along the planner's plan
-    (:mod:`~chaincart_env.tools.compare.curriculum`; a resumed run keeps its checkpoint's)."""
+    (:mod:`~chaincart_env.tools.compare.curriculum`; a resumed run keeps its checkpoint's); the
+    windows it drew from go to ``curriculum.csv``."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
@@ -228,5 +229,6 @@ def train(
     start = time.perf_counter()
     model.learn(total_timesteps=max(0, planned - resumed_from), callback=[logger, evaluation, checkpoints],
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)
+    write_curriculum_log(model.get_env(), directory / CURRICULUM_FILE)
     return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs, evaluation.summary(),
                           resumed_from, imitated)
