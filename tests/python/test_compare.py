@@ -134,7 +134,8 @@ def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) ->
     assert "## Sweep: start perturbation" in report and "![summary](summary.png)" in report
     # The verdict first; one seed: no interval over seeds is claimed.
     assert report.index("## Verdict") < report.index("## Setup") < report.index("## On the evaluation starts")
-    assert "PPO (1 training seed) against LQR, success rates at 3 setting(s)" in report
+    # The sweep value 0.05 is the starts' own setting: two distinct settings, not three.
+    assert "PPO (1 training seed) against LQR, success rates at 2 distinct settings" in report
     assert "over seeds" not in report.replace("no interval over seeds", "")
     assert "PPO, one training seed: success" in report and "One seed gives no interval over seeds" in report
 

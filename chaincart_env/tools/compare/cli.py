@@ -100,6 +100,7 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
                         help="with --curriculum plan or reverse: the share of training episodes that start on the plan, in "
                         "(0, 1] (default: 0.5)")
+    _add_rllib_options(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_evaluation_options(parser, defaults=True)
     add_scene_options(parser)
@@ -171,8 +172,6 @@ def _algo_kwargs(texts: Sequence[str]) -> tuple[dict[str, Any], dict[str, dict[s
     return shared, per_algo
 
 
-def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
-    """``--sweep`` options as axis -> values (``None``: the default sweeps)."""
 def _curriculum(name: Optional[str], fraction: Optional[float]) -> Any:
     """``--curriculum`` and ``--plan-fraction`` as ``run_compare``'s ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
@@ -186,9 +185,9 @@ def _curriculum(name: Optional[str], fraction: Optional[float]) -> Any:
         return None
     return PlanStarts(**({} if fraction is None else {"fraction": fraction}), reverse=name == "reverse")
 
+
 def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
     """``--sweep`` options as axis -> values (``None``: the default sweeps)."""
-
     if not texts:
         return None
     sweeps: dict[str, list[float]] = {}
@@ -209,8 +208,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
             return 0
         config = config_from_options(args)
         hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
-        curriculum = _curriculum(args.curriculum, args.plan_fraction)
         sweeps = _sweeps(args.sweeps)
+        curriculum = _curriculum(args.curriculum, args.plan_fraction)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     if args.policies is not None:

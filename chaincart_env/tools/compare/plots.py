@@ -66,18 +66,37 @@ def plot_errors(path: Path, runs: Sequence[Rollouts], tolerances: tuple[float, f
     fig.savefig(path)
 
 
+#: Width of the first policy's error curve, and how much wider each later one is drawn
+#: beneath it: where the curves meet (every settled policy ends near zero error), the
+#: one on top shows inside, each one beneath as a margin on either side.
+_ERROR_LINE_WIDTH = 1.3
+_ERROR_LINE_WIDEN = 1.4
+#: Smallest error shown (the log scale has no zero), and the room (a factor) above and
+#: below the curves and the tolerance, so that no line lies on the frame.
+_ERROR_FLOOR = 1e-8
+_ERROR_ROOM = 3.0
+
+
 def draw_errors(ax: Any, runs: Sequence[Rollouts], key: str, tolerance: float) -> None:
     """``key`` (``e_q`` or ``e_w``) against time of each policy's first episode, log
-    scale, each policy in its style (coinciding curves named), the tolerance grey."""
+    scale, each policy in its style (coinciding curves named), the tolerance grey. The
+    first policy is drawn on top and each later one beneath it, wider; the y-range
+    spans the curves and the tolerance with room on both sides."""
     drawn: list[tuple[str, np.ndarray, np.ndarray]] = []
-    for run in runs:
-        series = np.maximum(getattr(run, key)[0, : run.lengths[0] + 1], 1e-8)
+    low = high = float(tolerance)
+    for order, run in enumerate(runs):
+        series = np.maximum(getattr(run, key)[0, : run.lengths[0] + 1], _ERROR_FLOOR)
         t = np.arange(series.size) * run.dt
         style = policy_style(run.policy)
         hidden = coinciding_with(t, series, drawn)
-        ax.semilogy(t, series, color=style.color, ls=style.linestyle, label=legend_label(run.policy, hidden))
+        ax.semilogy(t, series, color=style.color, ls=style.linestyle, label=legend_label(run.policy, hidden),
+                    lw=_ERROR_LINE_WIDTH + _ERROR_LINE_WIDEN * order, zorder=3 + len(runs) - order)
         drawn.append((run.policy, t, series))
-    ax.axhline(tolerance, color="0.5", ls=(0, (1, 1)), lw=1, label="success tolerance")
+        finite = series[np.isfinite(series)]
+        if finite.size:
+            low, high = min(low, float(finite.min())), max(high, float(finite.max()))
+    ax.axhline(tolerance, color="0.5", ls=(0, (1, 1)), lw=1, label="success tolerance", zorder=2)
+    ax.set_ylim(low / _ERROR_ROOM, high * _ERROR_ROOM)
     ax.set(xlabel="t (s)", ylabel=key)
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="best", fontsize="small")

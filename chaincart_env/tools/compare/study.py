@@ -22,12 +22,12 @@ from chaincart_env.tools.compare.filmstrip import write_filmstrip
 from chaincart_env.tools.compare.layout import TrainingRun, seed_directory
 from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
 from chaincart_env.tools.compare.policy_sources import PolicySource
-from chaincart_env.tools.compare.report import SUMMARY_FIGURE, write_report, write_summary_figure
+from chaincart_env.tools.compare.report import SUMMARY_FIGURE, seed_lines, write_report, write_summary_figure
 from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, read_evaluations, read_json_object
 from chaincart_env.tools.compare.statistics import aggregate_over_seeds
 from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, summarize_sweep, sweep_rows
 from chaincart_env.tools.compare.tables import write_csv, write_markdown
-from chaincart_env.tools.compare.verdict import Standing, main_starts_rate, study_verdict
+from chaincart_env.tools.compare.verdict import Standing, main_setting_values, main_starts_rate, study_verdict
 from chaincart_env.tools.controllers import build_model_based, label_of
 
 __all__ = [
@@ -209,19 +209,6 @@ def _sweep_rows(
     return rows
 
 
-def _seed_line(row: dict[str, Any]) -> str:
-    """A trained policy's numbers over its training seeds (an interval only with several)."""
-    if row["seeds"] < 2:
-        return (f"{row['policy']}, one training seed: success {row['success_mean']:.2f}, return "
-                f"{row['return_mean']:.1f}. One seed gives no interval over seeds (train several with --seeds).")
-    return (
-        f"{row['policy']} over {row['seeds']} training seeds: success {row['success_mean']:.2f} "
-        f"[{row['success_ci_low']:.2f}, {row['success_ci_high']:.2f}], return {row['return_mean']:.1f} "
-        f"[{row['return_ci_low']:.1f}, {row['return_ci_high']:.1f}] (mean over seeds, 95% percentile bootstrap "
-        "interval over seeds)."
-    )
-
-
 def _standings(
     trained: Sequence[TrainedPolicy], model_based: Sequence[str], summaries: Sequence[dict[str, Any]],
     aggregates: Sequence[dict[str, Any]],
@@ -325,7 +312,7 @@ def evaluate_study(
               SWEEP_SUMMARY_COLUMNS)
 
     learned, model = _standings(trained, list(designed), summaries, aggregates)
-    verdict = study_verdict(learned, model, summaries_by_axis, eval_episodes)
+    verdict = study_verdict(learned, model, summaries_by_axis, eval_episodes, main_setting_values(config, sweeps))
     title = _title(verdict.contenders, verdict.baseline.label)
     tol_q, tol_w = config.success_tolerances
     notes = [
@@ -354,7 +341,7 @@ def evaluate_study(
     print("\n".join(["", "Verdict:", *verdict.lines]))
     write_report(
         into, title=title, verdict=verdict.lines,
-        setup=notes + [_seed_line(row) for row in aggregates], comparison=summaries,
+        setup=notes + seed_lines(aggregates), comparison=summaries,
         sweeps=summaries_by_axis, training=training_notes, transitions=transitions,
         pictures=[(SUMMARY_FIGURE, "summary"), ("evaluation_curve.png", "deterministic evaluation during training"),
                   *[(f"sweep_{axis}.png", f"success vs {SWEEP_AXES[axis].label}") for axis in sweeps],

@@ -9,6 +9,10 @@ is weighed against it. A study without a learned policy weighs the other model-b
 controllers against the best one; one without a model-based controller, the other
 learned policies against the best learned one.
 
+A sweep value that leaves the scene as it is (no mismatch; the scene's own start
+perturbation) is the setting of the evaluation starts again, on the same episodes: the
+verdict shows it on its axis's line but counts each distinct setting once.
+
 A side is *ahead* at a setting when the 95% interval of its success rate lies wholly
 above the other's; where the intervals overlap the two *tie* (the data cannot tell
 them apart). The interval of a policy measured on one training seed (and of the LQR)
@@ -20,11 +24,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
+from chaincart_env.config import ChainCartConfig
 from chaincart_env.tools.compare.statistics import wilson_interval
 
-__all__ = ["Rate", "Standing", "Verdict", "compare_rates", "main_starts_rate", "study_verdict", "verdict_lines"]
+__all__ = [
+    "Rate", "Standing", "Verdict", "compare_rates", "main_setting_values", "main_starts_rate", "study_verdict",
+    "verdict_lines",
+]
+
+#: Sweep values by axis that are the evaluation starts' own setting.
+Nominal = Mapping[str, Sequence[float]]
 
 
 @dataclass(frozen=True)
@@ -66,12 +77,26 @@ def main_starts_rate(summary: dict[str, Any], aggregate: dict[str, Any] | None =
     return Rate(summary["success_rate"], low, high)
 
 
-def _values_text(values: Sequence[float]) -> str:
-    return ", ".join(f"{v:g}" for v in values)
+def main_setting_values(config: ChainCartConfig, sweeps: Mapping[str, Sequence[float]]) -> dict[str, list[float]]:
+    """The values of each sweep axis that leave ``config`` as it is: the setting of the
+    evaluation starts, measured again on the same episodes."""
+    from chaincart_env.tools.compare.sweeps import SWEEP_AXES
+
+    return {
+        axis: [value for value in values if SWEEP_AXES[axis].apply(config, float(value)) == config]
+        for axis, values in sweeps.items()
+    }
 
 
-def _axis_line(label: str, rows: Sequence[dict[str, Any]], agent: str, baseline: str) -> tuple[str, dict[str, int]]:
-    """One sweep axis: where each side is ahead and where they tie."""
+def _values_text(values: Sequence[float], nominal: Sequence[float] = ()) -> str:
+    return ", ".join(f"{v:g}" + (" (the evaluation starts' setting)" if v in nominal else "") for v in values)
+
+
+def _axis_line(
+    label: str, rows: Sequence[dict[str, Any]], agent: str, baseline: str, nominal: Sequence[float] = ()
+) -> tuple[str, dict[str, int]]:
+    """One sweep axis: where each side is ahead and where they tie; the counts leave out
+    the ``nominal`` values (the evaluation starts' setting, counted there)."""
     outcome: dict[str, list[float]] = {"agent": [], "baseline": [], "tie": []}
     higher: dict[str, list[float]] = {"agent": [], "baseline": []}  # ties whose rates still differ
     for value in sorted({r["value"] for r in rows}):
@@ -82,12 +107,13 @@ def _axis_line(label: str, rows: Sequence[dict[str, Any]], agent: str, baseline:
         if side == "tie" and rates[0].value != rates[1].value:
             higher["agent" if rates[0].value > rates[1].value else "baseline"].append(value)
     names = (("agent", agent), ("baseline", baseline))
-    parts = [f"{name} ahead at {_values_text(outcome[side])}" for side, name in names if outcome[side]]
+    parts = [f"{name} ahead at {_values_text(outcome[side], nominal)}" for side, name in names if outcome[side]]
     if outcome["tie"]:
         within = [f"{name} at {_values_text(higher[side])}" for side, name in names if higher[side]]
-        parts.append(f"tied at {_values_text(outcome['tie'])}"
+        parts.append(f"tied at {_values_text(outcome['tie'], nominal)}"
                      + (f" (higher rate within the intervals: {', '.join(within)})" if within else ""))  # fmt: skip
-    return f"* {label}: {'; '.join(parts)}.", {side: len(values) for side, values in outcome.items()}
+    counts = {side: sum(1 for v in values if v not in nominal) for side, values in outcome.items()}
+    return f"* {label}: {'; '.join(parts)}.", counts
 
 
 def verdict_lines(
@@ -99,10 +125,13 @@ def verdict_lines(
     main: tuple[Rate, Rate],
     returns: tuple[float, float],
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
+    nominal: Nominal | None = None,
 ) -> list[str]:
     """The verdict of ``agent`` against ``baseline``: a headline naming who succeeded
-    more often over every setting, one line for the evaluation starts and one per sweep
-    axis, and how to read it. ``seeds``: the agent's training seeds (0: not trained)."""
+    more often over every distinct setting, one line for the evaluation starts and one
+    per sweep axis, and how to read it. ``seeds``: the agent's training seeds (0: not
+    trained); ``nominal``: the values of each axis that are the evaluation starts'
+    setting (:func:`main_setting_values`), shown on their axis but counted once."""
     counts = {"agent": 0, "baseline": 0, "tie": 0}
     side = compare_rates(*main)
     counts[side] += 1
@@ -113,8 +142,8 @@ def verdict_lines(
         + {"agent": f": {agent} ahead", "baseline": f": {baseline} ahead", "tie": ": tied"}[side]
         + f"; mean return {returns[0]:.1f} against {returns[1]:.1f}.",
     ]
-    for label, rows in sweeps.values():
-        line, outcome = _axis_line(label, rows, agent, baseline)
+    for axis, (label, rows) in sweeps.items():
+        line, outcome = _axis_line(label, rows, agent, baseline, (nominal or {}).get(axis, ()))
         lines.append(line)
         for key, count in outcome.items():
             counts[key] += count
@@ -129,7 +158,8 @@ def verdict_lines(
         headline = f"{agent} and {baseline} cannot be told apart on these episodes"
     seed_text = f"{seeds} training seed{'s' if seeds != 1 else ''}" if seeds else "model-based"
     head = (
-        f"**{headline}**: {agent} ({seed_text}) against {baseline}, success rates at {total} setting(s): "
+        f"**{headline}**: {agent} ({seed_text}) against {baseline}, success rates at {total} distinct "
+        f"setting{'s' if total != 1 else ''}: "
         f"{agent} ahead at {counts['agent']}, {baseline} ahead at {counts['baseline']}, tied at {counts['tie']}."
     )
     reading = (
@@ -165,9 +195,10 @@ def study_verdict(
     model_based: Sequence[Standing],
     sweeps: dict[str, tuple[str, Sequence[dict[str, Any]]]],
     episodes: int,
+    nominal: Nominal | None = None,
 ) -> Verdict:
     """The verdict of a study (module docstring): one block of :func:`verdict_lines`
-    per policy weighed against the baseline."""
+    per policy weighed against the baseline (``nominal``: as there)."""
     pool = list(model_based) or list(learned)
     if not pool:
         raise ValueError("a verdict needs at least one policy")
@@ -187,6 +218,7 @@ def study_verdict(
         lines += verdict_lines(
             agent=contender.label, seeds=contender.seeds, baseline=baseline.label, episodes=episodes,
             main=(contender.main, baseline.main), returns=(contender.returns, baseline.returns), sweeps=sweeps,
+            nominal=nominal,
         )
     if not contenders:
         rate = baseline.main
