@@ -386,7 +386,7 @@ def export_agent(
     )
     weights_path.parent.mkdir(parents=True, exist_ok=True)
     buffer = io.BytesIO()
-    np.savez_compressed(buffer, **arrays)
+    np.savez_compressed(buffer, **arrays)  # type: ignore[arg-type]  # numpy's stub reads a name as allow_pickle
     weights_path.write_bytes(buffer.getvalue())
     record_path.write_text(json.dumps(record, indent=2) + "\n")
     load_agent(weights_path, record_path)  # what was written loads back

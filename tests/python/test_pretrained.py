@@ -73,8 +73,8 @@ def _statistics(size: int, seed: int) -> Any:
     statistics = VecNormalize(DummyVecEnv([lambda: gymnasium.make("ChainCart-inverted-2-v0")]), norm_obs=True,
                               norm_reward=False, clip_obs=3.0)
     rng = np.random.default_rng(seed)
-    statistics.obs_rms.mean = rng.normal(0, 1, size)
-    statistics.obs_rms.var = rng.uniform(0.01, 4, size)
+    rms: Any = statistics.obs_rms
+    rms.mean, rms.var = rng.normal(0, 1, size), rng.uniform(0.01, 4, size)
     return statistics
 
 
@@ -89,7 +89,7 @@ def _agent(model: Any, statistics: Any) -> PretrainedPolicy:
 def _policy_kwargs(case: str) -> dict[str, Any]:
     from torch import nn
 
-    return {
+    cases: dict[str, dict[str, Any]] = {
         "ppo-64": dict(net_arch=[64, 64]),
         "ppo-256": dict(net_arch=[256, 256]),
         "ppo-separate-relu": dict(net_arch=dict(pi=[32, 16], vf=[64]), activation_fn=nn.ReLU,
@@ -100,7 +100,8 @@ def _policy_kwargs(case: str) -> dict[str, Any]:
         "sac": dict(net_arch=[64, 64]),
         "tqc": dict(net_arch=[64, 64]),
         "td3": dict(net_arch=[64, 64]),
-    }[case]
+    }
+    return cases[case]
 
 
 CASES = [
@@ -246,7 +247,7 @@ def test_a_tampered_agent_is_refused(tmp_path: pathlib.Path) -> None:
     with pytest.raises(InvalidInputError, match=r"layer hidden.0 .*expected hidden.0.weight of shape \(7, 8\)"):
         load_agent(weights, tmp_path / "a.json")
     # An object array would need unpickling: np.load refuses it.
-    np.savez(tmp_path / "b.npz", **{"hidden.0.weight": np.array([{"x": 1}], dtype=object)})
+    np.savez(tmp_path / "b.npz", **{"hidden.0.weight": np.array([{"x": 1}], dtype=object)})  # type: ignore[arg-type]
     with pytest.raises(InvalidInputError, match="expected a plain .npz"):
         load_agent(tmp_path / "b.npz", record)
 
@@ -284,6 +285,7 @@ def test_export_writes_an_agent_that_loads_and_acts_as_the_saved_model(
     assert record["normalization"]["clip_obs"] == 3.0 and record["network"]["hidden"] == [16, 16]
     agent = load_agent(out / "inverted-2" / "tiny.npz", out / "inverted-2" / "tiny.json")
     model, statistics = PPO.load(saved_run / "model.zip", device="cpu"), load_statistics(saved_run / "model.zip")
+    assert statistics is not None
     observations = np.random.default_rng(0).normal(0, 2, (64, 8))
     expected, _ = model.predict(statistics.normalize_obs(observations), deterministic=True)
     np.testing.assert_allclose(agent.predict(observations)[0], expected, rtol=0, atol=TOLERANCE)
