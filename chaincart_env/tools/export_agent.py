@@ -209,7 +209,10 @@ def _source_files(path: Path) -> tuple[Path, Path]:
     path = Path(path)
     if path.is_dir():
         if not (path / MODEL_FILE).is_file():
-            raise InvalidInputError(f"{path}: expected a training run's folder holding {MODEL_FILE}, or an SB3 .zip")
+            raise InvalidInputError(
+                f"{path} holds no {MODEL_FILE}: expected a training run's folder (seed-<s>/ or <algo>/seed-<s>/ of a "
+                "compare run) or an SB3 .zip"
+            )
         return path / MODEL_FILE, path
     if path.suffix != ".zip" or not path.is_file():
         raise InvalidInputError(f"{path}: expected a training run's folder of compare or an SB3 model .zip that exists")

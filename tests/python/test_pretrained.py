@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import json
 import pathlib
+import re
 import subprocess
 import sys
 from typing import Any
@@ -299,15 +300,17 @@ def test_export_writes_an_agent_that_loads_and_acts_as_the_saved_model(
                  "--force"]) == 0  # fmt: skip
 
 
-def test_export_checks_the_scene_and_the_name(saved_run: pathlib.Path, tmp_path: pathlib.Path, capsys) -> None:
+def test_export_checks_its_input(saved_run: pathlib.Path, tmp_path: pathlib.Path, capsys) -> None:
+    run = str(saved_run)
     for args, message in (
-        (["--scene", "swingup-2", "--name", "x"], "--scene 'swingup-2': the run at .* was trained on scene 'inverted-2'"),
-        (["--name", "Bad Name"], "--name 'Bad Name': expected lower-case letters"),
-        (["--name", "x", "--vecnormalize", str(tmp_path / "none.pkl")], "--vecnormalize .*none.pkl: the file does not"),
+        ([run, "--scene", "swingup-2", "--name", "x"], "--scene 'swingup-2': the run at .* was trained on scene 'inverted-2'"),
+        ([run, "--name", "Bad Name"], "--name 'Bad Name': expected lower-case letters"),
+        ([run, "--name", "x", "--vecnormalize", str(tmp_path / "none.pkl")], "--vecnormalize .*none.pkl: the file does not"),
+        ([str(saved_run.parent), "--name", "x"], r"holds no model.zip: expected a training run's folder \(seed-<s>/"),
     ):
         with pytest.raises(SystemExit):
-            main(["export-agent", str(saved_run), "--out-dir", str(tmp_path), "--episodes", "1", *args])
-        assert __import__("re").search(message, capsys.readouterr().err), message
+            main(["export-agent", *args, "--out-dir", str(tmp_path), "--episodes", "1"])
+        assert re.search(message, capsys.readouterr().err), message
 
 
 # -- the slots of the commands --------------------------------------------------------------------
