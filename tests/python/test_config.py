@@ -165,8 +165,10 @@ KEY_LIST = "expected one of " + ", ".join(f'"{name}"' for name, *_ in CONFIG_KEY
         lambda: ChainCartEnv(n_link=3),
         lambda: ChainCartVectorEnv(4, n_link=3),
         lambda: chaincart_env.ChainCartVecEnv(4, n_link=3),
+        lambda: gym.make_vec("ChainCart-v0", num_envs=2, vectorization_mode="vector_entry_point", n_link=3),
+        lambda: gym.make_vec("ChainCart-v0", num_envs=2, vectorization_mode="sync", n_link=3),
     ],
-    ids=["gym.make", "gym.make-scene", "ChainCartEnv", "ChainCartVectorEnv", "ChainCartVecEnv"],
+    ids=["gym.make", "gym.make-scene", "ChainCartEnv", "ChainCartVectorEnv", "ChainCartVecEnv", "make_vec", "make_vec-sync"],
 )
 def test_an_unknown_keyword_is_reported_once_under_its_own_name(make) -> None:
     with pytest.raises(UnknownKeyError) as info:
