@@ -28,11 +28,12 @@ PLAN_FROM = ("equilibrium", "state")
 #: How far (m, or components of a link's unit vector) an observed position may lie from
 #: where the model puts it one control period after the previous observation, under the
 #: force the policy asked for then, before the observation is taken for the first of a
-#: new episode. Within an episode the positions move as the model says up to a few
-#: millimetres per period, even at the strongest model mismatch (40 %), control delay
-#: (4 periods), force noise (50 %) and force-rate limit (200 N/s) of the leaderboard;
-#: a reset moves the cart from wherever the last episode left it (off the track, when
-#: it ended early) and the links from wherever they were to the start.
+#: new episode. Within an episode the positions follow the model to a few hundredths
+#: per period even at the leaderboard's strongest model mismatch (40 %), control delay
+#: (4 periods), force noise (50 %) and force-rate limit (200 N/s) (the tests check all
+#: of them at once against half the tolerance); a reset moves the cart from wherever
+#: the last episode left it (off the track, when it ended early) and the links from
+#: wherever they were to the start.
 EPISODE_JUMP = 0.3
 #: Standard deviations of the env's observation noise added to :data:`EPISODE_JUMP`:
 #: two noisy observations differ by sqrt(2) of it, and ten of it is never reached.
