@@ -193,3 +193,33 @@ def test_a_curriculum_log_is_written_beside_the_training(tmp_path) -> None:
     _tiny_run(tmp_path, PlanStarts(0.5, reverse=True))
     with (tmp_path / "curriculum.csv").open(newline="") as file:
         assert list(csv.DictReader(file)) == [{"env_steps": "0", "window": "0.1"}]
+
+
+def test_a_training_reward_changes_the_training_envs_only(tmp_path) -> None:
+    from chaincart_env.tools.compare.training import train
+
+    result = train(SWINGUP, timesteps=128, num_envs=4, seed=5, directory=tmp_path, eval_seeds=[1_000_000],
+                   eval_every=128, checkpoint_every=10_000, progress_bar=False,
+                   hyperparameters={"n_steps": 32, "batch_size": 64, "policy_kwargs": "dict(net_arch=[16])"},
+                   training_reward="exp")
+    envs = result.model.get_env()
+    while hasattr(envs, "venv"):
+        envs = envs.venv
+    assert envs.config.reward == "exp" and SWINGUP.reward == "tolerance"
+    from chaincart_env.tools.compare.evaluation import rollout
+    from chaincart_env.tools.compare.normalization import with_statistics
+
+    with (tmp_path / "evaluations.csv").open(newline="") as file:
+        last = list(csv.DictReader(file))[-1]
+    policy = with_statistics(result.model, result.model.get_vec_normalize_env())
+    on_scene = rollout(policy, "agent", SWINGUP, [1_000_000])  # the evaluation's start, on the scene's reward
+    assert float(last["return_mean"]) == pytest.approx(float(np.mean(on_scene.returns)))
+
+
+def test_an_unknown_training_reward_is_named_before_training() -> None:
+    from chaincart_env.tools.compare.job import _training_settings
+
+    with pytest.raises(InvalidInputError, match='unknown reward "bogus"'):
+        _training_settings(SWINGUP, ["ppo"], "sb3", None, None, {}, {}, training_reward="bogus")
+    chosen = _training_settings(SWINGUP, ["ppo"], "sb3", None, None, {}, {}, training_reward="exp")
+    assert chosen["ppo"]["training_reward"] == "exp"

@@ -181,11 +181,11 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                        checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
                        hyperparameters=training["hyperparameters"], resume=resume,
                        normalize=training.get("normalize"), imitation=_imitation(training),
-                       curriculum=_curriculum(training))
+                       curriculum=_curriculum(training), training_reward=training.get("training_reward"))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations,
                        normalize=training.get("normalize"), imitation=result.imitation,
-                       curriculum=training.get("curriculum"))
+                       curriculum=training.get("curriculum"), training_reward=training.get("training_reward"))
     print(f"{algo.upper()} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
@@ -396,7 +396,7 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
 def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
-    imitation: bool = True, curriculum: Any = "scene",
+    imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = None,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
@@ -410,6 +410,13 @@ def _training_settings(
         )
     out = {}
     chosen_curriculum = _chosen_curriculum(config, trainer, curriculum) if learned else None
+    if training_reward is not None and learned:
+        if trainer != "sb3":
+            raise InvalidInputError(f"--training-reward {training_reward} with --trainer {trainer}: expected the sb3 "
+                                    "trainer")
+        from chaincart_env.tools.compare.training import training_config
+
+        training_config(config, training_reward)  # an unknown reward fails before training
     for algo in learned:
         recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
         keywords = {**recipe.hyperparameters, **hyperparameters, **algo_hyperparameters.get(algo, {})}
@@ -423,6 +430,7 @@ def _training_settings(
         warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" else None
         out[algo]["imitation"] = None if warm_start is None else warm_start.record()
         out[algo]["curriculum"] = chosen_curriculum
+        out[algo]["training_reward"] = training_reward
     return out
 
 
@@ -450,6 +458,7 @@ def run_compare(
     address: Optional[str] = None,
     imitation: bool = True,
     curriculum: Any = "scene",
+    training_reward: Optional[str] = None,
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -473,7 +482,8 @@ def run_compare(
     :data:`~chaincart_env.tools.compare.curriculum.SCENE_CURRICULA`, none on most scenes),
     ``None`` (the scene's starts only) or a
     :class:`~chaincart_env.tools.compare.curriculum.PlanStarts` (a share of them along the
-    planner's plan)."""
+    planner's plan). ``training_reward``: the SB3 training envs reward with it (``"exp"``
+    or ``"tolerance"``) instead of the scene's; every evaluation keeps the scene."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
     names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")
@@ -486,7 +496,7 @@ def run_compare(
         eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every, progress_bar=progress_bar,
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
-                                    dict(algo_hyperparameters or {}), imitation, curriculum),
+                                    dict(algo_hyperparameters or {}), imitation, curriculum, training_reward),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve

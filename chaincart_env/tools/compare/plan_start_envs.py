@@ -75,6 +75,8 @@ class PlanStartEnvs(VecEnvWrapper):
             if self._successes >= curriculum.threshold * self._judged:
                 self.window = min(1.0, self.window + curriculum.window)
                 self.windows.append((self.steps, self.window))
+                print(f"curriculum: {self._successes} of {self._judged} plan-start episodes succeeded; starts now "
+                      f"drawn from the last {self.window:.0%} of the plan ({self.steps} env steps)", flush=True)
             self._judged = self._successes = 0
 
     def reset(self) -> VecEnvObs:

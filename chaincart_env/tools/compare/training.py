@@ -155,6 +155,16 @@ def _new_agent(
     return model
 
 
+def training_config(config: ChainCartConfig, reward: Optional[str]) -> ChainCartConfig:
+    """``config`` with the training reward ``reward`` (``config`` itself for ``None``),
+    checked by building one env: an InvalidInputError names an unknown reward."""
+    if reward is None or reward == config.reward:
+        return config
+    changed = config.replace(reward=reward)
+    changed.make_batch(1, "same_step", 0)
+    return changed
+
+
 def steps_trained(model: BaseAlgorithm, timesteps: int) -> tuple[int, str]:
     """The env steps ``model.learn(total_timesteps=timesteps)`` takes (SB3 collects
     whole rollouts: ``n_steps`` per env for on-policy algorithms, ``train_freq`` steps
@@ -187,6 +197,7 @@ def train(
     normalize: Optional[Mapping[str, Any]] = None,
     imitation: Optional[Imitation] = None,
     curriculum: Optional[PlanStarts] = None,
+    training_reward: Optional[str] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -202,7 +213,9 @@ def train(
     ``imitation.csv``); the first evaluation, at step 0, scores the imitation. ``curriculum``:
     a share of the training episodes starts along the planner's plan
     (:mod:`~chaincart_env.tools.compare.curriculum`; a resumed run keeps its checkpoint's); the
-    windows it drew from go to ``curriculum.csv``."""
+    windows it drew from go to ``curriculum.csv``. ``training_reward``: the training envs
+    reward with it (``"exp"``, ``"tolerance"``) instead of ``config``'s reward; the
+    evaluations keep ``config`` (its success criterion does not depend on the reward)."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
@@ -215,8 +228,9 @@ def train(
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
-    model = restore(directory, cls)[0] if resuming else _new_agent(algo, config, seed, num_envs, kwargs, normalize,
-                                                                    curriculum)
+    trained_on = training_config(config, training_reward)
+    model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
+                                                                    normalize, curriculum)
     imitated = imitate(model, config, imitation, seed, directory) if imitation is not None and not resuming else None
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
