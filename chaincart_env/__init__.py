@@ -8,6 +8,9 @@ environments, its physics and RL task in Rust (``chaincart_env._core``).
   :class:`ChainCartVectorEnv` (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``).
 * :class:`ChainCartVecEnv`: a stable-baselines3 VecEnv on the same Rust batch
   (imported on first use; needs the ``sb3`` extra).
+* :class:`HistoryObservation`, :class:`VecHistoryObservation`: the last ``k``
+  observations and actions appended to each observation (:mod:`chaincart_env.history`),
+  for policies that must cope with a control delay (the VecEnv one needs the ``sb3`` extra).
 * :func:`pretrained`: a shipped pretrained agent (``pretrained("inverted-2", "ppo")``),
   plain arrays acting in numpy: no torch, no unpickling.
 """
@@ -40,6 +43,7 @@ from chaincart_env.registration import ENV_ID, register_envs, scene_env_id  # no
 from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
+    from chaincart_env.history import HistoryObservation, VecHistoryObservation
     from chaincart_env.lqr import LQRPolicy
     from chaincart_env.policies import EnergyPolicy, MPCPolicy, TrajectoryPolicy
     from chaincart_env.pretrained_agents import pretrained
@@ -62,12 +66,14 @@ __all__ = [
     "ChainCartVectorEnv",
     "DEFAULT_SCENE",
     "EnergyPolicy",
+    "HistoryObservation",
     "LQRPolicy",
     "MPCPolicy",
     "PlanningError",
     "RewardWeights",
     "SCENES",
     "TrajectoryPolicy",
+    "VecHistoryObservation",
     "__version__",
     "pretrained",
     "region_of_attraction",
@@ -91,6 +97,10 @@ def __getattr__(name: str) -> Any:
         from chaincart_env.sb3 import ChainCartVecEnv
 
         return ChainCartVecEnv
+    if name in ("HistoryObservation", "VecHistoryObservation"):
+        from chaincart_env import history
+
+        return getattr(history, name)
     if name == "LQRPolicy":
         from chaincart_env.lqr import LQRPolicy
 
