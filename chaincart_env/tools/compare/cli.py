@@ -102,7 +102,8 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "(0, 1] (default: 0.5)")
     parser.add_argument("--training-reward", default=None, metavar="REWARD",
                         help="the reward the learned agents train on (exp or tolerance) instead of the scene's; "
-                        "evaluations keep the scene's reward and success criterion (default: the scene's)")
+                        "evaluations keep the scene's reward and success criterion (default: the scene's training reward: "
+                        "exp on swingup-2, the scene's own reward elsewhere)")
     _add_rllib_options(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_evaluation_options(parser, defaults=True)
@@ -231,7 +232,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     algo_hyperparameters=algo_hyperparameters, trainer=args.trainer,
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
                     address=args.address, imitation=not args.no_imitation, curriculum=curriculum,
-                    training_reward=args.training_reward)
+                    training_reward="scene" if args.training_reward is None else args.training_reward)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

@@ -396,7 +396,7 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
 def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
-    imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = None,
+    imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
@@ -410,6 +410,10 @@ def _training_settings(
         )
     out = {}
     chosen_curriculum = _chosen_curriculum(config, trainer, curriculum) if learned else None
+    if training_reward == "scene":
+        from chaincart_env.tools.compare.curriculum import scene_training_reward
+
+        training_reward = scene_training_reward(config.scene) if trainer == "sb3" else None
     if training_reward is not None and learned:
         if trainer != "sb3":
             raise InvalidInputError(f"--training-reward {training_reward} with --trainer {trainer}: expected the sb3 "
@@ -458,7 +462,7 @@ def run_compare(
     address: Optional[str] = None,
     imitation: bool = True,
     curriculum: Any = "scene",
-    training_reward: Optional[str] = None,
+    training_reward: Optional[str] = "scene",
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -483,7 +487,9 @@ def run_compare(
     ``None`` (the scene's starts only) or a
     :class:`~chaincart_env.tools.compare.curriculum.PlanStarts` (a share of them along the
     planner's plan). ``training_reward``: the SB3 training envs reward with it (``"exp"``
-    or ``"tolerance"``) instead of the scene's; every evaluation keeps the scene."""
+    or ``"tolerance"``) instead of the scene's; ``"scene"`` (the default): the scene's
+    training reward (:data:`~chaincart_env.tools.compare.curriculum.SCENE_TRAINING_REWARDS`),
+    its own reward on most scenes. Every evaluation keeps the scene."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
     names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")
