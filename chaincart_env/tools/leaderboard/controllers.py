@@ -48,6 +48,7 @@ def train_agent(
     during training, so the last model can be a bad one, and compare reports the best
     too. A run that was cut short resumes from its checkpoint. The leaderboard reuses an
     agent whose ``model.zip`` exists."""
+    from chaincart_env.tools.compare.curriculum import scene_curriculum, scene_training_reward
     from chaincart_env.tools.compare.imitation import scene_imitation
     from chaincart_env.tools.compare.normalization import copy_agent
     from chaincart_env.tools.compare.recipes import recipe_for
@@ -67,6 +68,8 @@ def train_agent(
         eval_every=max(budget // EVALUATIONS, 1), checkpoint_every=max(budget // 5, 1),
         progress_bar=progress_bar, hyperparameters=hyperparameters, resume=True, normalize=recipe.normalize,
         imitation=None if tiny else scene_imitation(config.scene, name),
+        curriculum=None if tiny else scene_curriculum(config.scene),
+        training_reward=scene_training_reward(config.scene),
     )
     copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)
 
