@@ -250,9 +250,10 @@ class ChainCart:
         the equilibrium ``target`` within ``max_force`` (N per axis) and ``track_limit``
         (m): control-limited iLQR over ``duration`` s (default ``1 + n_links``) at the
         control period ``dt`` with ``substeps`` RK4 steps, from up to ``guesses`` initial
-        guesses, at most ``max_iterations`` iterations and ``max_time`` s. ``weights``
-        overrides cost weights (``x``, ``q``, ``v``, ``w``, ``force``, ``track``,
-        ``terminal``, ``track_margin``)."""
+        guesses, at most ``max_iterations`` iterations and ``max_time`` s (``inf``: no
+        wall-time limit, the iterations alone bound the work). ``weights`` overrides cost
+        weights (``x``, ``q``, ``v``, ``w``, ``force``, ``track``, ``terminal``,
+        ``track_margin``)."""
     def equilibria(self) -> list[list[int]]:
         """All 2^n sign tuples, hanging first, in binary order; refused for n > 20."""
     def __reduce__(self) -> tuple[Any, ...]: ...
@@ -327,7 +328,8 @@ class Plan:
     def mpc(
         self, horizon: int = 40, hold_horizon: int = 25, iterations: int = 2, budget: float = 0.002
     ) -> "MpcController":
-        """Receding-horizon iLQR along the plan with a budget per control step."""
+        """Receding-horizon iLQR along the plan with a budget per control step
+        (``budget=inf``: iterations alone, no wall-time limit)."""
 
 @final
 class TrajectoryTracker:

@@ -22,7 +22,23 @@ use super::dual::Real;
 use super::jacobian::{StepModel, StepWorkspace, D};
 use super::vector::ScalarGeometry;
 use nalgebra::{DMatrix, DVector};
-use std::time::Instant;
+use std::time::{Duration, Instant};
+
+/// The instant `seconds` after `began`, or none for an infinite budget (iterations alone
+/// then bound the work, so that its result does not depend on the machine's load).
+pub fn deadline_after(began: Instant, seconds: f64) -> Option<Instant> {
+    seconds
+        .is_finite()
+        .then(|| began + Duration::from_secs_f64(seconds))
+}
+
+/// Checks a wall-time budget: a number > 0, `inf` for none.
+pub fn check_budget(name: &'static str, seconds: f64) -> crate::error::Result<()> {
+    if seconds == f64::INFINITY {
+        return Ok(());
+    }
+    crate::error::check_positive(name, seconds)
+}
 
 /// Stopping rules and regularisation of [`Ilqr::solve`].
 #[derive(Debug, Clone, Copy, PartialEq)]

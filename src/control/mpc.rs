@@ -25,7 +25,7 @@ use super::jacobian::StepModel;
 use super::vector::ScalarGeometry;
 use crate::error::{InputError, Result};
 use nalgebra::{DMatrix, DVector};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// What a receding-horizon controller follows: a plan with its feedback gains and
 /// value function (from the planner's last backward pass), and the target's LQR.
@@ -75,7 +75,8 @@ pub struct MpcOptions {
     pub hold_horizon: usize,
     /// iLQR iterations per control step (>= 1).
     pub iterations: usize,
-    /// Wall time per control step, s (> 0).
+    /// Wall time per control step, s (> 0; `inf`: none, the iterations alone bound
+    /// the work).
     pub budget: f64,
 }
 
@@ -115,7 +116,7 @@ impl MpcOptions {
             }
             .into());
         }
-        crate::error::check_positive("budget", self.budget)
+        super::ilqr::check_budget("budget", self.budget)
     }
 }
 
@@ -228,7 +229,7 @@ impl<G: ScalarGeometry> Mpc<G> {
         self.solver.accept_candidate();
         let options = IlqrOptions {
             max_iterations: self.options.iterations,
-            deadline: Some(began + Duration::from_secs_f64(self.options.budget)),
+            deadline: super::ilqr::deadline_after(began, self.options.budget),
             ..IlqrOptions::default()
         };
         if self.solver.nominal.cost.is_finite() {

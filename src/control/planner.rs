@@ -29,7 +29,7 @@ use super::vector::ScalarGeometry;
 use crate::analysis::Linearization;
 use crate::error::{check_finite, check_len, check_positive, InputError, Result};
 use crate::model::Chain;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Largest number of knots a plan may have (duration / dt).
 pub const MAX_KNOTS: usize = 100_000;
@@ -51,7 +51,7 @@ pub struct PlanOptions {
     pub weights: CostWeights,
     /// Iteration cap over all guesses.
     pub max_iterations: usize,
-    /// Wall-time cap, s.
+    /// Wall-time cap, s (`inf`: none, `max_iterations` alone bounds the work).
     pub max_time: f64,
     /// Initial guesses tried (>= 1).
     pub guesses: usize,
@@ -89,7 +89,7 @@ impl PlanOptions {
         check_positive("track_limit", self.track_limit)?;
         check_positive("duration", self.duration)?;
         check_positive("dt", self.dt)?;
-        check_positive("max_time", self.max_time)?;
+        super::ilqr::check_budget("max_time", self.max_time)?;
         check_positive("tolerance_q", self.tolerance_q)?;
         check_positive("tolerance_w", self.tolerance_w)?;
         for (name, value) in [
@@ -286,13 +286,14 @@ impl<G: ScalarGeometry> Planner<G> {
     pub fn plan(&mut self, start: &[f64]) -> Result<Plan> {
         self.check_start(start)?;
         let began = Instant::now();
-        let deadline = began + Duration::from_secs_f64(self.options.max_time);
+        let deadline = super::ilqr::deadline_after(began, self.options.max_time);
+        let out_of_time = || deadline.is_some_and(|d| Instant::now() >= d);
         let mut iterations = 0;
         let mut probes: Vec<(Trajectory, usize)> = Vec::new();
         let guesses = self.guesses()?;
         let mut status = SolveStatus::IterationLimit;
         for (index, guess) in guesses.iter().enumerate() {
-            if Instant::now() >= deadline || iterations >= self.options.max_iterations {
+            if out_of_time() || iterations >= self.options.max_iterations {
                 break;
             }
             let budget = self
@@ -313,7 +314,7 @@ impl<G: ScalarGeometry> Planner<G> {
         probes.sort_by(|a, b| a.0.cost.total_cmp(&b.0.cost));
         let mut best: Option<(Trajectory, usize, SolveStatus)> = None;
         for (probe, index) in probes {
-            if iterations >= self.options.max_iterations || Instant::now() >= deadline {
+            if iterations >= self.options.max_iterations || out_of_time() {
                 if best.is_none() {
                     best = Some((probe, index, status));
                 }
@@ -348,14 +349,14 @@ impl<G: ScalarGeometry> Planner<G> {
         start: &[f64],
         forces: &[f64],
         budget: usize,
-        deadline: Instant,
+        deadline: Option<Instant>,
         iterations: &mut usize,
     ) -> SolveStatus {
         self.solver.clear_policy();
         self.solver.rollout(start, forces);
         let options = IlqrOptions {
             max_iterations: budget,
-            deadline: Some(deadline),
+            deadline,
             ..IlqrOptions::default()
         };
         let status = self.solver.solve(start, &options);

@@ -197,7 +197,7 @@ impl Plan {
 
     /// Receding-horizon iLQR along the plan: `horizon` steps ahead (`hold_horizon` after
     /// the plan's end), at most `iterations` iLQR iterations and `budget` seconds per
-    /// control step.
+    /// control step (`inf`: no wall-time limit, the iterations alone bound the work).
     #[pyo3(signature = (horizon=40, hold_horizon=25, iterations=2, budget=0.002))]
     fn mpc(
         &self,

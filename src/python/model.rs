@@ -365,7 +365,8 @@ impl ChainCart {
     /// equilibrium `target` (a name or a sign tuple) within `max_force` (N per axis) and
     /// `track_limit` (m): control-limited iLQR over `duration` s (default `1 + n_links`)
     /// at the control period `dt` with `substeps` RK4 steps, from up to `guesses`
-    /// initial guesses, at most `max_iterations` iterations and `max_time` s. `weights`
+    /// initial guesses, at most `max_iterations` iterations and `max_time` s (`inf`: no
+    /// wall-time limit, the iterations alone bound the work). `weights`
     /// overrides cost weights (`x`, `q`, `v`, `w`, `force`, `track`, `terminal`,
     /// `track_margin`). The GIL is released while it plans.
     #[pyo3(signature = (

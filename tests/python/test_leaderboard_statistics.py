@@ -95,3 +95,35 @@ def test_mismatched_tasks_and_bad_bootstrap_settings_are_refused():
         iqm_estimate(np.zeros((2, 2)), resamples=0)
     with pytest.raises(InvalidInputError, match="confidence = 1.5"):
         iqm_estimate(np.zeros((2, 2)), confidence=1.5)
+
+
+def test_three_seeds_give_an_interval_close_to_the_exact_bootstrap_one():
+    from itertools import product
+
+    # One task, three seeds: the exact bootstrap distribution of the IQM is that of the
+    # 27 equally likely resamples (the IQM of three scores trims nothing: their mean).
+    seeds = np.array([[0.2], [0.5], [0.9]])
+    exact = np.array([np.mean(draw) for draw in product(seeds[:, 0], repeat=3)])
+    estimate = iqm_estimate(seeds, resamples=4000, seed=1)
+    assert estimate.value == pytest.approx(np.mean(seeds))
+    # The distribution's own quantiles (27 equally likely values: no interpolation).
+    assert estimate.low == pytest.approx(np.quantile(exact, 0.025, method="inverted_cdf"), abs=0.04)
+    assert estimate.high == pytest.approx(np.quantile(exact, 0.975, method="inverted_cdf"), abs=0.04)
+
+
+def test_a_three_seed_leaderboard_table_shows_intervals_over_seeds():
+    from chaincart_env.tools.leaderboard.report import _scene_table, score_rows
+
+    def cell(controller, value, seed, wins):
+        return dict(scene="s", controller=controller, axis="mismatch", value=value, seed=seed, episodes=10,
+                    successes=wins, success_rate=wins / 10, peak_force_mean=1.0, rms_force_mean=1.0, us_per_step=1.0)
+
+    rows = [cell(c, v, s, w) for c, base in (("a", 9), ("b", 3)) for v in (0.0, 0.3) for s, w in
+            zip((0, 1, 2), (base, base - 2, base + 1))]
+    scores = score_rows(rows)
+    for score in scores:
+        assert score["iqm_low"] < score["iqm"] < score["iqm_high"]
+    table = _scene_table(rows, scores, ["mismatch"])
+    import re
+
+    assert "no interval" not in table and len(re.findall(r"\| \d\.\d\d \[\d\.\d\d, \d\.\d\d\] \|", table)) == 2

@@ -51,9 +51,9 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         settings = LeaderboardSettings(
             scenes=tuple(args.scenes), controllers=tuple(parse_controllers(args.policies)), seeds=tuple(args.seeds),
             axes=parse_axes(args.axes), quick=args.quick, episodes=args.episodes, timesteps=args.timesteps,
-            progress_bar=not args.no_progress, torch_threads=args.torch_threads,
+            progress_bar=not args.no_progress, torch_threads=args.torch_threads, wall_clock=args.wall_clock_budgets,
         )
-        run_leaderboard(settings, args.out, args.report, address=args.address)
+        run_leaderboard(settings, args.out, args.report, address=args.address, fresh=args.fresh)
     except (ChainCartError, InvalidInputError) as error:
         parser.error(str(error))
     print(f"leaderboard: wrote {Path(args.report or Path(args.out) / 'leaderboard.md')}")
@@ -96,7 +96,7 @@ def add_leaderboard_command(commands: "argparse._SubParsersAction[argparse.Argum
     parser.add_argument("--axes", default=None, help=f"axes, separated by commas (default: all: {', '.join(AXIS_NAMES)})")
     parser.add_argument("--quick", action="store_true",
                         help="a tiny run: two values per axis, 3 episodes per cell, learned agents trained 2048 steps")
-    parser.add_argument("--episodes", type=int, default=None, help="episodes per cell and seed (default: 20; quick: 3)")
+    parser.add_argument("--episodes", type=int, default=None, help="episodes per cell and seed (default: 30; quick: 3)")
     parser.add_argument("--timesteps", type=int, default=None,
                         help="training budget of learned controllers (default: each recipe's; quick: 2048)")
     parser.add_argument("--report", type=Path, default=None,
@@ -105,6 +105,13 @@ def add_leaderboard_command(commands: "argparse._SubParsersAction[argparse.Argum
     parser.add_argument("--torch-threads", type=_positive("torch-threads"), default=1,
                         help="torch threads of training and evaluation (default 1: fastest for these small networks "
                         "on a shared machine)")
+    parser.add_argument("--fresh", action="store_true",
+                        help="evaluate every cell again (default: the cells already in OUT/cells.csv, evaluated with "
+                        "the same settings, are read back: an interrupted run resumes; other settings are an error)")
+    parser.add_argument("--wall-clock-budgets", action="store_true",
+                        help="let the planner and MPC stop at their wall-clock budgets (30 s per plan, 2 ms per MPC "
+                        "step) as well as their iteration counts; their results then depend on the machine's load "
+                        "(default: iteration counts alone, the same results on any machine)")
     parser.add_argument("--address", default=None,
                         help="Ray cluster ('auto': the one this machine joined with `ray start`, HOST:PORT of its "
                         "head, or 'local' for a new one here) on which the agents train and the cells run as Ray "

@@ -15,7 +15,10 @@ as a failure.
 
 from __future__ import annotations
 
+import json
+import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional, Sequence
 
@@ -24,7 +27,10 @@ import numpy as np
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 
-__all__ = ["TINY_TRAINING", "TimedPolicy", "fixed_source", "seeds_checked", "train_agent"]
+__all__ = [
+    "DesignSource", "TINY_TRAINING", "TimedPolicy", "fixed_iteration_options", "fixed_source", "seeds_checked",
+    "train_agent",
+]  # fmt: skip
 
 
 #: A tiny run's training settings on top of a recipe: rollouts and warm-up short enough
@@ -79,17 +85,73 @@ def train_agent(
 EVALUATIONS, EVALUATION_STARTS, EVALUATION_SEED_BASE = 20, 20, 10_000_000
 
 
-def fixed_source(name: str, config: ChainCartConfig) -> Any:
-    """The ``PolicySource`` of a controller the leaderboard does not train: a
-    model-based one designed on ``config`` (built once here), or a shipped agent checked
-    against ``config``'s spaces; ``NotApplicable`` when it cannot serve the scene."""
+def fixed_iteration_options(name: str) -> dict[str, float]:
+    """The options that take the wall clock out of controller ``name``'s work: no time
+    limit on the planner (``max_time``) nor on MPC's step (``budget``), so that their
+    iteration caps alone bound it and the same episodes give the same forces whatever
+    the machine's load."""
+    if name == "mpc":
+        return {"max_time": math.inf, "budget": math.inf}
+    if name == "trajectory":
+        return {"max_time": math.inf}
+    return {}
+
+
+#: Model-based controllers built in this process, by source (a cell reuses its
+#: controller's plans rather than planning again).
+_DESIGNS: dict["DesignSource", Any] = {}
+
+
+@dataclass(frozen=True)
+class DesignSource:
+    """A model-based controller as the leaderboard builds it: its class's ``from_env``
+    on the scene's nominal model, with fixed iteration counts unless ``wall_clock``
+    (then the planner's and MPC's default time limits too)."""
+
+    name: str
+    #: The scene's ``ChainCartConfig`` keywords as JSON (hashable, picklable).
+    config: str
+    wall_clock: bool = False
+
+    @classmethod
+    def of(cls, name: str, config: ChainCartConfig, wall_clock: bool = False) -> "DesignSource":
+        """The source of ``name`` designed on ``config``."""
+        return cls(name, json.dumps(config.to_dict(), sort_keys=True), wall_clock)
+
+    def build(self) -> Any:
+        """A new controller."""
+        from chaincart_env.env import ChainCartEnv
+        from chaincart_env.tools.controllers import NotApplicable, build_model_based, controller_class
+
+        config = ChainCartConfig(**json.loads(self.config))
+        if self.wall_clock or not fixed_iteration_options(self.name):
+            return build_model_based(self.name, config)
+        options = {"on_failure": "track", **fixed_iteration_options(self.name)}
+        try:
+            return controller_class(self.name).from_env(ChainCartEnv(config), **options)
+        except (ValueError, NotImplementedError) as error:
+            raise NotApplicable(f"{self.name} cannot serve scene {config.scene!r}: {error}") from None
+
+    def load(self) -> Any:
+        """The controller, built once per process."""
+        if self not in _DESIGNS:
+            _DESIGNS[self] = self.build()
+        return _DESIGNS[self]
+
+
+def fixed_source(name: str, config: ChainCartConfig, wall_clock: bool = False) -> Any:
+    """The source (its ``load()`` gives the policy) of a controller the leaderboard does
+    not train: a model-based one designed on ``config`` (:class:`DesignSource`, built
+    once here to check that it serves the scene), or a shipped agent checked against
+    ``config``'s spaces; ``NotApplicable`` when it cannot serve the scene."""
     from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
     from chaincart_env.tools.compare.policy_sources import PolicySource
-    from chaincart_env.tools.controllers import NotApplicable, build_model_based
+    from chaincart_env.tools.controllers import NotApplicable
 
     if not is_pretrained_slot(name):
-        build_model_based(name, config)
-        return PolicySource.model_based(name, config)
+        source = DesignSource.of(name, config, wall_clock)
+        source.load()
+        return source
     agent = pretrained(*parse_pretrained_slot(name, "--policies"))
     try:
         agent.check_config(config)

@@ -3,7 +3,15 @@ seed, into a run directory (``cells.csv``, the agents of the learned controllers
 scores, ``leaderboard.md`` and one figure per scene).
 
 A run can be repeated into the same directory: agents that were trained there are
-reused, and the cells are evaluated again (they are cheap next to training).
+reused, and so are the cells already evaluated there (``cells.csv`` grows by one row as
+each cell finishes, so an interrupted run resumes where it stopped; see
+:mod:`~chaincart_env.tools.leaderboard.resume` for when rows are reused).
+
+The model-based controllers run with fixed iteration counts (no wall-clock limit on the
+planner or on MPC's step, :func:`~chaincart_env.tools.leaderboard.controllers.fixed_iteration_options`),
+so that a cell's numbers do not depend on the machine's load: two runs write the same
+``cells.csv`` and ``scores.csv`` but for the measured compute time per step.
+``wall_clock=True`` keeps the controllers' default time limits instead.
 
 Its independent pieces, the agents to train (one per scene, learned controller and
 seed) and then the cells, run one after the other in this process or, on a Ray
@@ -30,6 +38,7 @@ from chaincart_env.tools.controllers import LEARNED, NotApplicable
 from chaincart_env.tools.leaderboard.axes import AXES, RobustnessAxis, axis_values
 from chaincart_env.tools.leaderboard.cells import CELL_COLUMNS, Cell, cells_of, run_cell
 from chaincart_env.tools.leaderboard.controllers import fixed_source, seeds_checked, train_agent
+from chaincart_env.tools.leaderboard.resume import append_row, cell_key, cell_settings, finished_cells
 
 __all__ = [
     "AgentTraining", "CellJob", "LeaderboardSettings", "QUICK_EPISODES", "QUICK_TIMESTEPS", "evaluate_cell_job",
@@ -39,8 +48,9 @@ __all__ = [
 #: Episodes per cell and training budget of learned agents in a quick run.
 QUICK_EPISODES = 3
 QUICK_TIMESTEPS = 2048
-#: Episodes per cell of a full run.
-FULL_EPISODES = 20
+#: Episodes per cell of a full run: enough that a success fraction's 95 % interval is
+#: at most about +-0.18 wide per cell and seed.
+FULL_EPISODES = 30
 
 
 @dataclass(frozen=True)
@@ -58,6 +68,9 @@ class LeaderboardSettings:
     extra: dict[str, Any] = field(default_factory=dict)
     #: Torch threads of training and evaluation (here and in every task).
     torch_threads: int = 1
+    #: The planner and MPC stop at their wall-clock budgets too (their results then
+    #: depend on the machine's load); default: iteration counts alone.
+    wall_clock: bool = False
 
     @property
     def episodes_per_cell(self) -> int:
@@ -83,6 +96,7 @@ class LeaderboardSettings:
             scenes=list(self.scenes), controllers=list(self.controllers), seeds=list(self.seeds),
             axes={name: [v if math.isfinite(v) else "inf" for v in values] for name, values in self.values().items()},
             quick=self.quick, episodes_per_cell=self.episodes_per_cell, training_timesteps=self.training_timesteps,
+            wall_clock_budgets=self.wall_clock, cell_settings=cell_settings(self),
         )
 
 
@@ -172,12 +186,12 @@ class _Plan:
     controllers that cannot serve a scene (with the reason)."""
 
     jobs: list[CellJob] = field(default_factory=list)
-    designs: dict[str, PolicySource] = field(default_factory=dict)
+    designs: dict[str, Any] = field(default_factory=dict)
     agents: dict[str, tuple[str, Path]] = field(default_factory=dict)
     training: list[tuple[Path, AgentTraining]] = field(default_factory=list)
     skipped: dict[tuple[str, str], str] = field(default_factory=dict)
 
-    def sources(self) -> dict[str, PolicySource]:
+    def sources(self) -> dict[str, Any]:
         """Every policy by key, the agents read from their model files (trained by now)."""
         agents = {key: PolicySource.sb3(path, name) for key, (name, path) in self.agents.items()}
         return {**self.designs, **agents}
@@ -190,7 +204,7 @@ def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None]) 
         for name in settings.controllers:
             if name not in LEARNED:
                 try:  # one design (or shipped agent) per scene, whatever the seed
-                    plan.designs[f"{scene}/{name}"] = fixed_source(name, config)
+                    plan.designs[f"{scene}/{name}"] = fixed_source(name, config, settings.wall_clock)
                 except NotApplicable as reason:
                     plan.skipped[(scene, name)] = str(reason)
                     log(f"leaderboard: {reason} (not scored)")
@@ -209,16 +223,36 @@ def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None]) 
     return plan
 
 
+def _evaluate(
+    plan: _Plan, finished: Mapping[Any, dict[str, Any]], settings: LeaderboardSettings, out: Path,
+    log: Callable[[str], None], distributed: bool,
+) -> list[dict[str, Any]]:
+    """Every cell's row in table order: read back where ``finished`` has it, else
+    evaluated and appended to ``cells.csv`` as it finishes."""
+    keys = [cell_key(job.cell) for job in plan.jobs]
+    rows: list[Optional[dict[str, Any]]] = [finished.get(key) for key in keys]
+    write_csv(out / "cells.csv", [row for row in rows if row is not None], CELL_COLUMNS)
+    pending = [i for i, row in enumerate(rows) if row is None]
+    log(f"leaderboard: evaluating {len(pending)} of {len(plan.jobs)} cells" + (" as Ray tasks" if distributed else ""))
+
+    def save(index: int, row: dict[str, Any]) -> None:
+        rows[pending[index]] = row
+        append_row(out / "cells.csv", row)
+
+    map_cells(evaluate_cell_job, [plan.jobs[i] for i in pending], shared=plan.sources(), distributed=distributed,
+              torch_threads=settings.torch_threads, on_result=save)
+    return [row for row in rows if row is not None]
+
+
 def _run(
-    settings: LeaderboardSettings, out: Path, report: Optional[Path], log: Callable[[str], None], distributed: bool
+    settings: LeaderboardSettings, out: Path, report: Optional[Path], log: Callable[[str], None], distributed: bool,
+    finished: Mapping[Any, dict[str, Any]],
 ) -> list[dict[str, Any]]:
     from chaincart_env.tools.leaderboard.report import write_report
 
     plan = _plan(settings, out, log)
     _train_agents(plan.training, settings, distributed, log)
-    log(f"leaderboard: evaluating {len(plan.jobs)} cells" + (" as Ray tasks" if distributed else ""))
-    rows = map_cells(evaluate_cell_job, plan.jobs, shared=plan.sources(), distributed=distributed,
-                     torch_threads=settings.torch_threads)
+    rows = _evaluate(plan, finished, settings, out, log, distributed)
     write_csv(out / "cells.csv", rows, CELL_COLUMNS)
     write_report(rows, settings, out, report or out / "leaderboard.md", plan.skipped)
     return rows
@@ -226,23 +260,26 @@ def _run(
 
 def run_leaderboard(
     settings: LeaderboardSettings, out: Path, report: Optional[Path] = None,
-    log: Callable[[str], None] = print, address: Optional[str] = None,
+    log: Callable[[str], None] = print, address: Optional[str] = None, fresh: bool = False,
 ) -> list[dict[str, Any]]:
     """Runs every cell of ``settings`` into ``out`` and writes the report (to ``report``,
     default ``out/leaderboard.md``); returns the rows of ``cells.csv``. ``address``: a
     Ray cluster (``"local"``: a new one on this machine) on which the agents train and
-    the cells run as Ray tasks, with the same rows."""
+    the cells run as Ray tasks, with the same rows. Cells already evaluated in ``out``
+    with the same settings are read back, not evaluated again (other settings: an
+    InvalidInputError; ``fresh``: every cell evaluated again)."""
     _checked(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    finished = finished_cells(out, settings, fresh, log)
     record = out / "leaderboard.json"
     record.write_text(json.dumps(settings.describe(), indent=2) + "\n")
     with torch_threads(settings.torch_threads):  # as in every task, so that both ways give the same agents
         if address is None:
-            return _run(settings, out, report, log, distributed=False)
+            return _run(settings, out, report, log, distributed=False, finished=finished)
         from chaincart_env.tools.compare.cells import ray_cluster
 
         with ray_cluster(address, 1) as cluster:
             log(f"leaderboard: the agents and cells run as Ray tasks on {cluster}")
             record.write_text(json.dumps({**settings.describe(), "cluster": cluster}, indent=2) + "\n")
-            return _run(settings, out, report, log, distributed=True)
+            return _run(settings, out, report, log, distributed=True, finished=finished)
