@@ -46,6 +46,8 @@ pub struct Snapshot {
     pub held: Vec<u32>,
     /// Per env: the episode's (start, target) pair of a goal-conditioned task.
     pub goal: Vec<u16>,
+    /// Per env: the episode's control delay (control periods).
+    pub action_delays: Vec<u32>,
     /// Per env, the parameter and observation-noise streams (empty when off).
     pub param_rng: Vec<[u8; RNG_BYTES]>,
     /// Per env: the observation-noise stream (same layout as `rng`).
@@ -547,6 +549,7 @@ impl<G: LaneScene> EnvBatch<G> {
             ended: d.slots.iter().map(|s| s.ended).collect(),
             held: d.slots.iter().map(|s| s.held).collect(),
             goal: d.slots.iter().map(|s| s.goal).collect(),
+            action_delays: d.slots.iter().map(|s| s.delay).collect(),
             param_rng: d.param_rngs.iter().map(rng_to_bytes).collect(),
             noise_rng: d.noise_rngs.iter().map(rng_to_bytes).collect(),
             params: d.params.clone(),
@@ -565,13 +568,14 @@ impl<G: LaneScene> EnvBatch<G> {
         // Each part of the snapshot against the batch: name, length given, length
         // expected (one line each, which rustfmt would spread over five).
         #[rustfmt::skip]
-        let sizes: [(&'static str, usize, usize); 13] = [
+        let sizes: [(&'static str, usize, usize); 14] = [
             ("snapshot states", snap.states.len(), d.states.len()),
             ("snapshot rng", snap.rng.len(), n),
             ("snapshot steps", snap.steps.len(), n),
             ("snapshot ended", snap.ended.len(), n),
             ("snapshot held", snap.held.len(), n),
             ("snapshot goal", snap.goal.len(), n),
+            ("snapshot action_delays", snap.action_delays.len(), n),
             ("snapshot param_rng", snap.param_rng.len(), d.param_rngs.len()),
             ("snapshot noise_rng", snap.noise_rng.len(), d.noise_rngs.len()),
             ("snapshot params", snap.params.num_envs(), d.params.num_envs()),
@@ -584,6 +588,15 @@ impl<G: LaneScene> EnvBatch<G> {
             check_size(name, got, expected)?;
         }
         crate::error::check_finite("snapshot states", &snap.states)?;
+        let longest = self.task.reality.max_action_delay();
+        if let Some(&delay) = snap.action_delays.iter().find(|&&k| k as usize > longest) {
+            return Err(InputError::InvalidParameter {
+                name: "snapshot action_delays",
+                value: delay as f64,
+                expected: "delays no longer than the batch's action_delay allows",
+            }
+            .into());
+        }
         for k in 0..snap.params.num_envs() {
             snap.params.get(k)?;
         }
@@ -594,6 +607,7 @@ impl<G: LaneScene> EnvBatch<G> {
             slot.ended = snap.ended[k];
             slot.held = snap.held[k];
             slot.goal = snap.goal[k];
+            slot.delay = snap.action_delays[k];
         }
         for (r, b) in d.param_rngs.iter_mut().zip(&snap.param_rng) {
             *r = rng_from_bytes(b);

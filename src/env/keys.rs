@@ -376,9 +376,12 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         name: "action_delay",
         kind: KeyKind::RealityGap,
         default: KeyValue::Int(0),
-        expected: "an integer >= 0 (control periods)",
+        expected: crate::env::reality::ACTION_DELAY_EXPECTED,
         help: "Control delay in control periods: the force of step t comes from the \
-               action of step t - action_delay (zero force before that).",
+               action of step t - action_delay (zero force before that). A range (low, high) \
+               draws each episode's delay uniformly from low..=high at its reset, from the \
+               env's seeded start stream (after the start state), for training that covers \
+               several delays.",
     },
     ConfigKey {
         name: "force_rate_limit",

@@ -392,6 +392,9 @@ impl ForceNoise {
     }
 }
 
+/// What `action_delay` accepts (the key table's words, and every check's).
+pub const ACTION_DELAY_EXPECTED: &str = "an integer >= 0 (control periods), or a range (low, high) of integers with 0 <= low <= high drawn per episode";
+
 /// How the env's true system, its sensors and its actuator differ from the nominal
 /// model. The default is the nominal model, sensed exactly, actuated at once.
 #[derive(Debug, Clone, PartialEq)]
@@ -408,6 +411,10 @@ pub struct RealityGap {
     /// The force applied at step t is the action of step `t - action_delay` (zero
     /// force for the first `action_delay` steps of an episode).
     pub action_delay: usize,
+    /// `Some(high)`: each episode's delay is drawn uniformly from
+    /// `action_delay..=high` at its reset, from the env's start stream after the start
+    /// state (`None`: every episode has `action_delay`).
+    pub action_delay_high: Option<usize>,
     /// Largest change of the applied force per second, per cart axis (N/s);
     /// `f64::INFINITY` is no limit.
     pub force_rate_limit: f64,
@@ -423,6 +430,7 @@ impl Default for RealityGap {
             randomize: Randomization::default(),
             obs_noise: Vec::new(),
             action_delay: 0,
+            action_delay_high: None,
             force_rate_limit: f64::INFINITY,
             force_noise: ForceNoise::default(),
         }
@@ -454,6 +462,16 @@ impl RealityGap {
                 .into());
             }
         }
+        if let Some(high) = self.action_delay_high {
+            if high < self.action_delay || u32::try_from(high).is_err() {
+                return Err(InputError::InvalidParameter {
+                    name: "action_delay",
+                    value: high as f64,
+                    expected: ACTION_DELAY_EXPECTED,
+                }
+                .into());
+            }
+        }
         if self.force_rate_limit.is_nan() || self.force_rate_limit <= 0.0 {
             return Err(InputError::InvalidParameter {
                 name: "force_rate_limit",
@@ -471,10 +489,23 @@ impl RealityGap {
             InputError::InvalidParameter {
                 name: "action_delay",
                 value: value as f64,
-                expected: "an integer >= 0 (control periods)",
+                expected: ACTION_DELAY_EXPECTED,
             }
             .into()
         })
+    }
+
+    /// The longest delay an episode can have (the delay line's length).
+    pub fn max_action_delay(&self) -> usize {
+        self.action_delay_high.unwrap_or(self.action_delay)
+    }
+
+    /// The control delay of a new episode: the fixed one, or one drawn from `rng`.
+    pub fn draw_action_delay<R: Rng>(&self, rng: &mut R) -> usize {
+        match self.action_delay_high {
+            Some(high) if high > self.action_delay => rng.random_range(self.action_delay..=high),
+            _ => self.action_delay,
+        }
     }
 
     /// Observation noise is on (some component has a scale > 0).

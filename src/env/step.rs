@@ -36,6 +36,8 @@ pub(super) struct Slot {
     pub goal: u16,
     /// The episode has ended and the env has not been reset since.
     pub ended: bool,
+    /// The episode's control delay (control periods), set at its reset.
+    pub delay: u32,
 }
 
 /// Numbers per env of each per-env array (0 for a feature that is off).
@@ -51,7 +53,7 @@ pub(super) struct Widths {
     pub param_links: usize,
     /// 1 when each env stores its own scalar parameters and parameter stream.
     pub param_scalars: usize,
-    /// Delayed actions per env (`action_delay * force`).
+    /// Delayed actions per env (the longest delay times `force`).
     pub queue: usize,
     /// Noisy observation per env (`state` when noise is on).
     pub noisy: usize,
@@ -71,7 +73,7 @@ impl Widths {
         let (d, f) = (chain.state_dim(), chain.force_dim());
         let randomized = !reality.randomize.is_off();
         let noise = reality.has_obs_noise();
-        let queue = reality.action_delay * f;
+        let queue = reality.max_action_delay() * f;
         let last_force = if reality.has_rate_limit() { f } else { 0 };
         let force_noise = reality.has_force_noise();
         Self {
@@ -105,7 +107,8 @@ pub(super) struct EnvData {
     pub noise_rngs: Vec<ChaCha8Rng>,
     /// The last observation each env emitted (noise on).
     pub noisy_obs: Vec<f64>,
-    /// Actions waiting to be applied, a ring of `action_delay` per env.
+    /// Actions waiting to be applied, a ring of the episode's delay per env (room for
+    /// the longest).
     pub queue: Vec<f64>,
     /// The force applied on the last step (rate limit on).
     pub last_force: Vec<f64>,
@@ -584,7 +587,9 @@ fn env_chain<'c, G: Geometry>(
 }
 
 /// Starts a new episode in env `e`: the start state (stream 0, as always), new
-/// parameters (randomisation on), an empty delay line and zero last force.
+/// parameters (randomisation on), its control delay (drawn from the start stream
+/// after the start state when the delay is a range), an empty delay line and zero
+/// last force.
 pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
     let base = match &ctx.task.transitions {
         None => ctx.base,
@@ -603,6 +608,7 @@ pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
         e.start_rng,
         e.y,
     );
+    e.slot.delay = ctx.task.reality.draw_action_delay(e.start_rng) as u32;
     e.slot.steps = 0;
     e.slot.held = 0;
     e.slot.ended = false;
@@ -668,7 +674,7 @@ pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
 #[inline(always)]
 fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: &mut [f64]) -> f64 {
     let f = action.len();
-    let delay = task.reality.action_delay;
+    let delay = e.slot.delay;
     // The ring slot of this step holds the action of `delay` steps ago.
     let j = if delay > 0 {
         (e.slot.steps % delay as u64) as usize * f

@@ -238,6 +238,33 @@ fn integer(name: &str, value: &Bound<'_, PyAny>) -> PyResult<i64> {
     Err(wrong_type(name, value, "an integer"))
 }
 
+/// `action_delay`: a fixed delay `(d, None)`, or a range `(low, Some(high))` drawn per
+/// episode (a range of one value is that fixed delay).
+fn action_delay(value: &Bound<'_, PyAny>) -> PyResult<(i64, Option<i64>)> {
+    use crate::env::reality::ACTION_DELAY_EXPECTED;
+    let name = "action_delay";
+    let single = !value.is_instance_of::<PyString>()
+        && (value.is_instance_of::<PyTuple>() || value.is_instance_of::<pyo3::types::PyList>());
+    let (low, high) = if single {
+        let items: Vec<Bound<'_, PyAny>> = value.try_iter()?.collect::<PyResult<_>>()?;
+        if items.len() != 2 {
+            return Err(wrong_value(name, value, ACTION_DELAY_EXPECTED));
+        }
+        let bound = |item: &Bound<'_, PyAny>| {
+            integer(name, item).map_err(|_| wrong_type(name, value, ACTION_DELAY_EXPECTED))
+        };
+        (bound(&items[0])?, Some(bound(&items[1])?))
+    } else {
+        let fixed =
+            integer(name, value).map_err(|_| wrong_type(name, value, ACTION_DELAY_EXPECTED))?;
+        (fixed, None)
+    };
+    if low < 0 || high.is_some_and(|h| h < low) {
+        return Err(wrong_value(name, value, ACTION_DELAY_EXPECTED));
+    }
+    Ok((low, high.filter(|&h| h != low)))
+}
+
 /// A count of at least one, the bound taken from the key table.
 fn count(key: &ConfigKey, value: &Bound<'_, PyAny>) -> PyResult<u64> {
     let v = integer(key.name, value)?;
@@ -410,9 +437,10 @@ fn canonical<'py>(key: &ConfigKey, value: &Bound<'py, PyAny>) -> PyResult<Bound<
         KeyKind::Equilibrium | KeyKind::Start => name_or_numbers(key.name, value)?,
         KeyKind::NamedNumbers(names) => named_numbers(key, names, value)?,
         KeyKind::Numbers(names) => numbers(key, names, value)?,
-        KeyKind::RealityGap if key.name == "action_delay" => {
-            integer(key.name, value)?.into_pyobject(py)?.into_any()
-        }
+        KeyKind::RealityGap if key.name == "action_delay" => match action_delay(value)? {
+            (fixed, None) => fixed.into_pyobject(py)?.into_any(),
+            (low, Some(high)) => (low, high).into_pyobject(py)?.into_any(),
+        },
         KeyKind::RealityGap => value.clone(),
         KeyKind::Transitions => transition_pairs(key, value)?,
     })
@@ -585,7 +613,7 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
         params: optional("params").as_ref(),
         mismatch: optional("mismatch").as_ref(),
         obs_noise: optional("obs_noise").as_ref(),
-        action_delay: get(values, "action_delay").extract()?,
+        action_delay: action_delay(&get(values, "action_delay"))?,
         force_rate_limit: optional("force_rate_limit")
             .map(|v| number("force_rate_limit", &v))
             .transpose()?,

@@ -522,6 +522,7 @@ impl PyEnvBatch {
         d.set_item("ended", PyArray1::from_vec(py, s.ended))?;
         d.set_item("held", PyArray1::from_vec(py, s.held))?;
         d.set_item("goal", PyArray1::from_vec(py, s.goal))?;
+        d.set_item("action_delays", PyArray1::from_vec(py, s.action_delays))?;
         let rng_array = |rows: &[[u8; RNG_BYTES]]| {
             let flat: Vec<u8> = rows.iter().flatten().copied().collect();
             PyArray1::from_vec(py, flat).reshape([rows.len(), RNG_BYTES])
@@ -558,6 +559,17 @@ impl PyEnvBatch {
         let ended: PyReadonlyArray1<'_, bool> = get("ended")?.extract()?;
         let held: PyReadonlyArray1<'_, u32> = get("held")?.extract()?;
         let goal: PyReadonlyArray1<'_, u16> = get("goal")?.extract()?;
+        // A snapshot taken before per-episode delays existed has none: the fixed delay.
+        let action_delays = match snapshot.get_item("action_delays")? {
+            Some(value) => value
+                .extract::<PyReadonlyArray1<'_, u32>>()?
+                .as_array()
+                .to_vec(),
+            None => {
+                let fixed = scene!(&self.batch, b => b.task().reality.action_delay);
+                vec![fixed as u32; n]
+            }
+        };
         let rng_rows = |a: &PyReadonlyArray2<'_, u8>| -> Vec<[u8; RNG_BYTES]> {
             a.as_array()
                 .rows()
@@ -596,6 +608,7 @@ impl PyEnvBatch {
             ended: ended.as_array().to_vec(),
             held: held.as_array().to_vec(),
             goal: goal.as_array().to_vec(),
+            action_delays,
             param_rng: rng_rows(&param_rng),
             noise_rng: rng_rows(&noise_rng),
             params,

@@ -19,7 +19,8 @@ pub struct RealityArgs<'a, 'py> {
     pub params: Option<&'a Bound<'py, PyAny>>,
     pub mismatch: Option<&'a Bound<'py, PyAny>>,
     pub obs_noise: Option<&'a Bound<'py, PyAny>>,
-    pub action_delay: i64,
+    /// The fixed delay (or a range's low end) and a range's high end.
+    pub action_delay: (i64, Option<i64>),
     pub force_rate_limit: Option<f64>,
     pub force_noise: Option<&'a Bound<'py, PyAny>>,
 }
@@ -227,7 +228,12 @@ pub fn reality_gap(args: RealityArgs<'_, '_>) -> PyResult<RealityGap> {
         mismatch: param_values("mismatch", args.mismatch)?,
         randomize: randomization(args.randomize)?,
         obs_noise,
-        action_delay: RealityGap::delay_from(args.action_delay)?,
+        action_delay: RealityGap::delay_from(args.action_delay.0)?,
+        action_delay_high: args
+            .action_delay
+            .1
+            .map(RealityGap::delay_from)
+            .transpose()?,
         force_rate_limit: args.force_rate_limit.unwrap_or(f64::INFINITY),
         force_noise: force_noise(args.force_noise)?,
     })
@@ -287,7 +293,10 @@ pub fn write_task_keys(py: Python<'_>, r: &RealityGap, d: &Bound<'_, PyDict>) ->
         "obs_noise",
         (!r.obs_noise.is_empty()).then(|| r.obs_noise.clone()),
     )?;
-    d.set_item("action_delay", r.action_delay)?;
+    match r.action_delay_high {
+        Some(high) => d.set_item("action_delay", (r.action_delay, high))?,
+        None => d.set_item("action_delay", r.action_delay)?,
+    }
     d.set_item(
         "force_rate_limit",
         r.has_rate_limit().then_some(r.force_rate_limit),

@@ -708,3 +708,58 @@ fn force_noise_changes_no_other_random_number() {
     assert!(a.snapshot().force_rng.is_empty());
     assert_eq!(b.snapshot().force_rng.len(), 40);
 }
+
+/// A delay range draws each episode's delay from `low..=high` at its reset: every value
+/// comes up, env i of a batch is the single env seeded seed + i over several episodes,
+/// and a snapshot keeps the drawn delays.
+#[test]
+fn env_a_delay_range_draws_each_episodes_delay_in_its_range() {
+    let ranged = || {
+        let mut t = everything_on(2);
+        t.reality.action_delay = 1;
+        t.reality.action_delay_high = Some(4);
+        t
+    };
+    let num_envs = CHUNK + 5;
+    let mut big = batch::<Spatial>(ranged(), num_envs, 40, AutoresetMode::SameStep);
+    let drawn = big.snapshot().action_delays;
+    assert!(drawn.iter().all(|&d| (1..=4).contains(&d)), "{drawn:?}");
+    assert!((1..=4).all(|d| drawn.contains(&d)), "{drawn:?}");
+    let h_big = history(&mut big, 60, 0); // episodes of 25 steps: three delays drawn per env
+    for env in [0, CHUNK + 4] {
+        let mut one = batch::<Spatial>(ranged(), 1, 40 + env as u64, AutoresetMode::SameStep);
+        let mut out = Out::new(&one);
+        let d = one.state_dim();
+        for (s, row) in h_big.iter().enumerate() {
+            let a = actions(s, num_envs, 2, 0);
+            out.step(&mut one, &a[2 * env..2 * env + 2]);
+            assert_eq!(
+                &out.obs[..],
+                &row[env * d..(env + 1) * d],
+                "env {env} step {s}"
+            );
+        }
+    }
+    let snap = big.snapshot();
+    let after = history(&mut big, 30, 0);
+    big.restore(&snap).unwrap();
+    assert_eq!(history(&mut big, 30, 0), after);
+    let mut backwards = task(2);
+    backwards.reality.action_delay = 3;
+    backwards.reality.action_delay_high = Some(2);
+    let e = EnvBatch::<Spatial>::new(
+        Chain::new(nominal(2)),
+        backwards,
+        1,
+        0,
+        AutoresetMode::NextStep,
+        false,
+    )
+    .err()
+    .expect("a range whose high end is below its low end")
+    .to_string();
+    assert!(
+        e.contains("action_delay = 2") && e.contains("0 <= low <= high"),
+        "{e}"
+    );
+}
