@@ -104,6 +104,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="the reward the learned agents train on (exp or tolerance) instead of the scene's; "
                         "evaluations keep the scene's reward and success criterion (default: the scene's training reward: "
                         "exp on swingup-2, the scene's own reward elsewhere)")
+    parser.add_argument("--history", type=_integer(1, "history"), default=None, metavar="K",
+                        help="the learned agents observe the last K observations and actions too (oldest first, zeros "
+                        "before an episode's start; chaincart_env.history), in training and in every evaluation, for "
+                        "delays drawn per episode (action_delay=(0, k)); sb3 trainer, without the imitation warm start "
+                        "(default: the plain observation)")
     _add_rllib_options(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_evaluation_options(parser, defaults=True)
@@ -232,7 +237,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     algo_hyperparameters=algo_hyperparameters, trainer=args.trainer,
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
                     address=args.address, imitation=not args.no_imitation, curriculum=curriculum,
-                    training_reward="scene" if args.training_reward is None else args.training_reward)
+                    training_reward="scene" if args.training_reward is None else args.training_reward,
+                    history=args.history)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

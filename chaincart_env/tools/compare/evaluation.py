@@ -99,6 +99,10 @@ def _spatial_force(force: np.ndarray) -> np.ndarray:
 
 def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[int]) -> Rollouts:
     """Runs ``policy`` (deterministic) for one episode from each seeded start."""
+    from chaincart_env.env import action_space, observation_space
+    from chaincart_env.history import with_history
+
+    policy = with_history(policy, observation_space(config), action_space(config))  # an agent trained with history
     n, horizon = len(seeds), config.max_episode_steps
     model = config.make_model()
     batch = config.make_batch(n, "same_step")

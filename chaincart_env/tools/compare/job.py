@@ -181,11 +181,13 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                        checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
                        hyperparameters=training["hyperparameters"], resume=resume,
                        normalize=training.get("normalize"), imitation=_imitation(training),
-                       curriculum=_curriculum(training), training_reward=training.get("training_reward"))
+                       curriculum=_curriculum(training), training_reward=training.get("training_reward"),
+                       history=training.get("history"))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations,
                        normalize=training.get("normalize"), imitation=result.imitation,
-                       curriculum=training.get("curriculum"), training_reward=training.get("training_reward"))
+                       curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
+                       history=training.get("history"))
     print(f"{algo.upper()} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
@@ -397,6 +399,7 @@ def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
     imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
+    history: Optional[int] = None,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
@@ -431,10 +434,14 @@ def _training_settings(
         out[algo] = dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                          num_envs=recipe.num_envs if num_envs is None else num_envs,
                          hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize)
-        warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" else None
+        if history is not None and trainer != "sb3":
+            raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
+        # The imitation's planner data has plain observations: an agent with history starts afresh.
+        warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" and not history else None
         out[algo]["imitation"] = None if warm_start is None else warm_start.record()
         out[algo]["curriculum"] = chosen_curriculum
         out[algo]["training_reward"] = training_reward
+        out[algo]["history"] = history
     return out
 
 
@@ -463,6 +470,7 @@ def run_compare(
     imitation: bool = True,
     curriculum: Any = "scene",
     training_reward: Optional[str] = "scene",
+    history: Optional[int] = None,
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -502,7 +510,8 @@ def run_compare(
         eval_every=eval_every, eval_starts=eval_starts, checkpoint_every=checkpoint_every, progress_bar=progress_bar,
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
-                                    dict(algo_hyperparameters or {}), imitation, curriculum, training_reward),
+                                    dict(algo_hyperparameters or {}), imitation, curriculum, training_reward,
+                                    history),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve

@@ -135,6 +135,7 @@ def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
 def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
     normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
+    history: Optional[int] = None,
 ) -> BaseAlgorithm:
     from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
@@ -143,6 +144,10 @@ def _new_agent(
     native: Any = ChainCartVecEnv(num_envs, config, seed=seed)
     if curriculum is not None:
         native = plan_start_envs(native, config, curriculum, seed)
+    if history is not None:
+        from chaincart_env.history import VecHistoryObservation
+
+        native = VecHistoryObservation(native, history)
     # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the true rewards.
     venv = normalized_envs(VecMonitor(native), normalize)
     try:
@@ -198,6 +203,7 @@ def train(
     imitation: Optional[Imitation] = None,
     curriculum: Optional[PlanStarts] = None,
     training_reward: Optional[str] = None,
+    history: Optional[int] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -215,7 +221,9 @@ def train(
     (:mod:`~chaincart_env.tools.compare.curriculum`; a resumed run keeps its checkpoint's); the
     windows it drew from go to ``curriculum.csv``. ``training_reward``: the training envs
     reward with it (``"exp"``, ``"tolerance"``) instead of ``config``'s reward; the
-    evaluations keep ``config`` (its success criterion does not depend on the reward)."""
+    evaluations keep ``config`` (its success criterion does not depend on the reward). ``history``:
+    the agent observes the last ``history`` observations and actions too
+    (:class:`~chaincart_env.history.VecHistoryObservation`; its evaluations add them as it acts)."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
@@ -230,7 +238,7 @@ def train(
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     trained_on = training_config(config, training_reward)
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
-                                                                    normalize, curriculum)
+                                                                    normalize, curriculum, history)
     imitated = imitate(model, config, imitation, seed, directory) if imitation is not None and not resuming else None
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
