@@ -242,7 +242,21 @@ def _vec_history_class() -> type:
                 self._buffers.restart(ended, np.asarray(obs)[ended])
             return self._buffers.augmented(obs), rewards, dones, infos
 
+        def __getstate__(self) -> dict[str, Any]:
+            # Pickled with its envs and histories (compare's checkpoints): without the
+            # table of class attributes VecEnvWrapper keeps, which does not pickle.
+            state = dict(self.__dict__)
+            state.pop("class_attributes", None)
+            return state
+
+        def __setstate__(self, state: dict[str, Any]) -> None:
+            import inspect
+
+            self.__dict__.update(state)
+            self.class_attributes = dict(inspect.getmembers(self.__class__))
+
     VecHistoryObservation.__module__ = __name__
+    VecHistoryObservation.__qualname__ = "VecHistoryObservation"
     return VecHistoryObservation
 
 

@@ -145,3 +145,19 @@ def test_a_bad_history_length_is_refused_naming_it(bad) -> None:
         check_history(bad)
     with pytest.raises(InvalidInputError):
         HistoryObservation(Counter(), bad)
+
+
+def test_the_vector_wrapper_pickles_with_its_histories() -> None:
+    """compare's checkpoints pickle the training envs: a copy continues as the original."""
+    import pickle
+
+    from chaincart_env import ChainCartVecEnv, VecHistoryObservation
+
+    venv = VecHistoryObservation(ChainCartVecEnv(2, scene="inverted-1", seed=5), 2)
+    venv.reset()
+    venv.step(np.full((2, 1), 0.3, dtype=np.float32))
+    copy = pickle.loads(pickle.dumps(venv))
+    assert type(copy) is VecHistoryObservation and copy.k == 2
+    for action in (-0.5, 0.7):
+        actions = np.full((2, 1), action, dtype=np.float32)
+        assert venv.step(actions)[0].tobytes() == copy.step(actions)[0].tobytes()
