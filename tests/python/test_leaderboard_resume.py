@@ -124,3 +124,18 @@ def test_the_defaults_fit_a_published_leaderboard() -> None:
     settings = LeaderboardSettings(scenes=("inverted-1",), controllers=("lqr",))
     assert FULL_EPISODES >= 30 and settings.episodes_per_cell == FULL_EPISODES
     assert settings.wall_clock is False and settings.describe()["wall_clock_budgets"] is False
+
+
+def test_a_run_on_a_ray_cluster_resumes_the_same_way(tmp_path: pathlib.Path, monkeypatch) -> None:
+    quiet = lambda _: None  # noqa: E731
+    settings = _settings(controllers=("lqr",))
+    run_leaderboard(settings, tmp_path / "serial", log=quiet)
+    interrupted = _CountingCells(fail_after=3)
+    monkeypatch.setattr(run, "evaluate_cell_job", interrupted)
+    with pytest.raises(Interrupted):
+        run_leaderboard(settings, tmp_path / "spread", log=quiet)
+    monkeypatch.setattr(run, "evaluate_cell_job", EVALUATE_CELL)
+    rows = run_leaderboard(settings, tmp_path / "spread", log=quiet, address="local")
+    assert len(rows) == 4
+    assert _table(tmp_path / "spread" / "cells.csv") == _table(tmp_path / "serial" / "cells.csv")
+    assert "cluster" in (tmp_path / "spread" / "leaderboard.json").read_text()
