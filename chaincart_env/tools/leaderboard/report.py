@@ -229,8 +229,11 @@ def write_report(
         "# Robustness leaderboard", "",
         f"Generated {now} on {platform.machine()} ({os.cpu_count()} CPUs) by `python -m chaincart_env leaderboard "
         f"--scenes {','.join(settings.scenes)} --policies {','.join(settings.controllers)} --seeds "
-        f"{','.join(map(str, settings.seeds))}{' --quick' if settings.quick else ''}`: "
-        f"{settings.episodes_per_cell} episodes per cell and seed, axes {', '.join(axes)}.", "",
+        f"{','.join(map(str, settings.seeds))}{' --quick' if settings.quick else ''}"
+        f"{' --wall-clock-budgets' if getattr(settings, 'wall_clock', False) else ''}`: "
+        f"{settings.episodes_per_cell} episodes per cell and seed, axes {', '.join(axes)}; "
+        + ("the planner and MPC also stopped at their wall-clock budgets." if getattr(settings, "wall_clock", False)
+           else "the planner and MPC bounded by iteration counts alone."), "",
     ]
     verdicts = _verdicts(scores, rows, axes)
     if verdicts:
