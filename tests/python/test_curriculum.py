@@ -223,3 +223,32 @@ def test_an_unknown_training_reward_is_named_before_training() -> None:
         _training_settings(SWINGUP, ["ppo"], "sb3", None, None, {}, {}, training_reward="bogus")
     chosen = _training_settings(SWINGUP, ["ppo"], "sb3", None, None, {}, {}, training_reward="exp")
     assert chosen["ppo"]["training_reward"] == "exp"
+
+
+def test_compare_trains_the_swingup_recipe_with_its_plan_starts_and_training_reward(tmp_path) -> None:
+    import json
+
+    from chaincart_env.__main__ import main
+
+    tiny = ["--timesteps", "256", "--num-envs", "4", "--eval-episodes", "2", "--eval-starts", "2",
+            "--eval-every", "128", "--checkpoint-every", "128", "--sweep", "start_noise=0.05", "--no-progress",
+            "--algo-kwarg", "n_steps=32", "--algo-kwarg", "batch_size=64"]
+    assert main(["compare", "--scene", "swingup-2", "--policies", "ppo", *tiny, "--out", str(tmp_path)]) == 0
+    training = json.loads((tmp_path / "run.json").read_text())["settings"]["training"]["ppo"]
+    assert training["recipe"] == "ppo.yml: ChainCart-swingup-2-v0"
+    assert PlanStarts.from_record(training["curriculum"]) == scene_curriculum("swingup-2")
+    assert training["training_reward"] == "exp"
+    with (tmp_path / "seed-0" / "curriculum.csv").open(newline="") as file:
+        assert list(csv.DictReader(file)) == [{"env_steps": "0", "window": "1"}]
+
+
+def test_plan_starts_wrap_only_the_native_envs(states) -> None:
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
+
+    with pytest.raises(InvalidInputError, match="wrap the native ChainCartVecEnv: got VecMonitor"):
+        PlanStartEnvs(VecMonitor(ChainCartVecEnv(2, SWINGUP)), states, PlanStarts(), seed=0)
+    with pytest.raises(InvalidInputError, match=r"plan states of shape \(8,\)"):
+        PlanStartEnvs(ChainCartVecEnv(2, SWINGUP), states[0], PlanStarts(), seed=0)

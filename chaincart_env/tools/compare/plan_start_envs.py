@@ -33,6 +33,10 @@ class PlanStartEnvs(VecEnvWrapper):
             raise InvalidInputError(f"plan states of shape {states.shape}: expected (K + 1, state_dim) with K >= 0")
         if not isinstance(curriculum, PlanStarts):
             raise InvalidInputError(f"curriculum = {curriculum!r}: expected PlanStarts(...)")
+        from chaincart_env.sb3 import ChainCartVecEnv
+
+        if not isinstance(venv, ChainCartVecEnv):
+            raise InvalidInputError(f"plan starts wrap the native ChainCartVecEnv: got {type(venv).__name__}")
         super().__init__(venv)
         self.states, self.curriculum = states, curriculum
         self.rng = np.random.default_rng(seed + SEED_OFFSET)
@@ -56,7 +60,7 @@ class PlanStartEnvs(VecEnvWrapper):
         self._on_plan[envs] = False
         if not chosen:
             return
-        native = self.venv
+        native: Any = self.venv  # the native envs: their observations after set_state are the new starts
         for i, k in chosen:
             native.env_method("set_state", self.states[k], indices=i)
             self._on_plan[i] = True
@@ -80,12 +84,13 @@ class PlanStartEnvs(VecEnvWrapper):
             self._judged = self._successes = 0
 
     def reset(self) -> VecEnvObs:
-        observations = self.venv.reset()
+        observations = np.asarray(self.venv.reset())
         self._start_on_plan(np.arange(self.num_envs), observations)
         return observations
 
     def step_wait(self) -> VecEnvStepReturn:
-        observations, rewards, dones, infos = self.venv.step_wait()
+        stepped, rewards, dones, infos = self.venv.step_wait()
+        observations = np.asarray(stepped)
         self.steps += self.num_envs
         ended = np.flatnonzero(dones)
         if ended.size:
@@ -103,7 +108,7 @@ class PlanStartEnvs(VecEnvWrapper):
                 "rng": self.rng.bit_generator.state, **{name: getattr(self, name) for name in self._PROGRESS}}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(state["venv"], state["states"], state["curriculum"], 0)
+        PlanStartEnvs.__init__(self, state["venv"], state["states"], state["curriculum"], 0)
         self.rng.bit_generator.state = state["rng"]
         for name in self._PROGRESS:
             setattr(self, name, state[name])
