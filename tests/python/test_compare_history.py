@@ -17,7 +17,7 @@ HISTORY = 2
 # Seconds of work: 2 envs, PPO rollouts of 64 steps, 40-step episodes, 3 evaluation starts.
 TINY = [
     "--scene", "inverted-1", "--timesteps", "128", "--num-envs", "2", "--eval-episodes", "3", "--eval-seed", "7",
-    "--set", "max_episode_steps=40", "--algo-kwarg", "n_steps=64", "--algo-kwarg", "batch_size=64",
+    "--set", "max_episode_steps=40", "--set", "action_delay=0,2", "--algo-kwarg", "n_steps=64", "--algo-kwarg", "batch_size=64",
     "--eval-every", "64", "--eval-starts", "2", "--checkpoint-every", "128", "--sweep", "start_noise=0.05",
     "--no-progress",
 ]  # fmt: skip
@@ -34,6 +34,7 @@ def test_a_history_run_trains_and_its_saved_agent_evaluates_with_the_same_histor
     out = tmp_path / "run"
     assert main(["compare", *TINY, "--history", str(HISTORY), "--out", str(out)]) == 0
     saved = load_run(out / "seed-0")
+    assert saved.config.action_delay == (0, 2)  # a delay drawn per episode, kept in the run's files
     env = ChainCartEnv(saved.config)
     obs_dim, action_dim = env.observation_space.shape[0], env.action_space.shape[0]
     assert saved.model.observation_space.shape == (obs_dim + HISTORY * (obs_dim + action_dim),)
