@@ -139,3 +139,21 @@ def test_a_run_on_a_ray_cluster_resumes_the_same_way(tmp_path: pathlib.Path, mon
     assert len(rows) == 4
     assert _table(tmp_path / "spread" / "cells.csv") == _table(tmp_path / "serial" / "cells.csv")
     assert "cluster" in (tmp_path / "spread" / "leaderboard.json").read_text()
+
+
+def test_a_fresh_run_interrupted_early_leaves_no_old_cells_to_resume(tmp_path: pathlib.Path, monkeypatch) -> None:
+    quiet = lambda _: None  # noqa: E731
+    out = tmp_path / "run"
+    run_leaderboard(_settings(controllers=("lqr",)), out, log=quiet)
+
+    def training_interrupted(*_):
+        raise Interrupted("stopped while the agents train, before any cell")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(run, "_train_agents", training_interrupted)
+        with pytest.raises(Interrupted):
+            run_leaderboard(_settings(controllers=("lqr",), episodes=3), out, log=quiet, fresh=True)
+    counting = _CountingCells()
+    monkeypatch.setattr(run, "evaluate_cell_job", counting)
+    rows = run_leaderboard(_settings(controllers=("lqr",), episodes=3), out, log=quiet)
+    assert counting.evaluated == 4 and all(r["episodes"] == 3 for r in rows)

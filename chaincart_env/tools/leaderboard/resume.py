@@ -64,12 +64,16 @@ def finished_cells(
     out: Path, settings: Any, fresh: bool, log: Callable[[str], None]
 ) -> dict[CellKey, dict[str, Any]]:
     """The rows of ``out/cells.csv`` that a run with ``settings`` can reuse, by key
-    (none when ``fresh``); an error when they were computed with other settings."""
+    (none when ``fresh``: the file is removed, before the new settings are recorded,
+    so that no later run takes its rows for theirs); an error when they were computed
+    with other settings."""
     cells, record = Path(out) / "cells.csv", Path(out) / "leaderboard.json"
-    if fresh or not cells.is_file():
+    if not cells.is_file():
         return {}
-    if not record.is_file():
-        log(f"leaderboard: {cells} has no leaderboard.json beside it; its cells are evaluated again")
+    if fresh or not record.is_file():
+        if not fresh:
+            log(f"leaderboard: {cells} has no leaderboard.json beside it; its cells are evaluated again")
+        cells.unlink()
         return {}
     then = json.loads(record.read_text()).get("cell_settings")
     now = cell_settings(settings)
