@@ -1,7 +1,7 @@
 //! Batch stepping: same results as stepping each env alone, bit-identical for any
-//! thread count, failures isolated to their env (allocation: tests/no_alloc.rs).
+//! thread count, failures isolated to their env (allocation: tests/it/allocations/).
 
-mod common;
+use crate::common;
 
 use chaincart::batch::CHUNK;
 use chaincart::integrate::StepStatus;

@@ -5,7 +5,7 @@
 //! NaN, never a panic. The table printed here is the one published in README.md
 //! (the f32 rows in docs/simd.md).
 
-mod common;
+use crate::common;
 
 use chaincart::batch::ChainBatch;
 use chaincart::integrate::{Guard, GuardedStepper, StepStatus};

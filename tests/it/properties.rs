@@ -1,7 +1,5 @@
 //! Property-based tests (proptest): random chains, parameters and states.
 
-mod common;
-
 use chaincart::dense::dense_derivative;
 use chaincart::geometry::{planar_to_spatial, spatial_to_planar};
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};

@@ -1,19 +1,12 @@
-//! The RL task layer's step and reset allocate nothing (its own test binary: the
-//! counting allocator sees every thread, so no other test may run beside it).
+//! The RL task layer's step and reset allocate nothing.
 
+use super::counter::allocations_of;
 use chaincart::batch::CHUNK;
 use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, ForceNoise, ParamRandomization, StepOutputs, TaskConfig,
 };
 use chaincart::lanes::Precision;
 use chaincart::{ChainParams, SpatialChain, StepOptions};
-#[path = "../common/alloc_counter.rs"]
-mod alloc_counter;
-
-use alloc_counter::{allocations_of, CountingAllocator};
-
-#[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn env_steps_and_resets_allocate_nothing() {

@@ -1,21 +1,12 @@
-//! The step loop allocates nothing. Its own test binary: the counting allocator
-//! sees every thread, so no other test may run beside it.
+//! The physics step loop allocates nothing.
 
-mod common;
-
+use super::counter::allocations_of;
+use crate::common::batches::{forces, random_batch};
 use chaincart::batch::CHUNK;
 use chaincart::integrate::{Guard, GuardedStepper};
 use chaincart::lanes::Precision;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions};
-use common::batches::{forces, random_batch};
 use nalgebra::Vector2;
-#[path = "common/alloc_counter.rs"]
-mod alloc_counter;
-
-use alloc_counter::{allocations_of, CountingAllocator};
-
-#[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn stepping_allocates_nothing() {
