@@ -2,10 +2,10 @@
 extras into a fresh venv (numpy and gymnasium only), used from a directory outside
 the source tree. Every command either works or says which extra to install.
 
-The wheel is built with ``maturin build --release`` in the source tree's cargo target
-directory for this interpreter, as ``scripts/setup.sh`` builds the extension (it runs
-``maturin develop --release`` with the same python, whose path maturin hands to PyO3's
-build script as PYO3_PYTHON): cargo finds the release build of set-up fresh, and
+The wheel is built with ``maturin build --profile setup`` in the source tree's cargo
+target directory for this interpreter, as ``scripts/setup.sh`` builds the extension (it
+runs ``maturin develop --profile setup`` with the same python, whose path maturin hands
+to PyO3's build script as PYO3_PYTHON): cargo finds the build of set-up fresh, and
 neither command invalidates the other's build."""
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     assert (ROOT / "Cargo.toml").is_file(), "the wheel test runs from a source checkout"
     wheels = tmp_path_factory.mktemp("wheels")
     build = subprocess.run(
-        [sys.executable, "-m", "maturin", "build", "--release", "--interpreter", sys.executable, "-o", str(wheels)],
+        [sys.executable, "-m", "maturin", "build", "--profile", "setup", "--interpreter", sys.executable, "-o", str(wheels)],
         cwd=ROOT, capture_output=True, text=True, env=clean_environ(), timeout=1500,
     )  # fmt: skip
     assert build.returncode == 0, build.stderr[-3000:]
@@ -98,6 +98,24 @@ def test_commands_without_their_extra_say_which_to_install(installed: Path, tmp_
     assert done.stderr.count("\n") == 1 and f"{EXTRA_MESSAGE}{extras}]'" in done.stderr
     assert "Traceback" not in done.stderr and done.stdout == ""  # nothing done before
     assert list(tmp_path.iterdir()) == []
+
+
+def test_shipped_agents_come_in_the_wheel_and_act_without_torch(installed: Path, tmp_path: Path) -> None:
+    code = (
+        "import sys, gymnasium as gym, chaincart_env\n"
+        "policy = chaincart_env.pretrained('inverted-2', 'ppo')\n"
+        "env = gym.make('ChainCart-inverted-2-v0')\n"
+        "obs, info = env.reset(seed=policy.record['success']['seeds'][0])\n"
+        "done = False\n"
+        "while not done:\n"
+        "    action, _ = policy.predict(obs, deterministic=True)\n"
+        "    obs, reward, terminated, truncated, info = env.step(action)\n"
+        "    done = terminated or truncated\n"
+        "print('success', info['is_success'], 'torch' in sys.modules)\n"
+    )
+    done = run(installed, tmp_path, "-c", code)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.split() == ["success", "True", "False"]
 
 
 def test_classes_and_commands_that_need_no_extra(installed: Path, tmp_path: Path) -> None:
