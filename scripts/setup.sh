@@ -11,9 +11,9 @@
 # EXTRAS (comma-separated, default: every one) are the package's optional dependencies
 # to install: scripts/demo.sh asks for sb3,plot; scripts/test.sh for every extra.
 #
-# It creates .venv (with $PYTHON, default python3.11), installs uv and maturin into it, builds
-# the Rust extension with the `setup` profile of Cargo.toml (optimised as release, with
-# thin LTO and parallel codegen: a few times faster to build than the fat-LTO release
+# It creates .venv (with $PYTHON, default python3.11), installs uv and maturin into it,
+# builds the Rust extension with the `setup` profile of Cargo.toml (optimised as
+# release, with thin LTO and parallel codegen: faster to build than the fat-LTO release
 # profile of published wheels) and installs chaincart-env in editable mode with EXTRAS
 # (`maturin develop --profile setup --extras EXTRAS`). Run the package with
 # .venv/bin/python (or `source .venv/bin/activate` first).
