@@ -1,24 +1,11 @@
 //! chaincart: the chain pendulum on a cart (Lee, Leok, McClamroch, CDC 2012).
 //!
-//! Pure Rust physics and batch engine; the Python bindings live in `src/python/`
-//! behind the `python` feature.
+//! Pure Rust physics, controllers, batch engine and RL task; the Python bindings live in
+//! `src/python/` behind the `python` feature.
 //!
-//! The modules form a ladder: each uses only those below it (ARCHITECTURE.md; the
-//! `architecture` test checks it).
-//!
-//! * [`error`], [`limits`], [`tridiagonal`]: errors, the largest sizes accepted, a solver.
-//! * [`params`]: validated physical parameters.
-//! * [`geometry`]: the spatial scene and its planar special case.
-//! * [`model`]: exact O(n) accelerations; [`dense`]: the paper's O(n^3) form (oracle);
-//!   [`invariants`]: energy, momentum, constraint residuals, the paper's errors.
-//! * [`integrate`]: rk4, rkmk4, variational, lie_euler, adaptive, and the failure guard.
-//! * [`analysis`]: equilibria, linearisation (Prop. 2), controllability (Prop. 3), Riccati,
-//!   LQR; [`lanes`]: the rk4 step with one env per SIMD lane; [`render`]: RGB frames;
-//!   [`scaling`]: timing against the number of links; [`any`]: a chain in either scene,
-//!   chosen at run time.
-//! * [`batch`]: the engine every batch steps with, and [`batch::ChainBatch`] (physics only).
-//! * [`env`](mod@env): the RL task (target, start, reward, termination, autoreset) on the
-//!   engine.
+//! The modules form a ladder, each using only those below it: ARCHITECTURE.md at the
+//! repository's root draws it, with the invariants and where to start reading; the
+//! `architecture` integration test (`tests/it/architecture.rs`) checks it.
 
 #![warn(missing_docs)]
 
