@@ -1,12 +1,45 @@
 #!/usr/bin/env bash
-# The whole test suite: the Rust tests (`cargo test`, no Python involved) and the
-# Python tests (pytest, tests/python). Exits non-zero on any failure. Extra arguments
-# go to pytest.
+# The whole test suite: lint and types (ruff, mypy), the Rust tests (`cargo test`, no
+# Python involved) and the Python tests (pytest, tests/python). Exits non-zero on any
+# failure. Extra arguments go to pytest.
+#
+# The Rust tests are built and run in the background from the start, beside set-up's
+# downloads and pytest (which runs on one core); their output goes to
+# target/cargo-test.log and is printed when both are done. `cargo test` alone runs the
+# same tests (and builds the examples too).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
+mkdir -p target
+log=target/cargo-test.log
+rust_tests() {
+    # The library's unit tests, the integration tests and the doc tests; the examples
+    # and benchmarks are type-checked (building them would only compile the engine
+    # again, and they are not tests).
+    cargo test -p chaincart --lib --tests && cargo test -p chaincart --doc &&
+        cargo check --examples --benches
+}
+rust_tests >"$log" 2>&1 &
+cargo_job=$!
+trap 'kill "$cargo_job" 2>/dev/null || true' EXIT
+
 scripts/setup.sh  # with every extra: the suite tests each optional path
-echo "== cargo test"
-cargo test
+
+echo "== ruff"
+.venv/bin/ruff check chaincart_env tests/python
+echo "== mypy"
+.venv/bin/python -m mypy chaincart_env
+
 echo "== pytest"
-.venv/bin/python -m pytest tests/python "$@"
+pytest_status=0
+.venv/bin/python -m pytest tests/python "$@" || pytest_status=$?
+
+echo "== cargo test (its output, from $log)"
+cargo_status=0
+wait "$cargo_job" || cargo_status=$?
+trap - EXIT
+cat "$log"
+
+verdict() { [ "$1" = 0 ] && echo passed || echo "FAILED (exit $1)"; }
+echo "== cargo test $(verdict "$cargo_status"); pytest $(verdict "$pytest_status")"
+[ "$cargo_status" = 0 ] && [ "$pytest_status" = 0 ]
