@@ -20,12 +20,12 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
-import gymnasium
-
 from chaincart_env._native import load_native_module
 
 load_native_module()
 
+from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
+from chaincart_env.env import ChainCartEnv  # noqa: E402
 from chaincart_env.errors import (  # noqa: E402
     AnalysisError,
     ChainCartError,
@@ -36,8 +36,6 @@ from chaincart_env.errors import (  # noqa: E402
     PlanningError,
     UnknownKeyError,
 )
-from chaincart_env.config import DEFAULT_SCENE, SCENES, ChainCartConfig, RewardWeights  # noqa: E402
-from chaincart_env.env import ChainCartEnv  # noqa: E402
 from chaincart_env.model import ChainCart  # noqa: E402
 from chaincart_env.registration import ENV_ID, register_envs, scene_env_id  # noqa: E402
 from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402

@@ -15,6 +15,14 @@ import numpy as np
 import numpy.typing as npt
 from typing_extensions import Self, disjoint_base
 
+from chaincart_env.errors import (
+    AnalysisError as AnalysisError,
+    ChainCartError as ChainCartError,
+    IntegrationError as IntegrationError,
+    InvalidInputError as InvalidInputError,
+    InvalidTypeError as InvalidTypeError,
+)
+
 __all__ = [
     "ChainCartError",
     "InvalidInputError",
@@ -115,13 +123,6 @@ RENDER_VIEWS: tuple[str, ...]
 
 _Signs = Union[str, Sequence[float]]
 
-from chaincart_env.errors import (
-    AnalysisError as AnalysisError,
-    ChainCartError as ChainCartError,
-    IntegrationError as IntegrationError,
-    InvalidInputError as InvalidInputError,
-    InvalidTypeError as InvalidTypeError,
-)
 
 @disjoint_base
 class ChainCart:

@@ -24,7 +24,6 @@ import numpy as np
 
 from chaincart_env import _core
 from chaincart_env.errors import InvalidInputError, InvalidTypeError, UnknownKeyError
-from chaincart_env.model import ChainCart
 
 __all__ = [
     "ChainCartConfig",
@@ -206,9 +205,10 @@ class ChainCartConfig:
 
     # -- derived values -------------------------------------------------------------
 
-    def make_model(self) -> ChainCart:
-        """The :class:`ChainCart` with this config's physical parameters (immutable, so
-        the config and its envs share one)."""
+    def make_model(self) -> _core.ChainCart:
+        """The native model with this config's physical parameters (immutable, so the
+        config and its envs share one); :class:`ChainCart` adds a ``simulate`` that takes
+        a feedback policy."""
         return self._resolved.model
 
     @property

@@ -11,9 +11,8 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from chaincart_env import _core
-from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig, env_arguments
-from chaincart_env.model import ChainCart
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.native import NativeBatchCopies
 from chaincart_env.rendering import RENDER_MODES, EnvRendering
 from chaincart_env.spec import JsonSpec
@@ -36,7 +35,7 @@ def observation_space(config: ChainCartConfig) -> spaces.Box:
         start, stop = config.state_layout["q"]
         high[start:stop] = 1.0
     high[config.state_dim :] = 1.0  # the target's signs, when observed
-    return spaces.Box(-high, high, dtype=dtype)
+    return spaces.Box(-high, high, dtype=dtype.type)
 
 
 def action_space(config: ChainCartConfig) -> spaces.Box:
@@ -229,7 +228,7 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
             targets=self._episode_targets if self.config.goal_conditioned else None,
         )
         self.render_mode = self._rendering.mode
-        self.model: ChainCart = self.config.make_model()
+        self.model: _core.ChainCart = self.config.make_model()
         self.observation_space = observation_space(self.config)
         self.action_space = action_space(self.config)
         self.metadata = {**type(self).metadata, "render_fps": self._rendering.fps}

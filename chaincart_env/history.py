@@ -61,7 +61,7 @@ def history_space(observation_space: Any, action_space: Any, k: int) -> gymnasiu
     """The observation space with ``k`` steps of history appended (module docstring);
     its bounds hold the zeros of the padding."""
     obs, act = _box(observation_space, "observation"), _box(action_space, "action")
-    dtype = obs.dtype
+    dtype: Any = obs.dtype
     parts_low = [obs.low, np.tile(np.minimum(obs.low, 0), k), np.tile(np.minimum(act.low, 0), k)]
     parts_high = [obs.high, np.tile(np.maximum(obs.high, 0), k), np.tile(np.maximum(act.high, 0), k)]
     low = np.concatenate([np.asarray(p, dtype=np.float64) for p in parts_low]).astype(dtype)
@@ -112,7 +112,7 @@ class HistoryObservation(gymnasium.Wrapper):
         self.k = check_history(k)
         self.observation_space = history_space(env.observation_space, env.action_space, self.k)
         inner = _box(env.observation_space, "observation")
-        self._buffers = _Buffers(1, self.k, inner.shape[0], env.action_space, inner.dtype)
+        self._buffers = _Buffers(1, self.k, inner.shape[0], _box(env.action_space, "action"), inner.dtype)
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict[str, Any]] = None) -> tuple[np.ndarray, dict]:
         """The env's reset, its first observation with an empty (zero) history."""
@@ -216,7 +216,7 @@ def _vec_history_class() -> type:
 
         def reset(self) -> np.ndarray:
             """Resets every env: first observations, empty (zero) histories."""
-            obs = self.venv.reset()
+            obs = np.asarray(self.venv.reset())
             self._buffers.restart(slice(None), obs)
             return self._buffers.augmented(obs)
 
@@ -229,7 +229,8 @@ def _vec_history_class() -> type:
             """The envs' step, observations with their histories (restarted where an episode ended)."""
             if self._actions is None:
                 raise InvalidInputError("step_wait() without step_async(actions): expected actions first")
-            obs, rewards, dones, infos = self.venv.step_wait()
+            raw_obs, rewards, dones, infos = self.venv.step_wait()
+            obs = np.asarray(raw_obs)
             self._buffers.advance(self._actions)
             self._actions = None
             ended = np.flatnonzero(dones)
@@ -239,7 +240,7 @@ def _vec_history_class() -> type:
                     infos[i]["terminal_observation"] = self._buffers.augmented(final, [int(i)])[0]
             self._buffers.current[:] = obs
             if ended.size:
-                self._buffers.restart(ended, np.asarray(obs)[ended])
+                self._buffers.restart(ended, obs[ended])
             return self._buffers.augmented(obs), rewards, dones, infos
 
         def __getstate__(self) -> dict[str, Any]:

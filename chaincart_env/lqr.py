@@ -17,11 +17,12 @@ from __future__ import annotations
 from typing import Any, Callable, Optional, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 __all__ = ["LQRPolicy", "OracleLQRPolicy", "lqr_coordinates"]
 
 
-def lqr_coordinates(states: np.ndarray, target: Sequence[float]) -> np.ndarray:
+def lqr_coordinates(states: np.ndarray, target: npt.ArrayLike) -> np.ndarray:
     """Local coordinates z of eq. (u) for a batch of spatial states, shape (N, 4 + 4n)."""
     states = np.atleast_2d(np.asarray(states, dtype=np.float64))
     s = np.asarray(target, dtype=np.float64)
@@ -208,7 +209,7 @@ class OracleLQRPolicy(LQRPolicy):
         self._make_model = lambda p: ChainCart(
             config.n_links, p["cart_mass"], p["link_masses"], p["link_lengths"], p["gravity"], config.planar
         )
-        self._gains: dict[tuple[float, ...], np.ndarray] = {}
+        self._gains_by_params: dict[tuple[float, ...], np.ndarray] = {}
         nominal = base.model.lqr_gain(list(config.target_signs), Q, R)
         super().__init__(nominal, config.target_signs, config.max_force, config.planar)
 
@@ -219,10 +220,10 @@ class OracleLQRPolicy(LQRPolicy):
             *map(float, params["link_lengths"]),
             float(params["gravity"]),
         )
-        gain = self._gains.get(key)
+        gain = self._gains_by_params.get(key)
         if gain is None:
             gain = np.asarray(self._make_model(params).lqr_gain(list(self.target), self._Q, self._R))
-            self._gains[key] = gain
+            self._gains_by_params[key] = gain
         return gain
 
     def bind(self, env: Any) -> None:

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from chaincart_env import _core
-from chaincart_env.errors import ChainCartError, InvalidInputError, InvalidTypeError
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 
 __all__ = ["ChainCart", "Policy"]
 

@@ -13,10 +13,9 @@ from gymnasium.error import ResetNeeded
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from chaincart_env import _core
-from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.env import action_space, check_seed, episode_info, observation_space, start_state_option
-from chaincart_env.model import ChainCart
+from chaincart_env.errors import InvalidInputError
 from chaincart_env.native import NativeBatchCopies, check_num_envs
 from chaincart_env.rendering import EnvRendering, check_shown_envs
 from chaincart_env.vector import entropy_seed
@@ -150,7 +149,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
     ) -> None:
         num_envs = check_num_envs(num_envs)
         self.config = ChainCartConfig.coerce(config, **kwargs)
-        self.model: ChainCart = self.config.make_model()
+        self.model: _core.ChainCart = self.config.make_model()
         # First: the core refuses a num_envs too large to allocate before anything is.
         self._batch = self.config.make_batch(num_envs, "same_step", entropy_seed())
         self._rendering = EnvRendering(

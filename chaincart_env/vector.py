@@ -16,10 +16,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from chaincart_env import _core
-from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import REGISTERED_EPISODE_STEPS, ChainCartConfig
 from chaincart_env.env import action_space, check_seed, observation_space
-from chaincart_env.model import ChainCart
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.native import NativeBatchCopies, check_num_envs
 from chaincart_env.rendering import VECTOR_RENDER_MODES, EnvRendering, check_shown_envs
 from chaincart_env.spec import JsonSpec
@@ -150,7 +149,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
     ) -> None:
         self.num_envs = check_num_envs(num_envs)
         self.config = ChainCartConfig.coerce(config, **_scene_length_kept(kwargs))
-        self.model: ChainCart = self.config.make_model()
+        self.model: _core.ChainCart = self.config.make_model()
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
         # First: the core refuses a num_envs too large to allocate before anything is.
         self._batch = self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode], entropy_seed())

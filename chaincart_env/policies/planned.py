@@ -11,7 +11,12 @@ import numpy as np
 
 from chaincart_env.errors import ChainCartError, InvalidInputError, PlanningError
 from chaincart_env.policies.settings import (
-    SCENE_PLANS, EnvSettings, env_settings, goal_signs, nearest_equilibrium, observation_batch,
+    SCENE_PLANS,
+    EnvSettings,
+    env_settings,
+    goal_signs,
+    nearest_equilibrium,
+    observation_batch,
 )
 
 __all__ = ["EPISODE_JUMP", "NOISE_MARGIN", "ON_FAILURE", "PLAN_FROM", "PlannedPolicy"]

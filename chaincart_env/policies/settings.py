@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from chaincart_env import _core
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.model import ChainCart
 
@@ -95,7 +96,7 @@ def env_settings(env: Any, oracle: bool = False) -> EnvSettings:
     )
 
 
-def nearest_equilibrium(model: ChainCart, state: np.ndarray) -> tuple[int, ...]:
+def nearest_equilibrium(model: _core.ChainCart, state: np.ndarray) -> tuple[int, ...]:
     """The equilibrium whose links point the way the state's do: ``s_i = +1`` where link
     ``i`` points down (``q_i . e3 >= 0``), ``-1`` where it points up."""
     start, stop = model.state_layout["q"]

@@ -137,13 +137,14 @@ class TipTrail:
 def trail_length(seconds: Any, dt: float) -> tuple[int, int]:
     """``(positions kept, steps between them)`` for a trail of ``seconds`` (a number
     >= 0; 0: none) at control period ``dt``: at most :data:`TRAIL_POINTS` positions."""
-    if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real) or not (
-        math.isfinite(seconds) and seconds >= 0
-    ):
-        raise (InvalidInputError if isinstance(seconds, numbers.Real) and not isinstance(seconds, bool)
-               else InvalidTypeError)(f"render_trail = {seconds!r}: expected a number of seconds >= 0 (0: no trail)")
-    if seconds == 0:
+    expected = f"render_trail = {seconds!r}: expected a number of seconds >= 0 (0: no trail)"
+    if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real):
+        raise InvalidTypeError(expected)
+    length = float(seconds)
+    if not (math.isfinite(length) and length >= 0):
+        raise InvalidInputError(expected)
+    if length == 0:
         return 0, 1
-    steps = max(1, math.ceil(seconds / dt - 1e-9))
+    steps = max(1, math.ceil(length / dt - 1e-9))
     every = max(1, math.ceil(steps / TRAIL_POINTS))
     return steps // every + 1, every

@@ -5,13 +5,13 @@ Shared by the single env, the native vector env and the SB3 VecEnv."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, Optional
+from typing import Any, Optional, cast
 
 import numpy as np
 import numpy.typing as npt
 
-from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.rendering.frames import (
     RENDER_MODES,
     ChainRenderer,
@@ -137,8 +137,8 @@ class EnvRendering:
                 f"states of envs {first}..{first + len(states) - 1} to draw: forces are tracked for "
                 f"envs 0..{len(self.forces) - 1} only"
             )
-        trails: Sequence[Any] = self.trails[first:] if self.trails else [None] * len(states)
-        targets: Sequence[Any] = self._targets()[first:] if self._targets is not None else [None] * len(states)
+        trails = cast(Sequence[Any], self.trails[first:] if self.trails else [None] * len(states))
+        targets = cast(Sequence[Any], self._targets()[first:] if self._targets is not None else [None] * len(states))
         return [
             self.renderer.frame(y, f, t, g) for y, f, t, g in zip(states, self.forces[first:], trails, targets)
         ]

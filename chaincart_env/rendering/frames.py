@@ -13,8 +13,8 @@ import numpy as np
 import numpy.typing as npt
 
 from chaincart_env import _core
-from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.errors import InvalidInputError, InvalidTypeError
 from chaincart_env.rendering.camera import Camera, TipTrail, trail_length
 
 __all__ = [

@@ -30,8 +30,8 @@ import numpy as np
 
 from chaincart_env.cli_text import plain, scene_help
 from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
-from chaincart_env.errors import ChainCartError, InvalidInputError, MissingExtraError
 from chaincart_env.env import ChainCartEnv
+from chaincart_env.errors import ChainCartError, InvalidInputError, MissingExtraError
 from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
 from chaincart_env.rendering import RENDER_VIEWS, Camera, default_frame_size
 

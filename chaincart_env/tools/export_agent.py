@@ -32,7 +32,11 @@ import numpy as np
 from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
 from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.pretrained_agents import (
-    AGENTS_DIR, FORMAT, FORMAT_VERSION, PretrainedPolicy, load_agent,
+    AGENTS_DIR,
+    FORMAT,
+    FORMAT_VERSION,
+    PretrainedPolicy,
+    load_agent,
 )  # fmt: skip
 
 __all__ = [
@@ -341,10 +345,11 @@ def export_agent(
     ``agents`` folder); returns its record. The scene is the one the run's
     ``config.json`` names (``scene``, if given, must be it); a ``.zip`` without one is
     taken to be of ``scene``'s default configuration (default: the default scene)."""
+    import stable_baselines3
+
     from chaincart_env.pretrained_agents import _NAME
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
     from chaincart_env.tools.compare.normalization import normalization_file, read_statistics
-    import stable_baselines3
 
     for what, value in (("scene", scene or DEFAULT_SCENE), ("name", name)):
         if not _NAME.match(str(value)):

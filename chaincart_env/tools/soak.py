@@ -69,7 +69,7 @@ def soak(steps: int, num_envs: int = 1024, seed: int = 0, warmup: int = 1000, **
     rng = np.random.default_rng(seed)
     # One preallocated action buffer refilled in place: the loop itself allocates
     # nothing that grows.
-    actions = np.empty((num_envs,) + env.single_action_space.shape, dtype=np.float32)
+    actions = np.empty((num_envs, *(env.single_action_space.shape or ())), dtype=np.float32)
     ended = failures = 0
 
     def run(batches: int) -> None:
@@ -98,7 +98,7 @@ def soak(steps: int, num_envs: int = 1024, seed: int = 0, warmup: int = 1000, **
 
 def main(steps: int, num_envs: int, seed: int, scene: Optional[str]) -> int:
     """Runs the ``soak`` command: prints the report; returns 0."""
-    config = {} if scene is None else {"scene": scene}
+    config: dict[str, Any] = {} if scene is None else {"scene": scene}
     report = soak(steps, num_envs, seed, **config)
     print(report.markdown())
     return 0

@@ -101,7 +101,7 @@ def transitions(
         dt = 0.02
         steps = int(round(plan_duration / dt)) + int(round(spare / dt)) + int(round(hold / dt))
         env = ChainCartEnv(ChainCartConfig(
-            n_links=n_links, planar=planar, start=list(start), target=list(target),
+            n_links=n_links, planar=planar, start=tuple(map(float, start)), target=tuple(map(float, target)),
             max_force=max_force, track_limit=track_limit, max_episode_steps=steps, start_noise=start_noise,
         ))
         # A missed plan is tracked all the same (the episodes then fail): planning from each

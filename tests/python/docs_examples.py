@@ -25,8 +25,7 @@ from typing import Any
 from unittest import mock
 
 import pytest
-from pytest_examples import CodeExample, EvalExample, find_examples
-from pytest_examples import run_code
+from pytest_examples import CodeExample, EvalExample, find_examples, run_code
 from pytest_examples.run_code import MockPrintFunction
 
 __all__ = ["examples_of", "run_example"]

@@ -13,8 +13,8 @@ import pytest
 from paper_dense import elwm_derivative, link_accelerations
 
 from chaincart_env import ChainCart
-from chaincart_env.tools.bench.fig1 import AccuracyPoint, mass_positions
 from chaincart_env.tools.bench.accuracy import pareto_front
+from chaincart_env.tools.bench.fig1 import AccuracyPoint, mass_positions
 from chaincart_env.tools.bench.mujoco_chain import (
     build_mjcf,
     chain_point_accelerations,

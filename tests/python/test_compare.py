@@ -8,6 +8,7 @@ import csv
 import json
 import math
 import pathlib
+import subprocess
 
 import numpy as np
 import pytest

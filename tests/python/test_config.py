@@ -13,9 +13,16 @@ import numpy as np
 import pytest
 
 import chaincart_env
-from chaincart_env import DEFAULT_SCENE, SCENES, ChainCartConfig, ChainCartEnv, ChainCartError, ChainCartVectorEnv
-from chaincart_env import RewardWeights
-from chaincart_env import _core
+from chaincart_env import (
+    DEFAULT_SCENE,
+    SCENES,
+    ChainCartConfig,
+    ChainCartEnv,
+    ChainCartError,
+    ChainCartVectorEnv,
+    RewardWeights,
+    _core,
+)
 from chaincart_env.config import CONFIG_KEYS, REALITY_KEYS
 from chaincart_env.errors import InvalidInputError, InvalidTypeError, UnknownKeyError
 from chaincart_env.spec import plain_value

@@ -20,9 +20,9 @@ from chaincart_env import (
     PlanningError,
     TrajectoryPolicy,
 )
-from chaincart_env.tools.compare.evaluation import rollout
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.policies.settings import env_settings
+from chaincart_env.tools.compare.evaluation import rollout
 
 #: The default scene's physical system.
 DOUBLE = ChainCart(2, 1.0, 0.1, 0.5, planar=True)

@@ -8,9 +8,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from pytest_examples import CodeExample, EvalExample
-
 from docs_examples import examples_of, run_example
+from pytest_examples import CodeExample, EvalExample
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -32,8 +31,8 @@ def test_python_block_runs_and_prints_what_it_documents(
 
 def test_the_readme_states_the_steps_the_main_job_trains() -> None:
     # SB3 trains whole rollouts: the default scene's budget rounded up to num_envs x n_steps.
-    from chaincart_env.tools.compare.recipes import recipe_for
     from chaincart_env.config import DEFAULT_SCENE
+    from chaincart_env.tools.compare.recipes import recipe_for
 
     recipe = recipe_for(DEFAULT_SCENE, "ppo")
     rollout = recipe.num_envs * recipe.hyperparameters["n_steps"]

@@ -8,9 +8,9 @@ import argparse
 import dataclasses
 
 from chaincart_env import ChainCartConfig, ChainCartEnv, RewardWeights, _core
+from chaincart_env.env import observation_space
 from chaincart_env.tools.compare.scene_options import add_scene_options
 from chaincart_env.tools.config_docs import generated_pages, main, option_help
-from chaincart_env.env import observation_space
 
 
 def test_the_committed_docs_tables_are_generated_from_the_core() -> None:

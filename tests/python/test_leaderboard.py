@@ -10,8 +10,8 @@ import pytest
 
 from chaincart_env.__main__ import main
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.leaderboard.axes import AXIS_NAMES, parse_axes
 from chaincart_env.tools.controllers import parse_controllers
+from chaincart_env.tools.leaderboard.axes import AXIS_NAMES, parse_axes
 from chaincart_env.tools.leaderboard.report import axis_scores, score_rows
 
 

@@ -7,12 +7,10 @@ import pickle
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 from paper_dense import elwm_derivative
 
-from chaincart_env import ChainCart, ChainCartError
-from chaincart_env import _core
+from chaincart_env import ChainCart, ChainCartError, _core
 
 
 def random_state(model: ChainCart, rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:

@@ -8,7 +8,6 @@ where the plan followers must not take a noisy step for a new episode."""
 
 from __future__ import annotations
 
-import math
 from typing import Any, Callable, Optional
 
 import gymnasium as gym

@@ -22,7 +22,13 @@ import chaincart_env
 from chaincart_env import ChainCartConfig, InvalidInputError
 from chaincart_env.__main__ import main
 from chaincart_env.pretrained_agents import (
-    AGENTS_DIR, PretrainedPolicy, PretrainedSceneWarning, load_agent, parse_pretrained_slot, pretrained, shipped_agents,
+    AGENTS_DIR,
+    PretrainedPolicy,
+    PretrainedSceneWarning,
+    load_agent,
+    parse_pretrained_slot,
+    pretrained,
+    shipped_agents,
 )  # fmt: skip
 from chaincart_env.tools.compare.evaluation import rollout
 from chaincart_env.tools.controllers import parse_controllers

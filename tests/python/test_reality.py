@@ -233,8 +233,8 @@ def test_a_scene_setting_can_be_switched_off() -> None:
 def test_the_command_line_takes_the_keywords_with_the_cores_help() -> None:
     import argparse
 
-    from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options
     from chaincart_env.config import REALITY_KEYS
+    from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options
 
     parser = argparse.ArgumentParser()
     add_scene_options(parser)
@@ -299,7 +299,7 @@ def test_compare_evaluates_the_oracle_lqr_on_the_rollouts_own_envs() -> None:
     p = batch.param_arrays()
     for i in range(4):
         true_model = ChainCart(2, p["cart_mass"][i], p["link_masses"][i], p["link_lengths"][i], p["gravity"][i], True)
-        assert any(np.array_equal(g, true_model.lqr_gain([-1, -1])) for g in oracle._gains.values())
+        assert any(np.array_equal(g, true_model.lqr_gain([-1, -1])) for g in oracle._gains_by_params.values())
 
 
 def test_force_noise_round_trips_in_its_canonical_form() -> None:

@@ -20,8 +20,6 @@ from PIL import Image
 
 from chaincart_env import ChainCart, ChainCartEnv, ChainCartError, ChainCartVectorEnv, _core
 from chaincart_env.__main__ import main
-from chaincart_env.tools.animate import _label_height, animate, load_sb3_model, parse_settings
-from chaincart_env.tools.bench.render_benchmark import render_benchmark
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.rendering import (
     RenderUnavailable,
@@ -30,6 +28,8 @@ from chaincart_env.rendering import (
     tile_grid,
 )
 from chaincart_env.rendering.frames import render_fps, steps_per_frame
+from chaincart_env.tools.animate import _label_height, animate, load_sb3_model, parse_settings
+from chaincart_env.tools.bench.render_benchmark import render_benchmark
 
 SMALL = dict(render_width=96, render_height=48)
 

@@ -15,8 +15,8 @@ from matplotlib.figure import Figure
 
 from chaincart_env.tools.compare.plots import draw_sweep
 from chaincart_env.tools.compare.styles import LOOKS, policy_style
-from chaincart_env.tools.controllers import CONTROLLERS, label_of
 from chaincart_env.tools.compare.verdict import Rate, compare_rates, main_starts_rate, verdict_lines
+from chaincart_env.tools.controllers import CONTROLLERS, label_of
 
 POLICIES = ["PPO", "PPO best", "LQR", "LQR oracle"]
 

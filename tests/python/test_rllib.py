@@ -22,12 +22,6 @@ from ray.rllib.algorithms.appo import APPOConfig
 
 from chaincart_env import ChainCartConfig, ChainCartEnv, ChainCartError, ChainCartVectorEnv, _core
 from chaincart_env.__main__ import main
-from chaincart_env.tools.bench.rllib_sampling import measure_sampling
-from chaincart_env.tools.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
-from chaincart_env.tools.compare.job import OUTPUT_FILES, lqr_baseline
-from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.tools.compare.cells import ray_cluster
-from chaincart_env.tools.compare.rllib_training import RLlibPolicy
 from chaincart_env.rllib import (
     ENV_NAME,
     RunnerStartSeeds,
@@ -37,6 +31,12 @@ from chaincart_env.rllib import (
     runner_start_seeds,
     start_seeds_of,
 )
+from chaincart_env.tools.bench.rllib_sampling import measure_sampling
+from chaincart_env.tools.compare.cells import ray_cluster
+from chaincart_env.tools.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
+from chaincart_env.tools.compare.job import OUTPUT_FILES, lqr_baseline
+from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.rllib_training import RLlibPolicy
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SEED = 5

@@ -13,8 +13,8 @@ from scipy.stats import binomtest
 
 from chaincart_env import ChainCartEnv, LQRPolicy
 from chaincart_env.__main__ import main
-from chaincart_env.roa import region_of_attraction, success_fractions, wilson_interval
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.roa import region_of_attraction, success_fractions, wilson_interval
 
 
 def test_success_falls_with_the_perturbation_on_the_default_scene() -> None:

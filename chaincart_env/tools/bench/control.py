@@ -7,10 +7,10 @@ import time
 
 import numpy as np
 
+from chaincart_env import _core
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.model import ChainCart
 from chaincart_env.policies.settings import SCENE_PLANS
+from chaincart_env.tools.bench.context import BenchContext
 
 __all__ = ["control_section"]
 
@@ -19,7 +19,7 @@ __all__ = ["control_section"]
 SWINGUPS = ("swingup-2", "swingup-3", "spatial-swingup-2")
 
 
-def _mpc_step_times(model: ChainCart, plan, steps: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+def _mpc_step_times(model: _core.ChainCart, plan, steps: int) -> np.ndarray:  # type: ignore[no-untyped-def]
     """Seconds of each MPC control step along the plan and one second beyond, from a
     start 1 cm off, the model stepping in between."""
     mpc = plan.mpc()
@@ -44,8 +44,11 @@ def control_section(ctx: BenchContext) -> None:
         duration = SCENE_PLANS.get(name, (None, ""))[0]
         config = ChainCartConfig(scene=name)
         model = config.make_model()
-        limits = {"max_force": config.max_force, "track_limit": config.track_limit}
-        plans = [model.plan("hanging", "inverted", duration=duration, **limits) for _ in range(repeats)]
+        plans = [
+            model.plan("hanging", "inverted", duration=duration, max_force=config.max_force,
+                       track_limit=config.track_limit)
+            for _ in range(repeats)
+        ]
         plan_seconds = min(p.report["seconds"] for p in plans)
         plan = plans[0]
         steps = plan.forces.shape[0] + int(round(1.0 / plan.dt))

@@ -12,8 +12,8 @@ import os
 from pathlib import Path
 from typing import Optional
 
-from chaincart_env.tools.bench.report import fmt_rate, fmt_time
 from chaincart_env.tools.bench.context import BenchContext
+from chaincart_env.tools.bench.report import fmt_rate, fmt_time
 
 __all__ = ["criterion_section", "read_criterion", "criterion_dir"]
 
@@ -81,5 +81,5 @@ def criterion_section(ctx: BenchContext) -> None:
     batch = {int(k.split("/")[1]): v["median"] for k, v in results.items() if k.startswith("batch/")}
     if batch:
         ctx.report.paragraph("`batch`: one rk4 step of N paper systems (5 links) on all cores.")
-        rows = [[str(n), fmt_time(t), fmt_rate(n / t)] for n, t in sorted(batch.items())]
-        ctx.report.table(["N", "time per batch step", "env-steps/s"], rows)
+        batch_rows = [[str(n), fmt_time(t), fmt_rate(n / t)] for n, t in sorted(batch.items())]
+        ctx.report.table(["N", "time per batch step", "env-steps/s"], batch_rows)

@@ -23,10 +23,10 @@ import gymnasium as gym
 import numpy as np
 
 import chaincart_env  # noqa: F401  (registers ChainCart-v0)
-from chaincart_env.tools.bench.report import fmt_rate, fmt_ratio
-from chaincart_env.tools.bench.context import BenchContext, mujoco_available
-from chaincart_env.tools.bench.timing import rate
 from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
+from chaincart_env.tools.bench.context import BenchContext, mujoco_available
+from chaincart_env.tools.bench.report import fmt_rate, fmt_ratio
+from chaincart_env.tools.bench.timing import rate
 from chaincart_env.vector import ChainCartVectorEnv
 
 __all__ = ["throughput_section", "links_config"]
@@ -69,8 +69,9 @@ def _peer_single_rates(ctx: BenchContext, rng: np.random.Generator) -> dict[str,
     except Exception as exc:  # gymnasium's MuJoCo envs may not support the installed mujoco
         peers["InvertedDoublePendulum-v5"] = (f"not measured: gym.make failed ({type(exc).__name__}: {exc})", None)
         return peers
-    model = env.unwrapped.model
-    what = f"MuJoCo, 9 obs, {_mujoco_integrator_name(model)} x{env.unwrapped.frame_skip} of {model.opt.timestep * 1e3:g} ms"
+    mujoco_env: Any = env.unwrapped
+    model = mujoco_env.model
+    what = f"MuJoCo, 9 obs, {_mujoco_integrator_name(model)} x{mujoco_env.frame_skip} of {model.opt.timestep * 1e3:g} ms"
     actions = list(rng.uniform(-1, 1, (1000, 1)).astype(np.float32))
     peers["InvertedDoublePendulum-v5"] = (what, _single_rate(env, actions, ctx))
     return peers
@@ -85,6 +86,8 @@ def _mujoco_integrator_name(model: Any) -> str:
 def _single_env_table(ctx: BenchContext, rng: np.random.Generator) -> float:
     peers = _peer_single_rates(ctx, rng)
     base = peers["CartPole-v1"][1]
+    if base is None:
+        raise RuntimeError("CartPole-v1 was not measured: it is the single-env table's reference")
     rows = [[f"{name} (gym.make)", what, fmt_rate(r), f"{1e6 / r:.2f}" if r else "n/a", fmt_ratio(r, base)]
             for name, (what, r) in peers.items()]  # fmt: skip
     configs = [(f"ChainCart-v0 default ({DEFAULT_SCENE})", ChainCartConfig())]

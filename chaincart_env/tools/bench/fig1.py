@@ -23,8 +23,9 @@ from typing import Optional
 import numpy as np
 
 from chaincart_env import _core
+from chaincart_env.errors import ChainCartError
+from chaincart_env.model import ChainCart
 from chaincart_env.tools.bench.timing import rate
-from chaincart_env.model import ChainCart, ChainCartError
 
 __all__ = [
     "FIG1",

@@ -15,7 +15,10 @@ from typing import Any, Iterator, Optional
 import numpy as np
 
 from chaincart_env import _core
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.model import ChainCart
 from chaincart_env.tools.bench import fig1
+from chaincart_env.tools.bench.context import BenchContext, mujoco_available
 from chaincart_env.tools.bench.fig1 import AccuracyPoint
 from chaincart_env.tools.bench.mujoco_chain import (
     MUJOCO_INTEGRATORS,
@@ -26,10 +29,7 @@ from chaincart_env.tools.bench.mujoco_chain import (
     state_to_mujoco,
 )
 from chaincart_env.tools.bench.report import fmt_rate, fmt_ratio, fmt_sci
-from chaincart_env.tools.bench.context import BenchContext, mujoco_available
 from chaincart_env.tools.bench.timing import rate
-from chaincart_env.config import ChainCartConfig
-from chaincart_env.model import ChainCart
 
 __all__ = ["mujoco_section", "fig1_point", "mujoco_model", "MISSING_NOTE"]
 

@@ -14,11 +14,11 @@ from typing import Optional
 
 import numpy as np
 
-from chaincart_env.tools.bench import fig1
-from chaincart_env.tools.bench.report import fmt_sci, fmt_time
-from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.tools.bench.timing import rate
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.tools.bench import fig1
+from chaincart_env.tools.bench.context import BenchContext
+from chaincart_env.tools.bench.report import fmt_sci, fmt_time
+from chaincart_env.tools.bench.timing import rate
 
 __all__ = ["precision_table", "lane_trajectory", "LaneFailure"]
 

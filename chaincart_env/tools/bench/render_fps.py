@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 
 from chaincart_env import _core
-from chaincart_env.tools.bench.render_benchmark import render_benchmark
 from chaincart_env.tools.bench.context import BenchContext
+from chaincart_env.tools.bench.render_benchmark import render_benchmark
 from chaincart_env.tools.bench.timing import rate
 
 __all__ = ["render_section", "CASES", "GOAL_3D_FPS"]

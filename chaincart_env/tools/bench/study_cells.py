@@ -16,9 +16,9 @@ import os
 import time
 from typing import Any
 
+from chaincart_env.tools.bench.context import BenchContext
 from chaincart_env.tools.bench.report import fmt_ratio
 from chaincart_env.tools.bench.rllib_sampling import MISSING_NOTE, rllib_available
-from chaincart_env.tools.bench.context import BenchContext
 
 __all__ = ["cells_section", "time_cells"]
 
@@ -39,8 +39,8 @@ def _untrained_ppo(config: Any) -> dict[str, Any]:
         from stable_baselines3 import PPO
     except ImportError:
         return {}
-    from chaincart_env.tools.compare.policy_sources import PolicySource
     from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.policy_sources import PolicySource
 
     buffer = io.BytesIO()
     PPO("MlpPolicy", ChainCartVecEnv(1, config), seed=0, device="cpu").save(buffer)
@@ -56,11 +56,11 @@ def cells_section(ctx: BenchContext) -> None:
         return
     import ray
 
+    from chaincart_env.config import ChainCartConfig
     from chaincart_env.tools.compare.cells import LOCAL, ray_cluster, torch_threads
     from chaincart_env.tools.compare.policy_sources import PolicySource
     from chaincart_env.tools.compare.study import EvaluationCell, SweepPoint
     from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
-    from chaincart_env.config import ChainCartConfig
 
     quick = ctx.settings.quick
     config = ChainCartConfig(max_episode_steps=100) if quick else ChainCartConfig()

@@ -64,7 +64,16 @@ def _machine_line(settings: BenchSettings) -> str:
 def _sections() -> dict[str, Callable[[BenchContext], None]]:
     # Imported here so that `--sections scaling` does not import SB3/torch, etc.
     from chaincart_env.tools.bench import (
-        accuracy, control, criterion, envs, mujoco_compare, render_fps, rllib_sampling, scaling, study_cells, targets,
+        accuracy,
+        control,
+        criterion,
+        envs,
+        mujoco_compare,
+        render_fps,
+        rllib_sampling,
+        scaling,
+        study_cells,
+        targets,
     )  # fmt: skip
 
     return {

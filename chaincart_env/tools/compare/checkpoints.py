@@ -34,8 +34,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-from chaincart_env.tools.compare.run_files import replace_directory, truncate_csv
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.run_files import replace_directory, truncate_csv
 
 __all__ = ["CHECKPOINT_DIR", "Checkpointer", "restore", "truncate_csv"]
 

@@ -18,8 +18,8 @@ from typing import Any, Optional, Protocol, Sequence
 
 import numpy as np
 
-from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.errors import ChainCartError, InvalidInputError
 from chaincart_env.policies.settings import nearest_equilibrium
 
 __all__ = [

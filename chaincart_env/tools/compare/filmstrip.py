@@ -21,8 +21,8 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from chaincart_env import _core
-from chaincart_env.tools.compare.evaluation import Rollouts
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.tools.compare.evaluation import Rollouts
 
 __all__ = [
     "DEFAULT_FRAMES", "FRAME_SIZE", "LABEL_HEIGHT", "MOTION_SHOWN", "filmstrip", "filmstrip_size", "frame_steps",

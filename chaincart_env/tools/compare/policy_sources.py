@@ -21,11 +21,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
-from chaincart_env.tools.compare.run_files import (
-    BEST_MODEL_FILE, CHECKPOINT_DIR, CONFIG_FILE, MODEL_FILE, RUN_FILE, SavedRun, read_json_object,
-)  # fmt: skip
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.run_files import (
+    BEST_MODEL_FILE,
+    CHECKPOINT_DIR,
+    CONFIG_FILE,
+    MODEL_FILE,
+    RUN_FILE,
+    SavedRun,
+    read_json_object,
+)  # fmt: skip
 
 __all__ = ["PolicySource", "load_run"]
 

@@ -10,7 +10,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from chaincart_env.tools.compare.tables import (
-    left_out_note, markdown_table, repeated_variants, variant_name, variant_notes,
+    left_out_note,
+    markdown_table,
+    repeated_variants,
+    variant_name,
+    variant_notes,
 )
 
 __all__ = ["REPORT_FILE", "SUMMARY_FIGURE", "seed_lines", "sweep_markdown", "write_report", "write_summary_figure"]

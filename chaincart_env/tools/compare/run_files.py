@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from chaincart_env.errors import InvalidInputError
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.errors import InvalidInputError
 
 __all__ = [
     "BEST_MODEL_FILE", "CHECKPOINT_DIR", "CONFIG_FILE", "EVALUATIONS_FILE", "EVALUATION_COLUMNS", "MODEL_FILE", "RUN_FILE",

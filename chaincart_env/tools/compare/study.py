@@ -16,7 +16,14 @@ from chaincart_env.config import ChainCartConfig
 from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
 from chaincart_env.tools.compare.cells import map_cells
 from chaincart_env.tools.compare.evaluation import (
-    EPISODE_COLUMNS, METRIC_COLUMNS, TRANSITION_COLUMNS, Rollouts, evaluation_seeds, rollout, tabulate, transition_table,
+    EPISODE_COLUMNS,
+    METRIC_COLUMNS,
+    TRANSITION_COLUMNS,
+    Rollouts,
+    evaluation_seeds,
+    rollout,
+    tabulate,
+    transition_table,
 )
 from chaincart_env.tools.compare.filmstrip import write_filmstrip
 from chaincart_env.tools.compare.layout import TrainingRun, seed_directory
@@ -25,7 +32,13 @@ from chaincart_env.tools.compare.policy_sources import PolicySource
 from chaincart_env.tools.compare.report import SUMMARY_FIGURE, seed_lines, write_report, write_summary_figure
 from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, read_evaluations, read_json_object
 from chaincart_env.tools.compare.statistics import aggregate_over_seeds
-from chaincart_env.tools.compare.sweeps import SWEEP_AXES, SWEEP_COLUMNS, SWEEP_SUMMARY_COLUMNS, summarize_sweep, sweep_rows
+from chaincart_env.tools.compare.sweeps import (
+    SWEEP_AXES,
+    SWEEP_COLUMNS,
+    SWEEP_SUMMARY_COLUMNS,
+    summarize_sweep,
+    sweep_rows,
+)
 from chaincart_env.tools.compare.tables import write_csv, write_markdown
 from chaincart_env.tools.compare.verdict import Standing, main_setting_values, main_starts_rate, study_verdict
 from chaincart_env.tools.controllers import build_model_based, label_of

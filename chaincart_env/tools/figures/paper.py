@@ -25,8 +25,9 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 from matplotlib.axes import Axes
 
-from chaincart_env.tools import plots
 from chaincart_env.config import ChainCartConfig
+from chaincart_env.lqr import LQRPolicy
+from chaincart_env.tools import plots
 from chaincart_env.tools.figures.trajectory import (
     Trajectory,
     link_directions,
@@ -36,7 +37,6 @@ from chaincart_env.tools.figures.trajectory import (
     settle_time,
     tip_positions,
 )
-from chaincart_env.lqr import LQRPolicy
 
 __all__ = ["FIGURES", "SETTLE_TOLERANCE", "FigureSummary", "simulate_figure", "summarize", "draw_figure", "run_figures"]
 

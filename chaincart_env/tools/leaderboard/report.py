@@ -30,7 +30,11 @@ from chaincart_env.tools.compare.styles import band, policy_style
 from chaincart_env.tools.compare.tables import write_csv
 from chaincart_env.tools.controllers import is_learned
 from chaincart_env.tools.leaderboard.statistics import (
-    Estimate, iqm_estimate, performance_profile, probability_of_improvement, probability_of_improvement_estimate,
+    Estimate,
+    iqm_estimate,
+    performance_profile,
+    probability_of_improvement,
+    probability_of_improvement_estimate,
 )  # fmt: skip
 
 __all__ = ["SCORE_COLUMNS", "score_rows", "write_report"]

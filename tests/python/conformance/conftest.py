@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+
 @pytest.fixture
 def headless(monkeypatch: pytest.MonkeyPatch) -> None:
     """A machine without a display (as CI without Xvfb), with the once-per-process

@@ -12,13 +12,12 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from conformance_support import CONFIGS, clean_environ, unexpected_warnings
 from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils.env_checker import check_env, data_equivalence
 
 import chaincart_env
 from chaincart_env import SCENES, ChainCartConfig, ChainCartEnv, RewardWeights
-
-from conformance_support import CONFIGS, clean_environ, unexpected_warnings
 
 HEADLESS_WARNING = ("human-mode frames are not shown",)
 

@@ -12,11 +12,10 @@ from typing import Any, Callable
 import gymnasium as gym
 import numpy as np
 import pytest
+from conformance_support import unexpected_warnings
 from gymnasium import wrappers as W
 
 from chaincart_env import ChainCartEnv
-
-from conformance_support import unexpected_warnings
 
 DTYPES = ("float32", "float64")
 RGB = dict(render_mode="rgb_array", render_width=48, render_height=24)

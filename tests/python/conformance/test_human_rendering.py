@@ -9,8 +9,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.wrappers import HumanRendering
-from gymnasium.wrappers import vector as VW
+from gymnasium.wrappers import HumanRendering, vector as VW
 
 from chaincart_env import ChainCartEnv, ChainCartVecEnv, ChainCartVectorEnv
 

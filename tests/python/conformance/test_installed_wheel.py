@@ -17,10 +17,9 @@ import venv
 from pathlib import Path
 
 import pytest
+from conformance_support import clean_environ
 
 import chaincart_env
-
-from conformance_support import clean_environ
 
 ROOT = Path(chaincart_env.__file__).resolve().parents[1]
 EXTRA_MESSAGE = "not installed: pip install 'chaincart-env["
