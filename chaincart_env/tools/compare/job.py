@@ -26,24 +26,33 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Optional, Sequence
 
+from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.learning_curve import (
-    LEARNING_CURVE_COLUMNS, learning_curve, read_learning_curve, read_training_episodes,
-)  # fmt: skip
 from chaincart_env.tools.compare.cells import map_cells
-from chaincart_env.tools.compare.plots import plot_learning_curve
-from chaincart_env.tools.compare.layout import TrainingRun, training_runs
 from chaincart_env.tools.compare.imitation import scene_imitation
-from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
+from chaincart_env.tools.compare.layout import TrainingRun, training_runs
+from chaincart_env.tools.compare.learning_curve import (
+    LEARNING_CURVE_COLUMNS,
+    learning_curve,
+    read_learning_curve,
+    read_training_episodes,
+)  # fmt: skip
+from chaincart_env.tools.compare.plots import plot_learning_curve
 from chaincart_env.tools.compare.policy_sources import load_run
+from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
 from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, save_run, write_folder
 from chaincart_env.tools.compare.study import (
-    EVALUATION_FILES, StudyEvaluation, describe, evaluate_study, lqr_baseline, model_based_sources, policy_label,
+    EVALUATION_FILES,
+    StudyEvaluation,
+    describe,
+    evaluate_study,
+    lqr_baseline,
+    model_based_sources,
+    policy_label,
 )  # fmt: skip
 from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
 from chaincart_env.tools.compare.tables import write_csv
 from chaincart_env.tools.controllers import LEARNED, parse_controllers
-from chaincart_env.config import ChainCartConfig
 
 __all__ = [
     "DEFAULT_POLICIES", "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "SeedCell",

@@ -25,14 +25,17 @@ from typing import Any, Optional, Sequence
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
+from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.evaluation import rollout
 from chaincart_env.tools.compare.normalization import save_agent, with_statistics
 from chaincart_env.tools.compare.run_files import (
-    BEST_MODEL_FILE, EVALUATION_COLUMNS, EVALUATIONS_FILE, read_evaluations,
+    BEST_MODEL_FILE,
+    EVALUATION_COLUMNS,
+    EVALUATIONS_FILE,
+    read_evaluations,
 )  # fmt: skip
 from chaincart_env.tools.compare.statistics import wilson_interval
-from chaincart_env.config import ChainCartConfig
 
 __all__ = ["PeriodicEvaluation"]
 

@@ -16,8 +16,8 @@ from typing import Any, Optional, Sequence
 
 from chaincart_env import _core
 from chaincart_env.config import ChainCartConfig, unknown_keyword_message
-from chaincart_env.tools.config_docs import option_help
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.config_docs import option_help
 
 __all__ = ["CONFIG_KEYS", "add_scene_options", "config_from_options", "parse_value", "parse_assignment"]
 

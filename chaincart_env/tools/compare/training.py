@@ -14,14 +14,14 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
+from chaincart_env.config import ChainCartConfig
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.sb3 import ChainCartVecEnv
 from chaincart_env.tools.compare.algorithms import algorithm_class
 from chaincart_env.tools.compare.curriculum import PlanStarts
-from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, plan_start_envs, write_curriculum_log
 from chaincart_env.tools.compare.imitation import Imitation, imitate
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.errors import InvalidInputError
-from chaincart_env.config import ChainCartConfig
-from chaincart_env.sb3 import ChainCartVecEnv
+from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, plan_start_envs, write_curriculum_log
 
 __all__ = [
     "check_keywords",
