@@ -192,7 +192,8 @@ def _curriculum(name: Optional[str], fraction: Optional[float]) -> Any:
         return "scene"
     if name == "none":
         return None
-    return PlanStarts(**({} if fraction is None else {"fraction": fraction}), reverse=name == "reverse")
+    reverse = name == "reverse"
+    return PlanStarts(reverse=reverse) if fraction is None else PlanStarts(fraction=fraction, reverse=reverse)
 
 
 def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:

@@ -84,11 +84,14 @@ class PlanStartEnvs(VecEnvWrapper):
             self._judged = self._successes = 0
 
     def reset(self) -> VecEnvObs:
+        """Resets every env; each then starts on the plan with the share's probability."""
         observations = np.asarray(self.venv.reset())
         self._start_on_plan(np.arange(self.num_envs), observations)
         return observations
 
     def step_wait(self) -> VecEnvStepReturn:
+        """The envs' step; an env whose episode ended starts its next one on the plan with
+        the share's probability (its observation replaced by the plan state's)."""
         stepped, rewards, dones, infos = self.venv.step_wait()
         observations = np.asarray(stepped)
         self.steps += self.num_envs
