@@ -19,22 +19,24 @@ rust_tests() {
     cargo test -p chaincart --lib --tests && cargo test -p chaincart --doc &&
         cargo check --examples --benches
 }
-rust_tests >"$log" 2>&1 &
+# At the lowest priority: set-up's build and pytest, one after the other, are the
+# longer path; the Rust build takes the cycles they leave.
+(renice -n 19 "$BASHPID" >/dev/null && rust_tests) >"$log" 2>&1 &
 cargo_job=$!
 trap 'kill "$cargo_job" 2>/dev/null || true' EXIT
 
 scripts/setup.sh  # with every extra: the suite tests each optional path
 
-echo "== ruff"
+echo "== ruff ($(date -u +%T))"
 .venv/bin/ruff check chaincart_env tests/python
-echo "== mypy"
+echo "== mypy ($(date -u +%T))"
 .venv/bin/python -m mypy chaincart_env
 
-echo "== pytest"
+echo "== pytest ($(date -u +%T))"
 pytest_status=0
 .venv/bin/python -m pytest tests/python "$@" || pytest_status=$?
 
-echo "== cargo test (its output, from $log)"
+echo "== cargo test ($(date -u +%T); its output, from $log)"
 cargo_status=0
 wait "$cargo_job" || cargo_status=$?
 trap - EXIT
