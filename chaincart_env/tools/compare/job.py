@@ -46,6 +46,7 @@ from chaincart_env.tools.compare.study import (
     StudyEvaluation,
     describe,
     evaluate_study,
+    evaluate_study_at,
     lqr_baseline,
     model_based_sources,
     policy_label,
@@ -603,13 +604,6 @@ def run_evaluate(
     print(f"evaluating {directory} -> {into}")
     options = dict(runs=runs, model_based=settings.model_based(), eval_seed=first, eval_episodes=episodes,
                    sweeps=sweeps, into=into)
-    if address is None:
-        evaluation = evaluate_study(directory, config, **options)
-    else:
-        from chaincart_env.tools.compare.cells import ray_cluster
-
-        with ray_cluster(address, 1) as cluster:
-            print(f"the evaluation cells run as Ray tasks on {cluster}")
-            evaluation = evaluate_study(directory, config, distributed=True, torch_threads=torch_threads, **options)
+    evaluation = evaluate_study_at(address, directory, config, torch_threads=torch_threads, **options)
     print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
     return evaluation.summaries

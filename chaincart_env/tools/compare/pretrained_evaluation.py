@@ -30,7 +30,7 @@ def evaluate_pretrained(
     seeded starts from ``eval_seed`` (default: the record's measured starts), and writes
     the study's tables and pictures into ``out`` (default
     ``runs/evaluate/<scene>-<name>``); returns the summaries."""
-    from chaincart_env.tools.compare.study import EVALUATION_FILES, describe, evaluate_study
+    from chaincart_env.tools.compare.study import EVALUATION_FILES, describe, evaluate_study_at
     from chaincart_env.tools.controllers import NotApplicable, build_model_based
 
     scene, name = parse_pretrained_slot(str(slot), "evaluate")
@@ -51,13 +51,6 @@ def evaluate_pretrained(
           f"{measured.get('first_seed')}..) -> {into}")
     options: dict[str, Any] = dict(runs=[], model_based=controllers, eval_seed=first, eval_episodes=episodes, sweeps={},
                                    into=into)
-    if address is None:
-        evaluation = evaluate_study(into, config, **options)
-    else:
-        from chaincart_env.tools.compare.cells import ray_cluster
-
-        with ray_cluster(address, 1) as cluster:
-            print(f"the evaluation cells run as Ray tasks on {cluster}")
-            evaluation = evaluate_study(into, config, distributed=True, torch_threads=torch_threads, **options)
+    evaluation = evaluate_study_at(address, into, config, torch_threads=torch_threads, **options)
     print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
     return evaluation.summaries

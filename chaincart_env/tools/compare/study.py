@@ -45,7 +45,7 @@ from chaincart_env.tools.controllers import build_model_based, label_of
 
 __all__ = [
     "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES", "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation",
-    "SweepPoint", "TrainedPolicy", "describe", "evaluate_cell", "evaluate_study", "lqr_baseline",
+    "SweepPoint", "TrainedPolicy", "describe", "evaluate_cell", "evaluate_study", "evaluate_study_at", "lqr_baseline",
     "model_based_sources", "policy_label", "pretrained_policies", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
@@ -268,6 +268,19 @@ class StudyEvaluation:
 def _title(contenders: Sequence[str], baseline: str) -> str:
     against = "the paper's LQR" if baseline == "LQR" else baseline
     return f"{' and '.join(contenders)} vs {against}" if contenders else baseline
+
+
+def evaluate_study_at(address: Optional[str], out: Path, config: ChainCartConfig, *,
+                      torch_threads: Optional[int] = None, **options: Any) -> StudyEvaluation:
+    """:func:`evaluate_study` here (``address`` None) or with its cells as Ray tasks on the
+    cluster at ``address``."""
+    if address is None:
+        return evaluate_study(out, config, **options)
+    from chaincart_env.tools.compare.cells import ray_cluster
+
+    with ray_cluster(address, 1) as cluster:
+        print(f"the evaluation cells run as Ray tasks on {cluster}")
+        return evaluate_study(out, config, distributed=True, torch_threads=torch_threads, **options)
 
 
 def evaluate_study(
