@@ -49,28 +49,9 @@ def machine_log_phrases(text: str) -> list[str]:
     return found
 
 
-#: Phrases in text that others are rewriting (the "Training recipes" section of
-#: docs/main-job.md and the run described at the top of docs/leaderboard.md), tolerated
-#: until then: each entry is one exact phrase on one page. Remove an entry once its line
-#: is rewritten.
-PENDING = {
-    "docs/leaderboard.md": {"'shared 2-core VM'", "'other jobs ran'"},
-    "docs/main-job.md": {
-        "'shared 2-core VM'",
-        "'shared VM'",
-        "'beside one other training run'",
-        "'test suite running beside'",
-        "'beside the test suite'",
-        "'while other builds'",
-    },
-}
-
-
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_the_page_names_no_other_users_of_the_machine(page: Path) -> None:
-    pending = PENDING.get(str(page.relative_to(ROOT)), set())
-    found = machine_log_phrases(page.read_text())
-    assert [f for f in found if f.split(": ", 1)[1] not in pending] == []
+    assert machine_log_phrases(page.read_text()) == []
 
 
 @pytest.mark.parametrize(
