@@ -8,13 +8,20 @@ registered with, whatever keywords the env is given (the same holds for Gymnasiu
 episodes are longer than the default scene's needs its own id for its length to
 apply: ``gymnasium.make("ChainCart-paper-fig3-v0")`` runs the paper's Fig. 3 scene for
 its 12 000 steps, and its ``spec`` says so.
+
+Every scene also has a robust variant, ``ChainCart-<scene>-robust-v0``: the scene with
+the per-episode draws robust agents train on
+(:data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`).
 """
 
 from __future__ import annotations
 
+from typing import Any, Mapping, Optional
+
 import gymnasium
 
 from chaincart_env.config import DEFAULT_SCENE, SCENES
+from chaincart_env.robust_training import ROBUST_CONDITIONS, ROBUST_VARIANT
 
 __all__ = ["ENV_ID", "scene_env_id", "register_envs"]
 
@@ -25,12 +32,13 @@ _ENTRY_POINT = "chaincart_env.env:ChainCartEnv"
 _VECTOR_ENTRY_POINT = "chaincart_env.vector:ChainCartVectorEnv"
 
 
-def scene_env_id(scene: str) -> str:
-    """The Gymnasium id of a scene: ``ChainCart-<scene>-v0``."""
-    return f"ChainCart-{scene}-v0"
+def scene_env_id(scene: str, variant: Optional[str] = None) -> str:
+    """The Gymnasium id of a scene, ``ChainCart-<scene>-v0``, or of its variant
+    (``ChainCart-<scene>-robust-v0``)."""
+    return f"ChainCart-{scene}-v0" if variant is None else f"ChainCart-{scene}-{variant}-v0"
 
 
-def _register(env_id: str, scene: str | None) -> None:
+def _register(env_id: str, scene: str | None, conditions: Optional[Mapping[str, Any]] = None) -> None:
     if env_id in gymnasium.registry:
         return
     length = SCENES[scene or DEFAULT_SCENE]["max_episode_steps"]
@@ -41,12 +49,14 @@ def _register(env_id: str, scene: str | None) -> None:
         # The scene's own episode length, so that gymnasium.make's TimeLimit and the
         # spec-reading wrappers (TimeAwareObservation, ...) agree with the env.
         max_episode_steps=length,
-        kwargs={} if scene is None else {"scene": scene},
+        kwargs={**({} if scene is None else {"scene": scene}), **(conditions or {})},
     )
 
 
 def register_envs() -> None:
-    """Registers ``ChainCart-v0`` and every scene's id (idempotent)."""
+    """Registers ``ChainCart-v0``, every scene's id and every scene's robust variant
+    (idempotent)."""
     _register(ENV_ID, None)
     for scene in SCENES:
         _register(scene_env_id(scene), scene)
+        _register(scene_env_id(scene, ROBUST_VARIANT), scene, ROBUST_CONDITIONS)

@@ -3,7 +3,9 @@
 label it has in tables and pictures, and where its class lives.
 
 * Learned: ``ppo``, ``sac``, ``td3`` (stable-baselines3's ``PPO``, ``SAC``, ``TD3``),
-  trained on the scene with its packaged recipe.
+  trained on the scene with its packaged recipe; ``ppo-robust``, PPO trained on the
+  scene's robust variant (:mod:`chaincart_env.robust_training`: parameters, noise and
+  delay drawn per episode, with observation history) and evaluated on the scene.
 * Model-based, designed on the scene's nominal model with their class's ``from_env``:
   ``lqr`` (:class:`~chaincart_env.LQRPolicy`), ``mpc``, ``trajectory`` and ``energy``
   (``MPCPolicy``, ``TrajectoryPolicy``, ``EnergyPolicy`` of ``chaincart_env.policies``).
@@ -27,6 +29,7 @@ from typing import Any, Optional
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.robust_training import ROBUST_VARIANT
 
 __all__ = [
     "CONTROLLERS",
@@ -46,13 +49,22 @@ __all__ = [
 @dataclass(frozen=True)
 class Controller:
     """One controller: its ``--policies`` name, its label in tables and legends, the
-    class that implements it (``module``, ``attribute``) and whether it is learned."""
+    class that implements it (``module``, ``attribute``) and whether it is learned; a
+    learned one trains with the recipes of ``algorithm`` (its hyperparameter file) for
+    the scene's ``variant`` (``None``: the scene itself)."""
 
     name: str
     label: str
     module: str
     attribute: str
     learned: bool
+    algorithm: str = ""
+    variant: Optional[str] = None
+
+    @property
+    def recipe_algorithm(self) -> str:
+        """The algorithm whose hyperparameter file holds this controller's recipes."""
+        return self.algorithm or self.name
 
 
 #: Every controller, in the order the help lists them.
@@ -62,6 +74,8 @@ CONTROLLERS: dict[str, Controller] = {
         Controller("ppo", "PPO", "stable_baselines3", "PPO", learned=True),
         Controller("sac", "SAC", "stable_baselines3", "SAC", learned=True),
         Controller("td3", "TD3", "stable_baselines3", "TD3", learned=True),
+        Controller("ppo-robust", "PPO robust", "stable_baselines3", "PPO", learned=True, algorithm="ppo",
+                   variant=ROBUST_VARIANT),
         Controller("lqr", "LQR", "chaincart_env.lqr", "LQRPolicy", learned=False),
         Controller("mpc", "MPC", "chaincart_env.policies", "MPCPolicy", learned=False),
         Controller("trajectory", "Trajectory", "chaincart_env.policies", "TrajectoryPolicy", learned=False),
@@ -171,5 +185,5 @@ def controller_of_label(text: str) -> tuple[Optional[str], str]:
             base, variant = base[: -len(word) - 1].strip(), word
             break
     by_label = {c.label.lower(): c.name for c in CONTROLLERS.values()}
-    name = by_label.get(base.lower())
+    name = by_label.get(base.lower(), base.lower() if base.lower() in CONTROLLERS else None)
     return (name, variant) if name is not None else (None, "")

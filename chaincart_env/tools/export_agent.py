@@ -184,7 +184,11 @@ def normalization_arrays(statistics: Any) -> tuple[dict[str, np.ndarray], Option
 def _algorithm(name: str) -> Any:
     import importlib
 
+    from chaincart_env.tools.controllers import CONTROLLERS
+
     key = name.lower()
+    if key in CONTROLLERS and CONTROLLERS[key].learned:  # a trained variant such as ppo-robust: its algorithm
+        key = CONTROLLERS[key].recipe_algorithm
     if key not in ALGORITHMS:
         raise InvalidInputError(f"algorithm {name!r}: expected one of {list(ALGORITHMS)}")
     module, attribute = ALGORITHMS[key]

@@ -39,7 +39,7 @@ from chaincart_env.tools.compare.learning_curve import (
 )  # fmt: skip
 from chaincart_env.tools.compare.plots import plot_learning_curve
 from chaincart_env.tools.compare.policy_sources import load_run
-from chaincart_env.tools.compare.recipes import GENERIC, recipe_for
+from chaincart_env.tools.compare.recipes import GENERIC, recipe_for, training_conditions
 from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, save_run, write_folder
 from chaincart_env.tools.compare.study import (
     EVALUATION_FILES,
@@ -184,7 +184,7 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
         from chaincart_env.tools.compare.training import train
 
         eval_starts = list(range(settings["eval_seed"], settings["eval_seed"] + settings["eval_starts"]))
-        print(f"training {algo.upper()} for {timesteps} timesteps on {training['num_envs']} envs, seed {seed} -> "
+        print(f"training {policy_label(algo)} for {timesteps} timesteps on {training['num_envs']} envs, seed {seed} -> "
               f"{directory}")
         result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=training["num_envs"],
                        directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
@@ -192,13 +192,13 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                        hyperparameters=training["hyperparameters"], resume=resume,
                        normalize=training.get("normalize"), imitation=_imitation(training),
                        curriculum=_curriculum(training), training_reward=training.get("training_reward"),
-                       history=training.get("history"))
+                       history=training.get("history"), conditions=training.get("conditions"))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations,
                        normalize=training.get("normalize"), imitation=result.imitation,
                        curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
-                       history=training.get("history"))
-    print(f"{algo.upper()} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
+                       history=training.get("history"), conditions=training.get("conditions"))
+    print(f"{policy_label(algo)} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
                 hyperparameters=result.hyperparameters, training_wall_time_s=round(result.wall_time_s, 2),
@@ -435,6 +435,9 @@ def _training_settings(
 
         training_config(config, training_reward)  # an unknown reward fails before training
     for algo in learned:
+        conditions = training_conditions(algo)
+        if conditions is not None and trainer != "sb3":
+            raise InvalidInputError(f"{algo} with --trainer {trainer}: expected the sb3 trainer")
         recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
         keywords = {**recipe.hyperparameters, **hyperparameters, **algo_hyperparameters.get(algo, {})}
         if trainer == "sb3":
@@ -446,12 +449,14 @@ def _training_settings(
                          hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize)
         if history is not None and trainer != "sb3":
             raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
+        seen = recipe.history if history is None else history
         # The imitation's planner data has plain observations: an agent with history starts afresh.
-        warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" and not history else None
+        warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" and not seen else None
         out[algo]["imitation"] = None if warm_start is None else warm_start.record()
         out[algo]["curriculum"] = chosen_curriculum
         out[algo]["training_reward"] = training_reward
-        out[algo]["history"] = history
+        out[algo]["history"] = seen
+        out[algo]["conditions"] = conditions
     return out
 
 

@@ -10,7 +10,13 @@ with the zoo's keys (``n_envs``, ``n_timesteps``, ``policy``, ``policy_kwargs``,
     python -m rl_zoo3.train --algo ppo --env ChainCart-swingup-2-v0 \\
         --gym-packages chaincart_env -conf <the file>
 
-A scene without an entry trains with :data:`GENERIC` (SB3's defaults on 8 envs).
+A scene without an entry trains with :data:`GENERIC` (SB3's defaults on 8 envs). A
+controller that trains on a variant of the scene (``ppo-robust``:
+``ChainCart-<scene>-robust-v0``) takes that id's entry, or the scene's without one. The
+one zoo wrapper a recipe may name is the observation history,
+``env_wrapper: [{chaincart_env.history.HistoryObservation: {k: 2}}]``, which ``compare``
+builds as :class:`~chaincart_env.history.VecHistoryObservation` around its native envs
+(the same observations).
 Command-line options (``--num-envs``, ``--timesteps``, ``--algo-kwarg``) override a
 recipe's entries one by one. Keywords are kept as the file writes them (so that a run's
 ``run.json`` records them) and turned into SB3's objects by :func:`sb3_keywords` when the
@@ -22,6 +28,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import json
 from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any, Callable, Mapping, Optional
@@ -30,16 +37,19 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.registration import scene_env_id
 
 __all__ = [
-    "GENERIC", "NORMALIZE_KEYS", "TrainingRecipe", "hyperparameter_file", "load_recipes", "normalize_setting", "recipe_for",
-    "sb3_keywords",
+    "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "TrainingRecipe", "history_setting", "hyperparameter_file",
+    "load_recipes", "normalize_setting", "recipe_for", "sb3_keywords",
+    "training_conditions",
 ]  # fmt: skip
 
 #: Zoo keys a recipe may hold besides the algorithm's keywords.
-ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "normalize")
+ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_wrapper")
 #: ``VecNormalize`` keywords a recipe's ``normalize`` may set.
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward")
 #: Zoo keys that ask for wrappers ``compare`` does not build: refused rather than ignored.
-UNSUPPORTED_ZOO_KEYS = ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback", "env_kwargs")
+UNSUPPORTED_ZOO_KEYS = ("vec_env_wrapper", "frame_stack", "callback", "env_kwargs")
+#: The wrapper a recipe's ``env_wrapper`` may name: the observation history.
+HISTORY_WRAPPER = "chaincart_env.history.HistoryObservation"
 
 
 @dataclass(frozen=True)
@@ -53,6 +63,9 @@ class TrainingRecipe:
     source: str = ""
     #: ``VecNormalize`` keywords (the zoo's ``normalize``), or ``None``: no normalisation.
     normalize: Optional[dict[str, Any]] = None
+    #: Steps of observation and action history the agent sees (the zoo's ``env_wrapper``
+    #: :data:`HISTORY_WRAPPER`), or ``None``: the plain observation.
+    history: Optional[int] = None
 
 
 #: SB3's defaults on 8 envs: what a scene without a recipe trains with.
@@ -79,7 +92,29 @@ def _recipe(algo: str, env_id: str, entry: Any) -> TrainingRecipe:
         raise InvalidInputError(f"{where}: expected an integer n_envs and a number n_timesteps") from None
     keywords = {key: value for key, value in entry.items() if key not in ZOO_KEYS}
     sb3_keywords(keywords, where)  # checked now, so a bad file fails before any training
-    return TrainingRecipe(num_envs, timesteps, keywords, where, normalize_setting(entry.get("normalize"), where))
+    return TrainingRecipe(num_envs, timesteps, keywords, where, normalize_setting(entry.get("normalize"), where),
+                          history_setting(entry.get("env_wrapper"), where))
+
+
+def history_setting(value: Any, where: str = "env_wrapper") -> Optional[int]:
+    """The history length of a zoo ``env_wrapper`` naming :data:`HISTORY_WRAPPER`
+    (``{wrapper: {k: K}}``, alone or in a list of one), or ``None`` for no wrapper; any
+    other wrapper is refused, since ``compare`` would not build it."""
+    if value is None:
+        return None
+    bad = InvalidInputError(f"{where}: env_wrapper = {value!r}: expected [{{{HISTORY_WRAPPER}: {{k: <integer >= 1>}}}}]"
+                            ", the only wrapper compare builds")
+    if isinstance(value, list):
+        if len(value) != 1:
+            raise bad
+        value = value[0]
+    if not isinstance(value, Mapping) or list(value) != [HISTORY_WRAPPER] or not isinstance(value[HISTORY_WRAPPER], Mapping):
+        raise bad
+    keywords = value[HISTORY_WRAPPER]
+    k = keywords.get("k")
+    if set(keywords) != {"k"} or isinstance(k, bool) or not isinstance(k, int) or k < 1:
+        raise bad
+    return k
 
 
 @functools.lru_cache(maxsize=None)
@@ -96,8 +131,35 @@ def load_recipes(algo: str) -> dict[str, TrainingRecipe]:
 
 
 def recipe_for(scene: str, algo: str) -> TrainingRecipe:
-    """The recipe of ``scene`` and ``algo`` (any case), or :data:`GENERIC`."""
-    return load_recipes(algo.lower()).get(scene_env_id(scene), GENERIC)
+    """The recipe of ``scene`` and ``algo`` (any case): an algorithm, or a learned
+    controller that trains on a variant of the scene (``ppo-robust``: the entry of
+    ``ChainCart-<scene>-robust-v0`` in ``ppo.yml``, else the scene's); :data:`GENERIC`
+    without one."""
+    from chaincart_env.tools.controllers import CONTROLLERS
+
+    name = algo.lower()
+    controller = CONTROLLERS.get(name)
+    recipes = load_recipes(controller.recipe_algorithm if controller is not None else name)
+    variant = controller.variant if controller is not None else None
+    if variant is not None and scene_env_id(scene, variant) in recipes:
+        return recipes[scene_env_id(scene, variant)]
+    return recipes.get(scene_env_id(scene), GENERIC)
+
+
+def training_conditions(name: str) -> Optional[dict[str, Any]]:
+    """The configuration keys learned controller ``name`` trains with on top of the
+    scene's (``ppo-robust``: :data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`),
+    or ``None``: the scene as it is."""
+    from chaincart_env.robust_training import ROBUST_CONDITIONS, ROBUST_VARIANT
+    from chaincart_env.tools.controllers import CONTROLLERS
+
+    controller = CONTROLLERS.get(name.lower())
+    if controller is None or controller.variant is None:
+        return None
+    if controller.variant != ROBUST_VARIANT:
+        raise InvalidInputError(f"{name}: variant {controller.variant!r} has no training conditions; expected "
+                                f"{ROBUST_VARIANT!r}")
+    return json.loads(json.dumps(ROBUST_CONDITIONS))  # a plain copy, as run.json records it
 
 
 def _linear_schedule(start: float) -> Callable[[float], float]:

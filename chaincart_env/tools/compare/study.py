@@ -68,8 +68,9 @@ ORACLE = "LQR oracle"
 
 
 def policy_label(algo: str, trainer: str = "sb3") -> str:
-    """The trained policy's name in tables and plots: ``PPO``, or ``PPO (RLlib)``."""
-    return algo.upper() + (" (RLlib)" if trainer == "rllib" else "")
+    """The trained policy's name in tables and plots: ``PPO``, ``PPO robust``, or
+    ``PPO (RLlib)``."""
+    return label_of(algo.lower()) + (" (RLlib)" if trainer == "rllib" else "")
 
 
 def describe(config: ChainCartConfig) -> str:

@@ -40,6 +40,8 @@ LOOKS: dict[tuple[str, str], PolicyStyle] = {
     ("sac", "best"): PolicyStyle("tab:olive", (0, (5, 1, 1, 1)), "<", "oo"),
     ("td3", ""): PolicyStyle("tab:red", (0, (3, 1, 1, 1, 1, 1)), "P", "----"),
     ("td3", "best"): PolicyStyle("tab:pink", (0, (4, 1, 1, 1, 1, 1, 1, 1)), ">", "OO"),
+    ("ppo-robust", ""): PolicyStyle("navy", (0, (6, 2)), "d", "\\\\||"),
+    ("ppo-robust", "best"): PolicyStyle("darkgoldenrod", (0, (2, 2)), "p", "x."),
     ("lqr", ""): PolicyStyle("black", "--", "s", "\\\\\\\\"),
     ("lqr", "oracle"): PolicyStyle("tab:purple", ":", "D", "...."),
     ("mpc", ""): PolicyStyle("tab:brown", (0, (5, 2, 1, 2)), "X", "++++"),

@@ -22,6 +22,7 @@ from chaincart_env.tools.compare.curriculum import PlanStarts
 from chaincart_env.tools.compare.imitation import Imitation, imitate
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, plan_start_envs, write_curriculum_log
+from chaincart_env.tools.controllers import label_of
 
 __all__ = [
     "check_keywords",
@@ -160,12 +161,20 @@ def _new_agent(
     return model
 
 
-def training_config(config: ChainCartConfig, reward: Optional[str]) -> ChainCartConfig:
-    """``config`` with the training reward ``reward`` (``config`` itself for ``None``),
-    checked by building one env: an InvalidInputError names an unknown reward."""
-    if reward is None or reward == config.reward:
+def training_config(
+    config: ChainCartConfig, reward: Optional[str], conditions: Optional[Mapping[str, Any]] = None
+) -> ChainCartConfig:
+    """``config`` as the agent trains on it: with the training reward ``reward`` and the
+    configuration keys of ``conditions`` (e.g. a robust agent's draws,
+    :data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`) on top; ``config`` itself
+    for neither. Checked by building one env: an InvalidInputError names an unknown
+    reward or a bad condition."""
+    changes = dict(conditions or {})
+    if reward is not None and reward != config.reward:
+        changes["reward"] = reward
+    if not changes:
         return config
-    changed = config.replace(reward=reward)
+    changed = config.replace(**changes)
     changed.make_batch(1, "same_step", 0)
     return changed
 
@@ -204,6 +213,7 @@ def train(
     curriculum: Optional[PlanStarts] = None,
     training_reward: Optional[str] = None,
     history: Optional[int] = None,
+    conditions: Optional[Mapping[str, Any]] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -221,7 +231,9 @@ def train(
     (:mod:`~chaincart_env.tools.compare.curriculum`; a resumed run keeps its checkpoint's); the
     windows it drew from go to ``curriculum.csv``. ``training_reward``: the training envs
     reward with it (``"exp"``, ``"tolerance"``) instead of ``config``'s reward; the
-    evaluations keep ``config`` (its success criterion does not depend on the reward). ``history``:
+    evaluations keep ``config`` (its success criterion does not depend on the reward).
+    ``conditions``: configuration keys the training envs take on top of ``config`` (a
+    robust agent's per-episode draws); the evaluations keep ``config``. ``history``:
     the agent observes the last ``history`` observations and actions too
     (:class:`~chaincart_env.history.VecHistoryObservation`; its evaluations add them as it acts)."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
@@ -236,14 +248,14 @@ def train(
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
-    trained_on = training_config(config, training_reward)
+    trained_on = training_config(config, training_reward, conditions)
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
                                                                     normalize, curriculum, history)
     imitated = imitate(model, config, imitation, seed, directory) if imitation is not None and not resuming else None
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
     if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise
-        print(f"{algo.upper()} trains in {unit}: {timesteps} timesteps asked, {planned} trained")
+        print(f"{label_of(algo)} trains in {unit}: {timesteps} timesteps asked, {planned} trained")
     logger = EpisodeCsvLogger(directory / EPISODES_FILE, append=resuming)
     evaluation = PeriodicEvaluation(config, eval_seeds, eval_every, directory, resume=resuming)
     checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),

@@ -1,7 +1,7 @@
 """The controllers of a leaderboard: the model-based ones built with their class's
 ``from_env`` (:mod:`chaincart_env.tools.controllers`, the registry the main job uses
-too), and the learned ones (``ppo``, ``sac``, ``td3``) trained on the scene with its
-packaged recipe (:mod:`chaincart_env.tools.compare.recipes`), one agent per seed, kept
+too), and the learned ones (``ppo``, ``sac``, ``td3``, ``ppo-robust``) trained on the
+scene (or its robust variant) with their packaged recipe (:mod:`chaincart_env.tools.compare.recipes`), one agent per seed, kept
 in the run directory and reused when the leaderboard runs again.
 
 A shipped agent (``pretrained:<scene>/<name>``) acts as shipped on every scene with
@@ -57,25 +57,27 @@ def train_agent(
     from chaincart_env.tools.compare.curriculum import scene_curriculum, scene_training_reward
     from chaincart_env.tools.compare.imitation import scene_imitation
     from chaincart_env.tools.compare.normalization import copy_agent
-    from chaincart_env.tools.compare.recipes import recipe_for
+    from chaincart_env.tools.compare.recipes import recipe_for, training_conditions
     from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, MODEL_FILE
     from chaincart_env.tools.compare.training import train
+    from chaincart_env.tools.controllers import CONTROLLERS
 
     directory = Path(directory)
     recipe = recipe_for(config.scene, name)
     budget = recipe.timesteps if timesteps is None else timesteps
     num_envs, hyperparameters = recipe.num_envs, dict(recipe.hyperparameters)
     if tiny:
-        num_envs, small = TINY_TRAINING[name]
+        num_envs, small = TINY_TRAINING[CONTROLLERS[name].recipe_algorithm]
         hyperparameters.update(small)
     train(
         config, algo=name, timesteps=budget, seed=seed, num_envs=num_envs, directory=directory,
         eval_seeds=[EVALUATION_SEED_BASE + seed * 1000 + i for i in range(EVALUATION_STARTS)],
         eval_every=max(budget // EVALUATIONS, 1), checkpoint_every=max(budget // 5, 1),
         progress_bar=progress_bar, hyperparameters=hyperparameters, resume=True, normalize=recipe.normalize,
-        imitation=None if tiny else scene_imitation(config.scene, name),
+        imitation=None if tiny or recipe.history else scene_imitation(config.scene, name),
         curriculum=None if tiny else scene_curriculum(config.scene),
-        training_reward=scene_training_reward(config.scene),
+        training_reward=scene_training_reward(config.scene), history=recipe.history,
+        conditions=training_conditions(name),
     )
     copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)
 
