@@ -73,7 +73,7 @@ def test_a_bad_recipe_is_refused_with_its_place_and_value(entry, message):
         _recipe("ppo", "ChainCart-x-v0", entry)
 
 
-@pytest.mark.parametrize("env_id", ["ChainCart-inverted-2-v0", "ChainCart-swingup-2-v0", "ChainCart-swingup-3-v0"])
+@pytest.mark.parametrize("env_id", ["ChainCart-inverted-2-v0", "ChainCart-swingup-2-robust-v0", "ChainCart-swingup-3-v0"])
 def test_the_zoo_trains_a_packaged_recipe(env_id: str, tmp_path: pathlib.Path):
     # swingup-3's recipe normalises observations: the zoo builds its VecNormalize from
     # the same entry that compare reads. swingup-2's keywords (a decaying learning rate)

@@ -104,6 +104,16 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="the reward the learned agents train on (exp or tolerance) instead of the scene's; "
                         "evaluations keep the scene's reward and success criterion (default: the scene's training reward: "
                         "exp on swingup-2, the scene's own reward elsewhere)")
+    parser.add_argument("--warm-start", type=Path, default=None, metavar="PATH",
+                        help="the learned agents start from the weights of the agent saved at PATH (a training run's "
+                        "folder: its best model; or a model file), e.g. a nominal agent fine-tuned by ppo-robust; same "
+                        "algorithm and observation/action spaces (the same --history). The file is loaded with SB3's "
+                        "loader: trusted code only")
+    parser.add_argument("--off-track-penalty", type=_off_track_penalty, default=None, metavar="P",
+                        help="training only: subtract P from the reward of the step that leaves the track, so that "
+                        "running off costs something while the reward is still near zero (chaincart_env.tools.compare."
+                        "shaping); evaluations keep the scene's reward (default: the scene's training penalty: 10 on "
+                        "swingup-2, 0 elsewhere)")
     parser.add_argument("--history", type=_integer(1, "history"), default=None, metavar="K",
                         help="the learned agents observe the last K observations and actions too (oldest first, zeros "
                         "before an episode's start; chaincart_env.history), in training and in every evaluation, for "
@@ -115,6 +125,19 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     add_scene_options(parser)
     # Errors are reported by this (sub)parser, whatever parser dispatched.
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_compare_command(args, parser))
+
+
+def _off_track_penalty(text: str) -> float:
+    from chaincart_env.tools.compare.shaping import check_off_track_penalty
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"off-track penalty = {text!r}: expected a finite number >= 0") from None
+    try:
+        return check_off_track_penalty(value)
+    except ChainCartError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
@@ -239,7 +262,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
                     address=args.address, imitation=not args.no_imitation, curriculum=curriculum,
                     training_reward="scene" if args.training_reward is None else args.training_reward,
-                    history=args.history)
+                    history=args.history, off_track_penalty=args.off_track_penalty,
+                    warm_start_from=args.warm_start)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

@@ -192,12 +192,16 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                        hyperparameters=training["hyperparameters"], resume=resume,
                        normalize=training.get("normalize"), imitation=_imitation(training),
                        curriculum=_curriculum(training), training_reward=training.get("training_reward"),
-                       history=training.get("history"), conditions=training.get("conditions"))
+                       history=training.get("history"), conditions=training.get("conditions"),
+                       off_track_penalty=training.get("off_track_penalty", 0.0),
+                       warm_start_from=training.get("warm_start"))
         trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                        resumed_from=result.resumed_from, evaluations=result.evaluations,
                        normalize=training.get("normalize"), imitation=result.imitation,
                        curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
-                       history=training.get("history"), conditions=training.get("conditions"))
+                       history=training.get("history"), conditions=training.get("conditions"),
+                       off_track_penalty=training.get("off_track_penalty", 0.0),
+                       warm_start_from=training.get("warm_start"))
     print(f"{policy_label(algo)} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
@@ -409,7 +413,7 @@ def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
     imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
-    history: Optional[int] = None,
+    history: Optional[int] = None, off_track_penalty: Optional[float] = None, warm_start_from: Optional[Path] = None,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
@@ -434,6 +438,19 @@ def _training_settings(
         from chaincart_env.tools.compare.training import training_config
 
         training_config(config, training_reward)  # an unknown reward fails before training
+    if off_track_penalty is None:
+        from chaincart_env.tools.compare.curriculum import scene_off_track_penalty
+
+        off_track_penalty = scene_off_track_penalty(config.scene) if trainer == "sb3" else 0.0
+    elif off_track_penalty and trainer != "sb3" and learned:
+        raise InvalidInputError(f"--off-track-penalty {off_track_penalty} with --trainer {trainer}: expected the sb3 "
+                                "trainer")
+    if warm_start_from is not None and learned:
+        if trainer != "sb3":
+            raise InvalidInputError(f"--warm-start with --trainer {trainer}: expected the sb3 trainer")
+        from chaincart_env.tools.compare.warm_start import agent_file
+
+        warm_start_from = agent_file(Path(warm_start_from)).resolve()  # a missing agent fails before training
     for algo in learned:
         conditions = training_conditions(algo)
         if conditions is not None and trainer != "sb3":
@@ -457,6 +474,8 @@ def _training_settings(
         out[algo]["training_reward"] = training_reward
         out[algo]["history"] = seen
         out[algo]["conditions"] = conditions
+        out[algo]["off_track_penalty"] = off_track_penalty
+        out[algo]["warm_start"] = None if warm_start_from is None else str(warm_start_from)
     return out
 
 
@@ -486,6 +505,8 @@ def run_compare(
     curriculum: Any = "scene",
     training_reward: Optional[str] = "scene",
     history: Optional[int] = None,
+    off_track_penalty: Optional[float] = None,
+    warm_start_from: Optional[Path] = None,
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -512,7 +533,12 @@ def run_compare(
     planner's plan). ``training_reward``: the SB3 training envs reward with it (``"exp"``
     or ``"tolerance"``) instead of the scene's; ``"scene"`` (the default): the scene's
     training reward (:data:`~chaincart_env.tools.compare.curriculum.SCENE_TRAINING_REWARDS`),
-    its own reward on most scenes. Every evaluation keeps the scene."""
+    its own reward on most scenes. ``off_track_penalty``: subtracted from the SB3 training
+    reward of each step that leaves the track (``None``: the scene's,
+    :data:`~chaincart_env.tools.compare.curriculum.SCENE_OFF_TRACK_PENALTIES`).
+    ``warm_start_from``: every learned agent starts from the weights of the agent saved
+    there (a model file or a training run's folder; same algorithm and spaces). Every
+    evaluation keeps the scene."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
     names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")
@@ -526,7 +552,7 @@ def run_compare(
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
                                     dict(algo_hyperparameters or {}), imitation, curriculum, training_reward,
-                                    history),
+                                    history, off_track_penalty, warm_start_from),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve

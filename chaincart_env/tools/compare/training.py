@@ -136,7 +136,7 @@ def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
 def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
     normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
-    history: Optional[int] = None,
+    history: Optional[int] = None, off_track_penalty: float = 0.0,
 ) -> BaseAlgorithm:
     from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
@@ -149,7 +149,11 @@ def _new_agent(
         from chaincart_env.history import VecHistoryObservation
 
         native = VecHistoryObservation(native, history)
-    # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the true rewards.
+    if off_track_penalty:
+        from chaincart_env.tools.compare.shaping import OffTrackPenalty
+
+        native = OffTrackPenalty(native, off_track_penalty)
+    # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the rewards trained on, unscaled.
     venv = normalized_envs(VecMonitor(native), normalize)
     try:
         model = algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
@@ -214,6 +218,8 @@ def train(
     training_reward: Optional[str] = None,
     history: Optional[int] = None,
     conditions: Optional[Mapping[str, Any]] = None,
+    off_track_penalty: float = 0.0,
+    warm_start_from: Optional[Path] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -233,7 +239,11 @@ def train(
     reward with it (``"exp"``, ``"tolerance"``) instead of ``config``'s reward; the
     evaluations keep ``config`` (its success criterion does not depend on the reward).
     ``conditions``: configuration keys the training envs take on top of ``config`` (a
-    robust agent's per-episode draws); the evaluations keep ``config``. ``history``:
+    robust agent's per-episode draws); the evaluations keep ``config``. ``off_track_penalty``:
+    subtracted from the training reward of each step that leaves the track
+    (:mod:`~chaincart_env.tools.compare.shaping`). ``warm_start_from``: a new agent starts
+    from the weights of the agent saved there (:mod:`~chaincart_env.tools.compare.warm_start`).
+    ``history``:
     the agent observes the last ``history`` observations and actions too
     (:class:`~chaincart_env.history.VecHistoryObservation`; its evaluations add them as it acts)."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
@@ -250,7 +260,11 @@ def train(
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     trained_on = training_config(config, training_reward, conditions)
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
-                                                                    normalize, curriculum, history)
+                                                                    normalize, curriculum, history, off_track_penalty)
+    if warm_start_from is not None and not resuming:
+        from chaincart_env.tools.compare.warm_start import warm_start
+
+        warm_start(model, Path(warm_start_from))
     imitated = imitate(model, config, imitation, seed, directory) if imitation is not None and not resuming else None
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
