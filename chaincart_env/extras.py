@@ -49,7 +49,11 @@ def command_needs(command: str, args: Any) -> dict[str, tuple[str, ...]]:
         needs = {"sb3": ("stable_baselines3",), "plot": ("matplotlib", "tqdm", "rich")}
         return {**needs, **_cluster_needs(args)}
     if command == "evaluate":
-        needs = {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
+        from chaincart_env.pretrained_agents import is_pretrained_slot
+
+        # A shipped agent acts with numpy alone: no stable-baselines3, no torch.
+        shipped = is_pretrained_slot(str(getattr(args, "model", "")))
+        needs = {"plot": ("matplotlib",)} if shipped else {"sb3": ("stable_baselines3",), "plot": ("matplotlib",)}
         return {**needs, **_cluster_needs(args)}
     if command in ("figures", "roa"):
         return {"plot": ("matplotlib",)}

@@ -83,6 +83,7 @@ def test_bench_quick_runs_every_section_without_cargo(installed: Path, tmp_path:
     [
         (["compare", "--timesteps", "10"], "sb3,plot"),
         (["evaluate", "runs/none"], "sb3,plot"),
+        (["evaluate", "pretrained:swingup-2/ppo"], "plot"),  # a shipped agent acts with numpy alone
         (["compare", "--address", "auto"], "sb3,plot,rllib"),  # a Ray cluster needs Ray
         (["evaluate", "runs/none", "--address", "local"], "sb3,plot,rllib"),
         (["figures"], "plot"),
