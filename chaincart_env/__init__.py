@@ -42,8 +42,8 @@ from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
     from chaincart_env.history import HistoryObservation, VecHistoryObservation
-    from chaincart_env.lqr import LQRPolicy
     from chaincart_env.policies import EnergyPolicy, MPCPolicy, TrajectoryPolicy
+    from chaincart_env.policies.lqr import LQRPolicy
     from chaincart_env.pretrained_agents import pretrained
     from chaincart_env.roa import region_of_attraction
     from chaincart_env.sb3 import ChainCartVecEnv
@@ -100,7 +100,7 @@ def __getattr__(name: str) -> Any:
 
         return getattr(history, name)
     if name == "LQRPolicy":
-        from chaincart_env.lqr import LQRPolicy
+        from chaincart_env.policies.lqr import LQRPolicy
 
         return LQRPolicy
     if name in ("EnergyPolicy", "MPCPolicy", "TrajectoryPolicy"):

@@ -24,7 +24,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
-from chaincart_env.lqr import LQRPolicy
+from chaincart_env.policies.lqr import LQRPolicy
 from chaincart_env.vector import ChainCartVectorEnv
 
 __all__ = ["DEFAULT_SIZES", "RoaPoint", "region_of_attraction", "success_fractions", "wilson_interval"]

@@ -72,7 +72,7 @@ def env_settings(env: Any, oracle: bool = False) -> EnvSettings:
         raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
     model = base.model if hasattr(base, "model") else config.make_model()
     if oracle:
-        from chaincart_env.lqr import _true_param_rows
+        from chaincart_env.policies.lqr import _true_param_rows
 
         p = _true_param_rows(env)[0]
         model = ChainCart(

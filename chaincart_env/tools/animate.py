@@ -206,7 +206,7 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
                 f"--policy lqr on scene {env.config.scene!r} with max_force = {env.config.max_force}: "
                 "expected a scene with a force to control with (use --policy zero)"
             )
-        from chaincart_env.lqr import LQRPolicy
+        from chaincart_env.policies.lqr import LQRPolicy
 
         lqr = LQRPolicy.from_env(env)
         return lambda obs: lqr.predict(obs)[0]

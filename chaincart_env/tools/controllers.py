@@ -76,7 +76,7 @@ CONTROLLERS: dict[str, Controller] = {
         Controller("td3", "TD3", "stable_baselines3", "TD3", learned=True),
         Controller("ppo-robust", "PPO robust", "stable_baselines3", "PPO", learned=True, algorithm="ppo",
                    variant=ROBUST_VARIANT),
-        Controller("lqr", "LQR", "chaincart_env.lqr", "LQRPolicy", learned=False),
+        Controller("lqr", "LQR", "chaincart_env.policies.lqr", "LQRPolicy", learned=False),
         Controller("mpc", "MPC", "chaincart_env.policies", "MPCPolicy", learned=False),
         Controller("trajectory", "Trajectory", "chaincart_env.policies", "TrajectoryPolicy", learned=False),
         Controller("energy", "Energy", "chaincart_env.policies", "EnergyPolicy", learned=False),

@@ -25,7 +25,7 @@ def _policy(name: str, env: ChainCartEnv, seed: int) -> Callable[[np.ndarray], n
     if name == "random":
         env.action_space.seed(seed)
         return lambda obs: env.action_space.sample()
-    from chaincart_env.lqr import LQRPolicy
+    from chaincart_env.policies.lqr import LQRPolicy
 
     lqr = LQRPolicy.from_env(env)
     return lambda obs: lqr.predict(obs)[0]

@@ -70,7 +70,8 @@ def test_imports_are_read_absolute_and_relative() -> None:
     text = (
         "import chaincart_env.model\n"
         "from . import mpc\n"
-        "from .. import lqr\n"
+        "from . import lqr\n"
+        "from .. import errors\n"
         "from ..tools.roa import run_roa\n"
         "from ..rendering import camera\n"
         "def f():\n    from .settings import EnvSettings\n"
@@ -78,7 +79,8 @@ def test_imports_are_read_absolute_and_relative() -> None:
     assert _imports(sample, modules, text) == {
         "chaincart_env.model",
         "chaincart_env.policies.mpc",
-        "chaincart_env.lqr",
+        "chaincart_env.policies.lqr",
+        "chaincart_env.errors",
         "chaincart_env.tools.roa",
         "chaincart_env.rendering.camera",
         "chaincart_env.policies.settings",

@@ -12,7 +12,7 @@ import pytest
 
 from chaincart_env import SCENES, ChainCart, ChainCartConfig, ChainCartEnv, ChainCartVectorEnv
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.lqr import LQRPolicy, OracleLQRPolicy
+from chaincart_env.policies.lqr import LQRPolicy, OracleLQRPolicy
 from chaincart_env.sb3 import ChainCartVecEnv
 
 RANDOMIZE = {"cart_mass": 0.3, "link_masses": {"scale": [0.8, 1.2]}, "link_lengths": {"range": [0.4, 0.6], "per_link": False}}

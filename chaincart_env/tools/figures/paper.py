@@ -26,7 +26,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.lqr import LQRPolicy
+from chaincart_env.policies.lqr import LQRPolicy
 from chaincart_env.tools import plots
 from chaincart_env.tools.figures.trajectory import (
     Trajectory,
