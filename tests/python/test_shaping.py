@@ -61,7 +61,11 @@ def test_a_bad_penalty_names_itself(bad):
         check_off_track_penalty(bad)
 
 
-def test_the_scene_default_and_a_given_penalty_are_recorded():
+def test_the_scene_default_and_a_given_penalty_are_recorded(monkeypatch):
+    from chaincart_env.tools.compare import curriculum
+
+    monkeypatch.setitem(curriculum.SCENE_OFF_TRACK_PENALTIES, "swingup-2", 10.0)
+
     def penalty(scene: str, given=None, trainer="sb3") -> float:
         settings = _training_settings(ChainCartConfig(scene=scene), ["ppo"], trainer, None, None, {}, {},
                                       imitation=False, curriculum=None, training_reward=None,

@@ -112,8 +112,7 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--off-track-penalty", type=_off_track_penalty, default=None, metavar="P",
                         help="training only: subtract P from the reward of the step that leaves the track, so that "
                         "running off costs something while the reward is still near zero (chaincart_env.tools.compare."
-                        "shaping); evaluations keep the scene's reward (default: the scene's training penalty: 10 on "
-                        "swingup-2, 0 elsewhere)")
+                        "shaping); evaluations keep the scene's reward (default: 0)")
     parser.add_argument("--history", type=_integer(1, "history"), default=None, metavar="K",
                         help="the learned agents observe the last K observations and actions too (oldest first, zeros "
                         "before an episode's start; chaincart_env.history), in training and in every evaluation, for "
