@@ -63,6 +63,10 @@ def build_parser() -> argparse.ArgumentParser:
     from chaincart_env.tools.config_docs import add_docs_command
 
     add_docs_command(commands)  # docs: sets args.handler
+
+    from chaincart_env.tools.curves import add_curves_command
+
+    add_curves_command(commands)  # curves: sets args.handler
     return parser
 
 
