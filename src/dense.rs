@@ -66,6 +66,33 @@ pub fn elwm_system(
     (a, b)
 }
 
+/// The joint damping's share of the right-hand side of eq. (ELwm): the generalised
+/// moment on link i of the Rayleigh function `D = 1/2 sum_i c_i |w_i - w_{i-1}|^2`
+/// (`w_0 = 0`), `-dD/dw_i = tau_i - tau_{i+1}` with `tau_i = -c_i (w_i - w_{i-1})`,
+/// projected onto the plane normal to `q_i` (a moment along the massless link moves
+/// nothing). The cart rows get nothing: the couples are internal. `damping` holds
+/// one coefficient per link.
+pub fn elwm_damping_moments(params: &ChainParams, y: &[f64], damping: &[f64]) -> DVector<f64> {
+    let n = params.n_links();
+    let lay = Layout::<Spatial>::new(n);
+    let w = |i: usize| lay.load_w(y, i);
+    let tau = |i: usize| {
+        if i >= n {
+            return Vector3::zeros();
+        }
+        let below = if i > 0 { w(i - 1) } else { Vector3::zeros() };
+        (w(i) - below) * (-damping[i])
+    };
+    let mut b = DVector::<f64>::zeros(2 + 3 * n);
+    for i in 0..n {
+        let q = lay.load_q(y, i);
+        let moment = tau(i) - tau(i + 1);
+        let normal = moment - q * moment.dot(&q);
+        b.rows_mut(2 + 3 * i, 3).copy_from(&normal);
+    }
+    b
+}
+
 /// State derivative from the dense form, same layout as [`crate::model::Chain::derivative`].
 /// Returns `None` if the dense matrix is numerically singular.
 pub fn dense_derivative(
@@ -74,9 +101,24 @@ pub fn dense_derivative(
     force: Vector2<f64>,
     dy: &mut [f64],
 ) -> Option<()> {
+    dense_derivative_damped(params, y, force, &[], dy)
+}
+
+/// [`dense_derivative`] with viscous joint damping, one coefficient per link (empty:
+/// none), added as [`elwm_damping_moments`].
+pub fn dense_derivative_damped(
+    params: &ChainParams,
+    y: &[f64],
+    force: Vector2<f64>,
+    damping: &[f64],
+    dy: &mut [f64],
+) -> Option<()> {
     let n = params.n_links();
     let lay = Layout::<Spatial>::new(n);
-    let (a, b) = elwm_system(params, y, force);
+    let (a, mut b) = elwm_system(params, y, force);
+    if !damping.is_empty() {
+        b += elwm_damping_moments(params, y, damping);
+    }
     let sol = a.lu().solve(&b)?;
     lay.store_x(dy, lay.load_xdot(y));
     lay.store_xdot(dy, Vector2::new(sol[0], sol[1]));

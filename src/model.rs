@@ -17,7 +17,7 @@
 
 use crate::error::{check_finite, check_len, InputError, Result};
 use crate::geometry::{Geometry, Layout, Planar, Spatial, Vector};
-use crate::params::ChainParams;
+use crate::params::{Actuation, ChainParams, Rig};
 
 /// Parameters plus the constants the step loop reads; immutable once built.
 #[derive(Debug, Clone)]
@@ -28,6 +28,9 @@ pub struct Chain<G: Geometry> {
     inv_lengths: Vec<f64>,
     /// `g l_i sum_{a>=i} m_a`: the gravity force on the free coordinate q_i.
     gravity_coefficients: Vec<f64>,
+    /// Real-rig effects (damping, friction, actuation mode); `None` for the ideal
+    /// model, which then runs exactly the original dynamics.
+    rig: Option<Box<Rig>>,
 }
 
 /// The spatial chain (2-D cart, spherical joints).
@@ -42,6 +45,8 @@ pub struct Workspace<G: Geometry> {
     pub(crate) diag: Vec<f64>,
     pub(crate) off: Vec<f64>,
     pub(crate) tension: Vec<f64>,
+    /// Forces on the masses besides gravity and the rods (joint damping's couples).
+    pub(crate) applied: Vec<G::Link>,
 }
 
 impl<G: Geometry> Workspace<G> {
@@ -52,6 +57,7 @@ impl<G: Geometry> Workspace<G> {
             diag: vec![0.0; n],
             off: vec![0.0; n],
             tension: vec![0.0; n],
+            applied: vec![G::Link::zero(); n],
         }
     }
 }
@@ -66,6 +72,7 @@ impl<G: Geometry> Chain<G> {
             layout: Layout::new(n),
             gravity_coefficients: vec![0.0; n],
             params,
+            rig: None,
         };
         chain.update_constants();
         chain
@@ -97,6 +104,25 @@ impl<G: Geometry> Chain<G> {
         for (i, c) in self.gravity_coefficients.iter_mut().enumerate() {
             *c = p.gravity_coefficient(i);
         }
+    }
+
+    /// The chain with the real-rig effects `rig` (checked for this chain's links). An
+    /// ideal rig ([`Rig::is_ideal`]) leaves the chain the ideal model, bit for bit.
+    pub fn with_rig(mut self, rig: Rig) -> Result<Self> {
+        rig.validate(self.n_links())?;
+        self.rig = (!rig.is_ideal()).then(|| Box::new(rig));
+        Ok(self)
+    }
+
+    /// The real-rig effects, or `None` for the ideal model.
+    pub fn rig(&self) -> Option<&Rig> {
+        self.rig.as_deref()
+    }
+
+    /// No real-rig effect is on: the SIMD lane kernels, which step the ideal model
+    /// only, may step this chain.
+    pub fn is_ideal(&self) -> bool {
+        self.rig.is_none()
     }
 
     /// The physical parameters.
@@ -145,7 +171,14 @@ impl<G: Geometry> Chain<G> {
     /// it at once (Thomas forward sweep, one division per row); the second
     /// back-substitutes the tensions from the free end and turns each pair of
     /// neighbouring tensions into the link's angular acceleration.
+    ///
+    /// With real-rig effects ([`Chain::with_rig`]) `force` is the command of the rig's
+    /// actuation mode and the scalar path [`Chain::derivative_rig`] runs instead.
     pub fn derivative(&self, y: &[f64], force: G::Cart, ws: &mut Workspace<G>, dy: &mut [f64]) {
+        if let Some(rig) = self.rig.as_deref() {
+            self.derivative_rig(rig, y, force, ws, dy);
+            return;
+        }
         let lay = self.layout;
         let n = lay.n;
         let p = &self.params;
@@ -208,6 +241,136 @@ impl<G: Geometry> Chain<G> {
         lay.store_w(dy, 0, G::spin(ws.q[0], qdd));
     }
 
+    /// [`Chain::derivative`] with the real-rig effects of `rig` (docs/physics.md, "Real-rig
+    /// effects"): the same two passes, plus the forces each joint's damping couple
+    /// puts on the masses at the ends of its link, the cart's friction and motor, or
+    /// (acceleration mode) the cart's acceleration given instead of its force. Scalar,
+    /// O(n), no allocation.
+    pub fn derivative_rig(
+        &self,
+        rig: &Rig,
+        y: &[f64],
+        command: G::Cart,
+        ws: &mut Workspace<G>,
+        dy: &mut [f64],
+    ) {
+        let lay = self.layout;
+        let n = lay.n;
+        let p = &self.params;
+        let (inv_m, lengths, inv_l) = (p.inv_masses(), p.lengths(), &self.inv_lengths);
+        let g = p.gravity();
+        let xdot = lay.load_xdot(y);
+        let reaction = self.damping_couples(rig, y, ws);
+        // The cart's acceleration apart from the first rod's pull, and the weight of
+        // that pull (0 for a servo axis, whose acceleration is given).
+        let (free_acc, inv_cart) = match &rig.actuation {
+            Actuation::Acceleration => (command, 0.0),
+            Actuation::Force => (
+                (command + cart_friction::<G>(rig, xdot) + reaction) * self.inv_cart_mass,
+                self.inv_cart_mass,
+            ),
+            Actuation::Voltage(motor) => (
+                (axes::<G>(command, xdot, |v, u| motor.force(v, u))
+                    + cart_friction::<G>(rig, xdot)
+                    + reaction)
+                    * self.inv_cart_mass,
+                self.inv_cart_mass,
+            ),
+        };
+        let mut pivot_inv = 0.0;
+        for i in 0..n {
+            let q = ws.q[i];
+            let qdot = G::velocity(lay.load_w(y, i), q);
+            lay.store_q(dy, i, qdot);
+            let mut rhs = lengths[i] * qdot.norm_squared() + q.dot(ws.applied[i]) * inv_m[i];
+            let mut diag;
+            if i == 0 {
+                let h = G::horizontal(q);
+                diag = inv_m[0] + h.norm_squared() * inv_cart;
+                rhs += g * G::down(q) - q.dot(G::lift(free_acc));
+            } else {
+                let off = -ws.q[i - 1].dot(q) * inv_m[i - 1];
+                let c = off * pivot_inv;
+                ws.off[i - 1] = c;
+                diag = inv_m[i] + inv_m[i - 1] - off * c;
+                rhs -= q.dot(ws.applied[i - 1]) * inv_m[i - 1] + off * ws.tension[i - 1];
+            }
+            pivot_inv = 1.0 / diag;
+            diag = pivot_inv;
+            ws.diag[i] = diag;
+            ws.tension[i] = rhs * pivot_inv;
+        }
+        let mut t_next = 0.0;
+        let mut acc_next = G::Link::zero();
+        for i in (0..n).rev() {
+            let t = if i + 1 < n {
+                ws.tension[i] - ws.off[i] * t_next
+            } else {
+                ws.tension[i]
+            };
+            ws.tension[i] = t;
+            let mut acc = ws.q[i] * (-t) + ws.applied[i];
+            if i + 1 < n {
+                acc += ws.q[i + 1] * t_next;
+            }
+            acc = acc * inv_m[i];
+            if i + 1 < n {
+                let qdd = (acc_next - acc) * inv_l[i + 1];
+                lay.store_w(dy, i + 1, G::spin(ws.q[i + 1], qdd));
+            }
+            acc_next = acc;
+            t_next = t;
+        }
+        let xdd = free_acc + G::horizontal(ws.q[0]) * (t_next * inv_cart);
+        lay.store_x(dy, xdot);
+        lay.store_xdot(dy, xdd);
+        let qdd = (acc_next - G::lift(xdd) + G::down_unit() * g) * inv_l[0];
+        lay.store_w(dy, 0, G::spin(ws.q[0], qdd));
+    }
+
+    /// Loads every `q_i` into `ws.q` and writes into `ws.applied` the force each mass
+    /// feels from the joint damping: the net damping torque `N_i = tau_i - tau_{i+1}`
+    /// on link i (`tau_i = -c_i (w_i - w_{i-1})`, `w_0 = 0`) acts on the massless rod as
+    /// the couple `f_i = N_i x q_i / l_i` at its mass and `-f_i` at its joint. Returns
+    /// the horizontal force the first couple puts on the cart.
+    fn damping_couples(&self, rig: &Rig, y: &[f64], ws: &mut Workspace<G>) -> G::Cart {
+        let lay = self.layout;
+        let n = lay.n;
+        for i in 0..n {
+            ws.q[i] = lay.load_q(y, i);
+            ws.applied[i] = G::Link::zero();
+        }
+        if !rig.has_joint_damping() {
+            return G::Cart::zero();
+        }
+        let torque = |i: usize| {
+            let below = if i > 0 {
+                lay.load_w(y, i - 1)
+            } else {
+                G::Spin::zero()
+            };
+            (lay.load_w(y, i) - below) * (-rig.damping(i))
+        };
+        let mut tau = torque(0);
+        let mut reaction = G::Cart::zero();
+        for i in 0..n {
+            let tau_next = if i + 1 < n {
+                torque(i + 1)
+            } else {
+                G::Spin::zero()
+            };
+            let couple = G::velocity(tau - tau_next, ws.q[i]) * self.inv_lengths[i];
+            ws.applied[i] += couple;
+            if i > 0 {
+                ws.applied[i - 1] -= couple;
+            } else {
+                reaction = -G::horizontal(couple);
+            }
+            tau = tau_next;
+        }
+        reaction
+    }
+
     /// Rod tensions `T_i` from the last [`Chain::derivative`] call on `ws`.
     pub fn tensions<'a>(&self, ws: &'a Workspace<G>) -> &'a [f64] {
         &ws.tension
@@ -238,6 +401,27 @@ impl<G: Geometry> Chain<G> {
             lay.store_w(y, i, G::tangent(lay.load_w(y, i), q));
         }
     }
+}
+
+/// The cart's friction force at velocity `v`, axis by axis.
+#[inline]
+fn cart_friction<G: Geometry>(rig: &Rig, v: G::Cart) -> G::Cart {
+    if !rig.has_cart_friction() {
+        return G::Cart::zero();
+    }
+    axes::<G>(v, v, |v, _| rig.friction(v))
+}
+
+/// `f` applied axis by axis to the components of `a` and `b`.
+#[inline]
+fn axes<G: Geometry>(a: G::Cart, b: G::Cart, f: impl Fn(f64, f64) -> f64) -> G::Cart {
+    let (mut sa, mut sb) = ([0.0; 2], [0.0; 2]);
+    a.store(&mut sa);
+    b.store(&mut sb);
+    for k in 0..G::Cart::DIM {
+        sa[k] = f(sa[k], sb[k]);
+    }
+    G::Cart::load(&sa)
 }
 
 #[cfg(test)]

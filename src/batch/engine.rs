@@ -69,6 +69,24 @@ pub fn check_precision(precision: Precision, method: Method, guard: &Guard) -> R
     Ok(())
 }
 
+/// Checks that the lane kernels can step `chain`: they step the ideal model only, so
+/// a chain with real-rig effects (damping, friction, an actuation other than force)
+/// steps env by env, in f64.
+pub fn check_ideal_for_lanes<G: Geometry>(chain: &Chain<G>) -> Result<()> {
+    if chain.is_ideal() {
+        return Ok(());
+    }
+    Err(InputError::Incompatible {
+        name: "kernel",
+        value: "lanes",
+        expected: "the per-env path (kernel None, precision \"f64\") with joint damping, cart \
+                   friction or an actuation other than force: the SIMD lane kernels step the \
+                   ideal model only"
+            .to_string(),
+    }
+    .into())
+}
+
 /// Where the states of the envs live between steps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StateHome {
@@ -219,7 +237,10 @@ impl<G: LaneScene, H: LaneHook<G> + Clone> Engine<G, H> {
         };
         if precision == Precision::F32 {
             engine.set_precision(Precision::F32)?;
-        } else if engine.shared.opts.method == Method::Rk4 && num_envs >= MIN_LANE_ENVS {
+        } else if engine.shared.opts.method == Method::Rk4
+            && num_envs >= MIN_LANE_ENVS
+            && engine.shared.chain.is_ideal()
+        {
             engine.set_kernel(Some(Kernel::detect()))?;
         }
         Ok(engine)
@@ -264,6 +285,7 @@ impl<G: LaneScene, H: LaneHook<G> + Clone> Engine<G, H> {
             return Ok(());
         };
         kernel.checked()?;
+        check_ideal_for_lanes(&self.shared.chain)?;
         if self.shared.opts.method != Method::Rk4 {
             return Err(InputError::InvalidParameter {
                 name: "kernel",
@@ -295,6 +317,7 @@ impl<G: LaneScene, H: LaneHook<G> + Clone> Engine<G, H> {
             return Ok(());
         }
         check_precision(precision, self.shared.opts.method, &self.shared.guard)?;
+        check_ideal_for_lanes(&self.shared.chain)?;
         let kernel = kernel.unwrap_or_else(Kernel::detect);
         kernel.checked()?;
         if self.lane != Some((kernel, precision)) {

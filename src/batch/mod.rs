@@ -15,7 +15,7 @@ mod resident;
 
 pub use chains::ChainBatch;
 pub use engine::{
-    check_precision, ChunkLanePath, Engine, EnvRange, Shared, StateHome, Worker, CHUNK,
-    F32_MIN_UNIT_LENGTH_TOLERANCE, MIN_LANE_ENVS,
+    check_ideal_for_lanes, check_precision, ChunkLanePath, Engine, EnvRange, Shared, StateHome,
+    Worker, CHUNK, F32_MIN_UNIT_LENGTH_TOLERANCE, MIN_LANE_ENVS,
 };
 pub use resident::LANE_CHUNK;

@@ -651,7 +651,8 @@ pub fn check_task<G: LaneScene>(
 ) -> Result<(Chain<G>, Vec<f64>)> {
     task.validate(chain.n_links())?;
     task.reality.validate(chain.n_links(), chain.state_dim())?;
-    let true_chain = Chain::new(task.reality.true_params(chain.params())?);
+    let true_chain =
+        Chain::new(task.reality.true_params(chain.params())?).with_rig(task.rig.clone())?;
     let base = match &task.transitions {
         None => base_state(chain, task)?,
         Some(pairs) => {

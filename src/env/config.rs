@@ -3,15 +3,18 @@
 
 use super::goals::Transitions;
 use super::keys::{
-    DEFAULT_MAX_EPISODE_STEPS, DEFAULT_REWARD_WEIGHTS, DEFAULT_START_NOISE,
-    DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT, REWARD_NAMES, START_NAMES, TARGET_NAMES,
+    DEFAULT_MAX_ACCELERATION, DEFAULT_MAX_EPISODE_STEPS, DEFAULT_MAX_VOLTAGE,
+    DEFAULT_REWARD_WEIGHTS, DEFAULT_START_NOISE, DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT,
+    REWARD_NAMES, START_NAMES, TARGET_NAMES,
 };
 use super::reality::RealityGap;
 use crate::analysis::equilibria::{check_signs, named_signs};
 use crate::batch::check_precision;
 use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
+use crate::integrate::Method;
 use crate::integrate::{Guard, StepOptions};
 use crate::lanes::Precision;
+use crate::params::{Actuation, Rig};
 
 /// The paper's numerical examples (Sec. V). Figs. 1 and 2 share the initial
 /// condition IC1; Fig. 3 has its own. All three are defined for n = 5 links.
@@ -334,6 +337,15 @@ pub struct TaskConfig {
     pub reality: RealityGap,
     /// Number type of the physics: f64, or f32 on the rk4 lane kernel.
     pub precision: Precision,
+    /// Real-rig effects of the true system: joint damping, cart friction and what the
+    /// action commands (default: none, a force).
+    pub rig: Rig,
+    /// Acceleration (m/s^2) of a normalised action of magnitude 1, per cart axis, when
+    /// the rig's actuation is `acceleration`.
+    pub max_acceleration: f64,
+    /// Motor voltage (V) of a normalised action of magnitude 1, per cart axis, when the
+    /// rig's actuation is `voltage`.
+    pub max_voltage: f64,
 }
 
 impl TaskConfig {
@@ -360,6 +372,20 @@ impl TaskConfig {
             goal_observation: false,
             reality: RealityGap::default(),
             precision: Precision::F64,
+            rig: Rig::default(),
+            max_acceleration: DEFAULT_MAX_ACCELERATION,
+            max_voltage: DEFAULT_MAX_VOLTAGE,
+        }
+    }
+
+    /// The command of a normalised action of magnitude 1 in the rig's actuation mode:
+    /// `max_force` (N), `max_acceleration` (m/s^2) or `max_voltage` (V).
+    #[inline(always)]
+    pub fn command_scale(&self) -> f64 {
+        match self.rig.actuation {
+            Actuation::Force => self.max_force,
+            Actuation::Acceleration => self.max_acceleration,
+            Actuation::Voltage(_) => self.max_voltage,
         }
     }
 
@@ -413,7 +439,34 @@ impl TaskConfig {
         check_positive("success_tolerances.e_q", self.success.e_q)?;
         check_positive("success_tolerances.e_w", self.success.e_w)?;
         check_non_negative("success_hold", self.success_hold)?;
-        check_precision(self.precision, self.step_options.method, &self.guard)
+        check_precision(self.precision, self.step_options.method, &self.guard)?;
+        check_non_negative("max_acceleration", self.max_acceleration)?;
+        check_non_negative("max_voltage", self.max_voltage)?;
+        self.rig.validate(n)?;
+        self.check_rig_stepping()
+    }
+
+    /// A rig with real effects steps env by env in f64, by an integrator other than
+    /// the variational one.
+    fn check_rig_stepping(&self) -> Result<()> {
+        if self.rig.is_ideal() {
+            return Ok(());
+        }
+        if self.step_options.method == Method::Variational {
+            return Err(crate::integrate::variational_needs_ideal_chain());
+        }
+        if self.precision != Precision::F64 {
+            return Err(InputError::Incompatible {
+                name: "precision",
+                value: self.precision.name(),
+                expected: "\"f64\" with joint damping, cart friction or an actuation other than \
+                           force (f32 runs on the SIMD lane kernel, which steps the ideal model \
+                           only)"
+                    .to_string(),
+            }
+            .into());
+        }
+        Ok(())
     }
 }
 

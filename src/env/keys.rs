@@ -14,7 +14,7 @@
 
 use crate::integrate::Method;
 use crate::lanes::Precision;
-use crate::params::STANDARD_GRAVITY;
+use crate::params::{Actuation, Motor, DEFAULT_COULOMB_VELOCITY, STANDARD_GRAVITY};
 use crate::render::ViewKind;
 use std::sync::LazyLock;
 
@@ -134,6 +134,16 @@ pub const DEFAULT_MAX_EPISODE_STEPS: i64 = 500;
 pub const DEFAULT_REWARD_WEIGHTS: [f64; 5] = [1.0, 0.1, 0.1, 0.1, 0.01];
 /// Default success tolerances `[e_q, e_w]`: about 6 degrees of tilt and 0.5 rad/s in total.
 pub const DEFAULT_SUCCESS_TOLERANCES: [f64; 2] = [0.1, 0.5];
+
+/// Default acceleration of a unit action in the `acceleration` actuation, m/s^2.
+pub const DEFAULT_MAX_ACCELERATION: f64 = 10.0;
+/// Default voltage of a unit action in the `voltage` actuation, V.
+pub const DEFAULT_MAX_VOLTAGE: f64 = 12.0;
+/// Default motor `[torque_constant, resistance, gear_ratio, pulley_radius,
+/// current_limit]` of the `voltage` actuation: a small 12 V motor (0.02 N m/A, 2 ohm)
+/// on a 5:1 gear and a 2 cm pulley, limited to 5 A: 25 N at stall (the current limit;
+/// 30 N unlimited), no-load speed 2.4 m/s at 12 V.
+pub const DEFAULT_MOTOR: [f64; 5] = [0.02, 2.0, 5.0, 0.02, 5.0];
 
 /// The scene used when none is named: the planar double inverted pendulum.
 pub const DEFAULT_SCENE: &str = "inverted-2";
@@ -410,6 +420,77 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "picture of rendered frames: 3d (a lit perspective view), side, top or side+top \
                (flat views); none: 3d for spatial chains, side for planar ones",
     },
+    ConfigKey {
+        name: "joint_damping",
+        kind: KeyKind::PerLink,
+        default: KeyValue::Float(0.0),
+        expected: "a finite number >= 0, or one per link",
+        help: "viscous damping of each joint, N m s/rad, one number or one per link: the \
+               torque -c_i (w_i - w_{i-1}) on link i, relative to the link above (the first \
+               link relative to the cart, which does not rotate); 0: none. On, the envs step \
+               one by one (not on the SIMD lanes)",
+    },
+    ConfigKey {
+        name: "cart_viscous_friction",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(0.0),
+        expected: "a finite number >= 0",
+        help: "viscous friction of the cart on each axis, N s/m: the force -b v; 0: none. On, \
+               the envs step one by one",
+    },
+    ConfigKey {
+        name: "cart_coulomb_friction",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(0.0),
+        expected: "a finite number >= 0",
+        help: "Coulomb friction of the cart on each axis, N: the force -F_c tanh(v / \
+               coulomb_velocity), a smooth law; 0: none. On, the envs step one by one",
+    },
+    ConfigKey {
+        name: "coulomb_velocity",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(DEFAULT_COULOMB_VELOCITY),
+        expected: "a finite number > 0",
+        help: "m/s, the velocity scale of the Coulomb friction's tanh law (76 % of the full \
+               friction at this speed, 99.5 % at three times it); smaller is sharper and needs \
+               smaller integrator steps",
+    },
+    ConfigKey {
+        name: "actuation",
+        kind: KeyKind::Choice(&Actuation::NAMES),
+        default: KeyValue::Name("force"),
+        expected: "one of force, acceleration, voltage",
+        help: "what the action commands, per cart axis: force (max_force N per unit action), \
+               acceleration (a servo axis: max_acceleration m/s^2 per unit action, the cart \
+               mass drops out) or voltage (a DC motor, see motor: max_voltage V per unit \
+               action). Other than force, the envs step one by one, and force_rate_limit and \
+               force_noise act on the command in its own unit",
+    },
+    ConfigKey {
+        name: "max_acceleration",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(DEFAULT_MAX_ACCELERATION),
+        expected: "a finite number >= 0",
+        help: "m/s^2 per unit action with actuation acceleration",
+    },
+    ConfigKey {
+        name: "max_voltage",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(DEFAULT_MAX_VOLTAGE),
+        expected: "a finite number >= 0",
+        help: "V per unit action with actuation voltage",
+    },
+    ConfigKey {
+        name: "motor",
+        kind: KeyKind::NamedNumbers(&Motor::NAMES),
+        default: KeyValue::Floats(&DEFAULT_MOTOR),
+        expected: "a mapping with some of torque_constant, resistance, gear_ratio, \
+                   pulley_radius, current_limit, or five numbers, each a finite number > 0",
+        help: "the DC motor of actuation voltage, one per cart axis: torque_constant k (N m/A, \
+               also the back-EMF constant in V s/rad), resistance R (ohm), gear_ratio N, \
+               pulley_radius r (m), current_limit (A); force N k i / r with current i = (V - \
+               k N v / r) / R clipped to the limit",
+    },
 ];
 
 /// The key with this name.
@@ -531,6 +612,75 @@ mod expected_text {
             let e = result.unwrap_err().to_string();
             let what = expected(name).trim_end_matches(", or one per link");
             assert!(e.contains(name) && e.contains(what), "{name}: {e}");
+        }
+    }
+
+    #[test]
+    fn rig_checks_say_what_the_table_says() {
+        use crate::params::{Actuation, Motor, Rig};
+        let rig_error = |rig: Rig| rig.validate(2).unwrap_err().to_string();
+        let cases = [
+            (
+                "joint_damping",
+                Rig {
+                    joint_damping: vec![0.1, -1.0],
+                    ..Rig::default()
+                },
+            ),
+            (
+                "cart_viscous_friction",
+                Rig {
+                    cart_viscous_friction: -1.0,
+                    ..Rig::default()
+                },
+            ),
+            (
+                "cart_coulomb_friction",
+                Rig {
+                    cart_coulomb_friction: f64::INFINITY,
+                    ..Rig::default()
+                },
+            ),
+            (
+                "coulomb_velocity",
+                Rig {
+                    coulomb_velocity: 0.0,
+                    ..Rig::default()
+                },
+            ),
+        ];
+        for (name, rig) in cases {
+            let e = rig_error(rig);
+            let what = expected(name).trim_end_matches(", or one per link");
+            assert!(e.contains(name) && e.contains(what), "{name}: {e}");
+        }
+        let mut motor = Motor::from_array(DEFAULT_MOTOR);
+        motor.gear_ratio = 0.0;
+        let e = rig_error(Rig {
+            actuation: Actuation::Voltage(motor),
+            ..Rig::default()
+        });
+        assert!(e.contains("motor.gear_ratio"), "{e}");
+        assert!(expected("motor").ends_with(Motor::EXPECTED));
+        for name in Motor::NAMES {
+            assert!(expected("motor").contains(name), "{name}");
+        }
+        for name in Actuation::NAMES {
+            assert!(expected("actuation").contains(name), "{name}");
+        }
+        let mut task = TaskConfig::new(vec![-1.0; 2], 0.02, StepOptions::default());
+        for name in ["max_acceleration", "max_voltage"] {
+            task.max_acceleration = if name == "max_acceleration" {
+                -1.0
+            } else {
+                1.0
+            };
+            task.max_voltage = if name == "max_voltage" { -1.0 } else { 1.0 };
+            let e = task.validate(2).unwrap_err().to_string();
+            assert!(
+                e.contains(name) && e.contains(expected(name)),
+                "{name}: {e}"
+            );
         }
     }
 

@@ -666,7 +666,8 @@ pub(super) fn write_obs<T: Real>(y: &[f64], obs: &mut [T]) {
 /// Writes the force the actuator applies for `action` into `force` (one number per
 /// axis) and returns the squared norm of the applied normalised action (for the
 /// reward): clip to `[-1, 1]`, delay by `action_delay` control periods, scale by
-/// `max_force`, limit the change per period to `force_rate_limit * dt` per axis, and
+/// `max_force` (or, with another actuation, the command's own scale: see
+/// [`TaskConfig::command_scale`]; the chain reads the command in that mode's unit), limit the change per period to `force_rate_limit * dt` per axis, and
 /// disturb what the actuator delivers by the force noise (after the squared action is
 /// taken and after the rate limit's memory, which holds the commanded force).
 /// Written in place rather than returned: copying a returned array that was just
@@ -683,6 +684,7 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: 
     };
     // One pass per axis, each number used where it is made: reading back an array
     // just written number by number stalled on store forwarding.
+    let scale = task.command_scale();
     let mut a = [0.0; 3];
     let mut a2 = 0.0;
     for (k, (x, fk)) in action.iter().zip(force.iter_mut()).enumerate() {
@@ -692,7 +694,7 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: 
         }
         a[k] = ak;
         a2 += ak * ak;
-        *fk = ak * task.max_force;
+        *fk = ak * scale;
     }
     if !e.last_force.is_empty() {
         let max_change = task.reality.force_rate_limit * task.dt;
@@ -700,11 +702,7 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: 
         for (k, (fk, last)) in force.iter_mut().zip(e.last_force.iter_mut()).enumerate() {
             *fk = fk.clamp(*last - max_change, *last + max_change);
             *last = *fk;
-            let applied = if task.max_force > 0.0 {
-                *fk / task.max_force
-            } else {
-                a[k]
-            };
+            let applied = if scale > 0.0 { *fk / scale } else { a[k] };
             a2 += applied * applied;
         }
     }

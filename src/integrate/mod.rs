@@ -222,6 +222,9 @@ impl<G: Geometry> Stepper<G> {
     ) -> Result<()> {
         debug_assert_eq!(y.len(), chain.state_dim());
         self.stats = StepStats::default();
+        if opts.method == Method::Variational && !chain.is_ideal() {
+            return Err(variational_needs_ideal_chain());
+        }
         if opts.method == Method::Adaptive {
             return adaptive::integrate(chain, self, y, force, dt, opts);
         }
@@ -237,6 +240,20 @@ impl<G: Geometry> Stepper<G> {
         }
         Ok(())
     }
+}
+
+/// The error of the variational method on a chain with real-rig effects: its
+/// discrete Lagrangian has no place for damping, friction or a prescribed cart motion.
+pub fn variational_needs_ideal_chain() -> ChainError {
+    InputError::Incompatible {
+        name: "integrator",
+        value: "variational",
+        expected: "rk4, rkmk4, lie_euler or adaptive with joint damping, cart friction or an \
+                   actuation other than force (the variational integrator models the ideal, \
+                   force-driven chain only)"
+            .to_string(),
+    }
+    .into()
 }
 
 /// `out = a + c * b`, elementwise.

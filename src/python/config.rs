@@ -17,6 +17,7 @@ use crate::env::{
 use crate::error::{quoted, InputError};
 use crate::integrate::{Method, StepOptions};
 use crate::lanes::Precision;
+use crate::params::{Actuation, Motor, Rig};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyMapping, PyString, PyTuple};
 
@@ -620,7 +621,31 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
         force_noise: optional("force_noise").as_ref(),
     })?;
     task.precision = precision;
+    task.rig = rig(values)?;
+    task.max_acceleration = f("max_acceleration")?;
+    task.max_voltage = f("max_voltage")?;
     Ok(task)
+}
+
+/// The real-rig effects of canonical values (the motor checked even when the
+/// actuation does not use it, so a bad value is never kept silently).
+fn rig(values: &Bound<'_, PyDict>) -> PyResult<Rig> {
+    let f = |name: &str| get(values, name).extract::<f64>();
+    let damping = get(values, "joint_damping");
+    let joint_damping = match damping.extract::<f64>() {
+        Ok(c) => vec![c],
+        Err(_) => damping.extract::<Vec<f64>>()?,
+    };
+    let motor = Motor::from_array(get(values, "motor").extract()?);
+    motor.validate()?;
+    let actuation = Actuation::from_name(&get(values, "actuation").extract::<String>()?, motor)?;
+    Ok(Rig {
+        joint_damping,
+        cart_viscous_friction: f("cart_viscous_friction")?,
+        cart_coulomb_friction: f("cart_coulomb_friction")?,
+        coulomb_velocity: f("coulomb_velocity")?,
+        actuation,
+    })
 }
 
 fn key(name: &str) -> &'static ConfigKey {

@@ -18,6 +18,7 @@ mod integrators;
 mod lanes;
 mod paper_examples;
 mod properties;
+mod rig;
 
 /// Counts the allocations of the threads that `allocations` measures (no other's).
 #[global_allocator]
