@@ -26,7 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = commands.add_parser(
         "bench", help="benchmark suite: throughput vs CartPole, MuJoCo, speed/accuracy, scaling, render (Markdown)"
     )
-    from chaincart_env.tools.bench.cli import add_bench_arguments
+    from chaincart_env.tools.bench.bench_cli import add_bench_arguments
 
     add_bench_arguments(bench)
 
@@ -40,11 +40,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_analysis_commands(commands)  # figures, roa: each sets args.handler
 
-    from chaincart_env.tools.compare.cli import add_commands as add_compare_commands
+    from chaincart_env.tools.compare.compare_cli import add_commands as add_compare_commands
 
     add_compare_commands(commands)  # compare, evaluate: each sets args.handler
 
-    from chaincart_env.tools.leaderboard.cli import add_leaderboard_command
+    from chaincart_env.tools.leaderboard.leaderboard_cli import add_leaderboard_command
 
     add_leaderboard_command(commands)  # leaderboard: sets args.handler
 
@@ -116,7 +116,7 @@ def _run_builtin(args: argparse.Namespace, bench: argparse.ArgumentParser) -> in
         from chaincart_env.tools.demo import run_demo
 
         return run_demo(scene=args.scene, policy=args.policy, seed=args.seed, max_steps=args.steps)
-    from chaincart_env.tools.bench.cli import run_from_args
+    from chaincart_env.tools.bench.bench_cli import run_from_args
 
     return run_from_args(args, bench)
 

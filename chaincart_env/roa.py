@@ -11,7 +11,7 @@ Every noise level uses the same seeds, so its starts are the same random directi
 scaled by the noise: the curve compares like with like.
 
 This is the yardstick an RL agent is compared against. The ``roa`` command
-(:mod:`chaincart_env.tools.roa`) prints the curve as a table and writes it as CSV and
+(:mod:`chaincart_env.tools.roa_cli`) prints the curve as a table and writes it as CSV and
 a PNG.
 """
 

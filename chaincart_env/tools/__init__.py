@@ -9,7 +9,7 @@ the reverse.
   LQR baseline (``compare``, ``evaluate``, ``chaincart-compare``).
 * :mod:`~chaincart_env.tools.figures`, :mod:`~chaincart_env.tools.plots`: the paper's
   figures (``figures``).
-* :mod:`~chaincart_env.tools.roa`: the LQR baseline's region of attraction as a table,
+* :mod:`~chaincart_env.tools.roa_cli`: the LQR baseline's region of attraction as a table,
   CSV and PNG (``roa``; the curve itself is the library's :mod:`chaincart_env.roa`).
 * :mod:`~chaincart_env.tools.animate`: GIF/MP4 of an episode (``animate``).
 * :mod:`~chaincart_env.tools.demo`, :mod:`~chaincart_env.tools.soak`: one episode

@@ -52,7 +52,7 @@ def _figures(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 def _roa(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from chaincart_env.errors import InvalidInputError
-    from chaincart_env.tools.roa import run_roa
+    from chaincart_env.tools.roa_cli import run_roa
 
     try:
         run_roa(args.out, scene=args.scene, sizes=args.sizes, starts=args.starts, seed=args.seed, start=args.start)

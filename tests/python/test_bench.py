@@ -14,6 +14,7 @@ from paper_dense import elwm_derivative, link_accelerations
 
 from chaincart_env import ChainCart
 from chaincart_env.tools.bench.accuracy import pareto_front
+from chaincart_env.tools.bench.bench_report import markdown_table
 from chaincart_env.tools.bench.fig1 import AccuracyPoint, mass_positions
 from chaincart_env.tools.bench.mujoco_chain import (
     build_mjcf,
@@ -23,7 +24,6 @@ from chaincart_env.tools.bench.mujoco_chain import (
     random_spatial_state,
     state_to_mujoco,
 )
-from chaincart_env.tools.bench.report import markdown_table
 from chaincart_env.tools.bench.scaling import fit_loglog_slope, parse_scaling_output
 from chaincart_env.tools.bench.suite import parse_sections
 
@@ -208,7 +208,7 @@ def test_mujoco_reset_of_an_unstable_run_is_reported_as_divergence(tmp_path: Pat
 
 
 def test_cells_section_times_serial_and_distributed_cells() -> None:
-    from chaincart_env.tools.bench.report import Report
+    from chaincart_env.tools.bench.bench_report import Report
     from chaincart_env.tools.bench.study_cells import cells_section
     from chaincart_env.tools.bench.suite import BenchContext, BenchSettings
 
@@ -220,8 +220,8 @@ def test_cells_section_times_serial_and_distributed_cells() -> None:
 
 
 def test_render_section_reports_every_view_with_the_3d_goal() -> None:
+    from chaincart_env.tools.bench.bench_report import Report
     from chaincart_env.tools.bench.render_fps import CASES, GOAL_3D_FPS, render_section
-    from chaincart_env.tools.bench.report import Report
     from chaincart_env.tools.bench.suite import BenchContext, BenchSettings
 
     ctx = BenchContext(BenchSettings(quick=True), Report(echo=False))

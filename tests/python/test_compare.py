@@ -16,7 +16,7 @@ from PIL import Image
 
 from chaincart_env import ChainCartConfig, ChainCartEnv, LQRPolicy
 from chaincart_env.__main__ import main
-from chaincart_env.tools.compare.cli import compare_main
+from chaincart_env.tools.compare.compare_cli import compare_main
 from chaincart_env.tools.compare.evaluation import (
     EPISODE_COLUMNS,
     METRIC_COLUMNS,
@@ -301,7 +301,7 @@ def test_console_scripts_point_at_the_commands() -> None:
     import tomllib  # Python >= 3.11, as set-up uses
 
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
-    assert scripts["chaincart-compare"] == "chaincart_env.tools.compare.cli:compare_main"
+    assert scripts["chaincart-compare"] == "chaincart_env.tools.compare.compare_cli:compare_main"
     assert scripts["chaincart"] == "chaincart_env.__main__:main"
 
 
@@ -420,7 +420,7 @@ def test_a_checkpoint_swapped_in_whole_survives_an_interruption_between_its_rena
 
 
 def test_a_zoo_dict_keyword_stays_one_string_on_the_command_line() -> None:
-    from chaincart_env.tools.compare.cli import _algo_kwargs
+    from chaincart_env.tools.compare.compare_cli import _algo_kwargs
     from chaincart_env.tools.compare.recipes import sb3_keywords
 
     shared, per_algo = _algo_kwargs(["policy_kwargs=dict(net_arch=[64, 64])", "ppo:n_steps=128,"])

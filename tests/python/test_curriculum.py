@@ -162,7 +162,7 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
     ],
 )
 def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_path) -> None:
-    from chaincart_env.tools.compare.cli import compare_main
+    from chaincart_env.tools.compare.compare_cli import compare_main
 
     with pytest.raises(SystemExit):
         compare_main(["--scene", "swingup-2", "--out", str(tmp_path), *argv])

@@ -72,7 +72,7 @@ def test_imports_are_read_absolute_and_relative() -> None:
         "from . import mpc\n"
         "from . import lqr\n"
         "from .. import errors\n"
-        "from ..tools.roa import run_roa\n"
+        "from ..tools.roa_cli import run_roa\n"
         "from ..rendering import camera\n"
         "def f():\n    from .settings import EnvSettings\n"
     )
@@ -81,7 +81,7 @@ def test_imports_are_read_absolute_and_relative() -> None:
         "chaincart_env.policies.mpc",
         "chaincart_env.policies.lqr",
         "chaincart_env.errors",
-        "chaincart_env.tools.roa",
+        "chaincart_env.tools.roa_cli",
         "chaincart_env.rendering.camera",
         "chaincart_env.policies.settings",
         "chaincart_env.policies",

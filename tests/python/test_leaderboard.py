@@ -12,7 +12,7 @@ from chaincart_env.__main__ import main
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.controllers import parse_controllers
 from chaincart_env.tools.leaderboard.axes import AXIS_NAMES, parse_axes
-from chaincart_env.tools.leaderboard.report import axis_scores, score_rows
+from chaincart_env.tools.leaderboard.leaderboard_report import axis_scores, score_rows
 
 
 def _read(path: pathlib.Path) -> list[dict[str, str]]:
@@ -91,7 +91,7 @@ def test_options_are_checked_with_the_value_and_what_was_expected(tmp_path: path
 def test_a_cluster_needs_ray_and_learned_controllers_need_sb3() -> None:
     from argparse import Namespace
 
-    from chaincart_env.tools.leaderboard.cli import leaderboard_needs
+    from chaincart_env.tools.leaderboard.leaderboard_cli import leaderboard_needs
 
     assert set(leaderboard_needs(Namespace(policies="lqr,mpc", address=None))) == {"plot"}
     assert set(leaderboard_needs(Namespace(policies="lqr,SAC", address=None))) == {"plot", "sb3"}

@@ -112,7 +112,7 @@ def test_three_seeds_give_an_interval_close_to_the_exact_bootstrap_one():
 
 
 def test_a_three_seed_leaderboard_table_shows_intervals_over_seeds():
-    from chaincart_env.tools.leaderboard.report import _scene_table, score_rows
+    from chaincart_env.tools.leaderboard.leaderboard_report import _scene_table, score_rows
 
     def cell(controller, value, seed, wins):
         return dict(scene="s", controller=controller, axis="mismatch", value=value, seed=seed, episodes=10,

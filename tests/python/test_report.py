@@ -100,7 +100,7 @@ def test_a_controller_has_one_look_whatever_names_it() -> None:
 def test_the_main_job_and_the_leaderboard_draw_a_controller_alike(
     tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from chaincart_env.tools.leaderboard import report as leaderboard_report
+    from chaincart_env.tools.leaderboard import leaderboard_report
     from chaincart_env.tools.leaderboard.axes import parse_axes
 
     names = ["ppo", "sac", "lqr", "mpc"]
@@ -147,7 +147,7 @@ from types import SimpleNamespace  # noqa: E402
 from chaincart_env.config import ChainCartConfig  # noqa: E402
 from chaincart_env.tools.compare.filmstrip import filmstrip, frame_steps  # noqa: E402
 from chaincart_env.tools.compare.plots import draw_errors  # noqa: E402
-from chaincart_env.tools.compare.report import seed_lines, sweep_markdown, write_report  # noqa: E402
+from chaincart_env.tools.compare.study_report import seed_lines, sweep_markdown, write_report  # noqa: E402
 from chaincart_env.tools.compare.tables import markdown_table, variant_base  # noqa: E402
 from chaincart_env.tools.compare.verdict import main_setting_values  # noqa: E402
 

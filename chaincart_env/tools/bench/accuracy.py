@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Sequence
 
 from chaincart_env.tools.bench import fig1
+from chaincart_env.tools.bench.bench_report import fmt_sci, fmt_time
 from chaincart_env.tools.bench.context import BenchContext, mujoco_available
 from chaincart_env.tools.bench.fig1 import AccuracyPoint
 from chaincart_env.tools.bench.mujoco_chain import MUJOCO_INTEGRATORS
@@ -20,7 +21,6 @@ from chaincart_env.tools.bench.mujoco_compare import (
     fig1_reference,
 )
 from chaincart_env.tools.bench.precision import precision_table
-from chaincart_env.tools.bench.report import fmt_sci, fmt_time
 
 __all__ = ["accuracy_section", "pareto_front"]
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
 
-from chaincart_env.tools.bench.report import Report
+from chaincart_env.tools.bench.bench_report import Report
 
 __all__ = ["BenchSettings", "BenchContext", "mujoco_available"]
 

@@ -12,8 +12,8 @@ import os
 from pathlib import Path
 from typing import Optional
 
+from chaincart_env.tools.bench.bench_report import fmt_rate, fmt_time
 from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.tools.bench.report import fmt_rate, fmt_time
 
 __all__ = ["criterion_section", "read_criterion", "criterion_dir"]
 

@@ -24,8 +24,8 @@ import numpy as np
 
 import chaincart_env  # noqa: F401  (registers ChainCart-v0)
 from chaincart_env.config import DEFAULT_SCENE, ChainCartConfig
+from chaincart_env.tools.bench.bench_report import fmt_rate, fmt_ratio
 from chaincart_env.tools.bench.context import BenchContext, mujoco_available
-from chaincart_env.tools.bench.report import fmt_rate, fmt_ratio
 from chaincart_env.tools.bench.timing import rate
 from chaincart_env.vector import ChainCartVectorEnv
 

@@ -18,6 +18,7 @@ from chaincart_env import _core
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.model import ChainCart
 from chaincart_env.tools.bench import fig1
+from chaincart_env.tools.bench.bench_report import fmt_rate, fmt_ratio, fmt_sci
 from chaincart_env.tools.bench.context import BenchContext, mujoco_available
 from chaincart_env.tools.bench.fig1 import AccuracyPoint
 from chaincart_env.tools.bench.mujoco_chain import (
@@ -28,7 +29,6 @@ from chaincart_env.tools.bench.mujoco_chain import (
     random_spatial_state,
     state_to_mujoco,
 )
-from chaincart_env.tools.bench.report import fmt_rate, fmt_ratio, fmt_sci
 from chaincart_env.tools.bench.timing import rate
 
 __all__ = ["mujoco_section", "fig1_point", "mujoco_model", "MISSING_NOTE"]

@@ -16,8 +16,8 @@ import numpy as np
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.tools.bench import fig1
+from chaincart_env.tools.bench.bench_report import fmt_sci, fmt_time
 from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.tools.bench.report import fmt_sci, fmt_time
 from chaincart_env.tools.bench.timing import rate
 
 __all__ = ["precision_table", "lane_trajectory", "LaneFailure"]

@@ -17,8 +17,8 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+from chaincart_env.tools.bench.bench_report import fmt_rate
 from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.tools.bench.report import fmt_rate
 
 __all__ = ["MODES", "SamplingRate", "rllib_section", "measure_sampling", "timed_sample"]
 

@@ -12,8 +12,8 @@ from typing import Sequence
 import numpy as np
 
 from chaincart_env import _core
+from chaincart_env.tools.bench.bench_report import fmt_time
 from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.tools.bench.report import fmt_time
 
 __all__ = ["scaling_section", "fit_loglog_slope", "parse_scaling_output", "FIT_FROM_N"]
 

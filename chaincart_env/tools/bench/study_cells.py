@@ -16,8 +16,8 @@ import os
 import time
 from typing import Any
 
+from chaincart_env.tools.bench.bench_report import fmt_ratio
 from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.tools.bench.report import fmt_ratio
 from chaincart_env.tools.bench.rllib_sampling import MISSING_NOTE, rllib_available
 
 __all__ = ["cells_section", "time_cells"]

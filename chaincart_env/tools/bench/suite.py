@@ -21,8 +21,8 @@ import gymnasium as gym
 import numpy as np
 
 from chaincart_env import _core
+from chaincart_env.tools.bench.bench_report import Report
 from chaincart_env.tools.bench.context import BenchContext, BenchSettings, mujoco_available
-from chaincart_env.tools.bench.report import Report
 
 __all__ = ["SECTION_ORDER", "HAND_WRITTEN", "parse_sections", "run_suite", "performance_page", "hand_written_sections"]
 

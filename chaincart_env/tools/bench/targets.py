@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Optional
 
+from chaincart_env.tools.bench.bench_report import fmt_rate
 from chaincart_env.tools.bench.context import BenchContext
-from chaincart_env.tools.bench.report import fmt_rate
 
 __all__ = ["targets_section"]
 

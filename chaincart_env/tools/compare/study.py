@@ -29,9 +29,9 @@ from chaincart_env.tools.compare.filmstrip import write_filmstrip
 from chaincart_env.tools.compare.layout import TrainingRun, seed_directory
 from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
 from chaincart_env.tools.compare.policy_sources import PolicySource
-from chaincart_env.tools.compare.report import SUMMARY_FIGURE, seed_lines, write_report, write_summary_figure
 from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, read_evaluations, read_json_object
 from chaincart_env.tools.compare.statistics import aggregate_over_seeds
+from chaincart_env.tools.compare.study_report import SUMMARY_FIGURE, seed_lines, write_report, write_summary_figure
 from chaincart_env.tools.compare.sweeps import (
     SWEEP_AXES,
     SWEEP_COLUMNS,

@@ -248,7 +248,7 @@ def _run(
     settings: LeaderboardSettings, out: Path, report: Optional[Path], log: Callable[[str], None], distributed: bool,
     finished: Mapping[Any, dict[str, Any]],
 ) -> list[dict[str, Any]]:
-    from chaincart_env.tools.leaderboard.report import write_report
+    from chaincart_env.tools.leaderboard.leaderboard_report import write_report
 
     plan = _plan(settings, out, log)
     _train_agents(plan.training, settings, distributed, log)
