@@ -7,82 +7,30 @@ from typing import Any, Mapping, Optional, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from chaincart_env import _core
 from chaincart_env.config import ChainCartConfig, env_arguments
-from chaincart_env.errors import InvalidInputError, InvalidTypeError
-from chaincart_env.native import NativeBatchCopies
-from chaincart_env.rendering import RENDER_MODES, EnvRendering
+from chaincart_env.front_end import (
+    RESET_OPTIONS as RESET_OPTIONS,  # re-exported: a name of this module too
+    EnvOfBatch,
+    FrontEnd,
+    action_space,
+    check_seed,
+    diagnostics_info,
+    episode_info,
+    observation_space,
+    start_state_option,
+)
+from chaincart_env.rendering import RENDER_MODES
 from chaincart_env.spec import JsonSpec
 
 __all__ = ["ChainCartEnv", "observation_space", "action_space", "episode_info"]
 
 _ENDED = _core.EVENT_ENDED
-_SUCCESS = _core.EVENT_SUCCESS
-_OUT = _core.EVENT_OUT_OF_TRACK
-_FAILED = _core.EVENT_NUMERICAL_FAILURE
 
 
-def observation_space(config: ChainCartConfig) -> spaces.Box:
-    """Box of one observation: link direction components in [-1, 1] (unbounded too
-    with ``obs_noise``), the rest unbounded (``-inf``/``inf``, Gymnasium's convention;
-    observations themselves are always finite)."""
-    dtype = np.dtype(config.obs_dtype)
-    high = np.full(config.obs_dim, np.inf, dtype=dtype)
-    if not np.any(np.asarray(config.obs_noise if config.obs_noise is not None else 0.0)):
-        start, stop = config.state_layout["q"]
-        high[start:stop] = 1.0
-    high[config.state_dim :] = 1.0  # the target's signs, when observed
-    return spaces.Box(-high, high, dtype=dtype.type)
-
-
-def action_space(config: ChainCartConfig) -> spaces.Box:
-    """Box(-1, 1) of one normalised force: 2 numbers (spatial) or 1 (planar), float32."""
-    return spaces.Box(-1.0, 1.0, shape=(config.force_dim,), dtype=np.float32)
-
-
-def episode_info(events: int, e_q: float, e_w: float) -> dict[str, Any]:
-    """The info keys of an episode's last step."""
-    return {
-        "is_success": bool(events & _SUCCESS),
-        "numerical_failure": bool(events & _FAILED),
-        "out_of_track": bool(events & _OUT),
-        "e_q": float(e_q),
-        "e_w": float(e_w),
-    }
-
-
-def check_seed(seed: Any) -> int:
-    """``seed`` as an int in ``[0, 2**64)``, or a clear error naming it."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise InvalidTypeError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
-    if not 0 <= int(seed) < 2**64:
-        raise InvalidInputError(f"seed = {seed!r}: expected an integer in [0, 2**64)")
-    return int(seed)
-
-
-#: Keys ``ChainCartEnv.reset`` accepts in ``options``.
-RESET_OPTIONS = ("state",)
-
-
-def start_state_option(options: Optional[dict[str, Any]]) -> Optional[np.ndarray]:
-    """The ``state`` reset option (a full state in this scene's layout), checking that
-    ``options`` is a dict with known keys only."""
-    if options is None:
-        return None
-    if not isinstance(options, dict):
-        raise InvalidTypeError(f"options = {options!r}: expected a dict (or None)")
-    unknown = sorted(set(options) - set(RESET_OPTIONS))
-    if unknown:
-        raise InvalidInputError(f"options has unknown keys {unknown}: expected some of {list(RESET_OPTIONS)}")
-    if "state" not in options:
-        return None
-    return np.asarray(options["state"], dtype=np.float64)
-
-
-class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray]):
+class ChainCartEnv(JsonSpec, EnvOfBatch, FrontEnd, gym.Env[np.ndarray, np.ndarray]):
     """The chain pendulum on a cart (Lee, Leok & McClamroch, CDC 2012): stabilise an
     equilibrium of ``n`` links on a cart by pushing the cart.
 
@@ -222,55 +170,12 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
         render_trail: float = 0.0,
         **kwargs: Any,
     ) -> None:
-        self.config = ChainCartConfig.coerce(config, **kwargs)
-        self._rendering = EnvRendering(
-            render_mode, self.config, render_width, render_height, camera=render_camera, trail=render_trail,
-            targets=self._episode_targets if self.config.goal_conditioned else None,
-        )
-        self.render_mode = self._rendering.mode
-        self.model: _core.ChainCart = self.config.make_model()
+        self._open_batch(config, kwargs, 1, "disabled")
+        self._open_rendering(render_mode, render_width, render_height, render_camera, render_trail)
         self.observation_space = observation_space(self.config)
         self.action_space = action_space(self.config)
-        self.metadata = {**type(self).metadata, "render_fps": self._rendering.fps}
-        self._batch = self.config.make_batch(1, "disabled")
-        self._diagnostics = self.config.diagnostics
+        self.metadata = self._with_render_fps(type(self).metadata)
         self._needs_reset = True
-        self._seeded = False
-
-    @property
-    def dt(self) -> float:
-        """Control period (s): the time one step advances."""
-        return self.config.dt
-
-    def _episode_targets(self) -> np.ndarray:
-        """Each env's episode target (one row), for the renderer's ghost."""
-        return self._batch.targets()
-
-    @property
-    def episode_target(self) -> tuple[int, ...]:
-        """The target equilibrium of the current episode (goal-conditioned tasks draw
-        it at every reset; otherwise the config's target)."""
-        return tuple(int(s) for s in self._episode_targets()[0])
-
-    @property
-    def model_state(self) -> np.ndarray:
-        """The float64 state in the model's (observed) layout."""
-        return self._batch.states()[0]
-
-    @property
-    def state(self) -> np.ndarray:
-        """The full float64 state ``[x(2), xdot(2), q_i(3), w_i(3)]`` (planar states embedded)."""
-        y = self._batch.states()[0]
-        return self.model.to_spatial(y) if self.config.planar else y
-
-    @property
-    def elapsed_steps(self) -> int:
-        """Steps taken in the current episode."""
-        return int(self._batch.step_counts()[0])
-
-    def set_state(self, state: np.ndarray) -> None:
-        """Puts the env at ``state`` (model layout; checked) without ending the episode."""
-        self._batch.set_state(0, state)
 
     def reset(
         self, *, seed: Optional[int] = None, options: Optional[dict[str, Any]] = None
@@ -288,27 +193,10 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
         self._needs_reset = False
         obs = self._batch.reset_one(native_seed)
         if start is not None:
-            # Validated by the core: length, finiteness, |q_i| = 1 and w_i . q_i = 0.
-            self._batch.set_state(0, start)
-            obs = self._batch.observations()[0]
+            obs = self._start_at(0, start)
         if self.render_mode is not None:
-            self._rendering.clear_forces()
-            self._rendering.record_tips(self._batch.states)
-            if self._rendering.human_frame_due(reset=True):
-                self.render()
+            self._draw_reset()
         return obs, ({"params": self.true_params} if self.config.has_param_gap else {})
-
-    @property
-    def true_params(self) -> dict[str, Any]:
-        """The physical parameters the env really simulates in this episode
-        (``cart_mass``, ``link_masses``, ``link_lengths``, ``gravity``): the model's
-        unless ``params``, ``mismatch`` or ``randomize`` is set. ``model`` stays the
-        nominal system."""
-        return self._batch.env_params(0)
-
-    def get_true_params(self) -> dict[str, Any]:
-        """:attr:`true_params`, as a method (for ``env_method``-style access)."""
-        return self.true_params
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         """One control period under ``action`` (Gymnasium's ``step``): ``(obs, reward, terminated,
@@ -317,23 +205,17 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
             raise ResetNeeded("ChainCartEnv: call reset() before step() (and after an episode ends)")
         obs, reward, terminated, truncated, events = self._batch.step_one(action)
         if self.render_mode is not None:
-            self._rendering.record_forces(action)
-            self._rendering.record_tips(self._batch.states)
-            if self._rendering.human_frame_due():
-                self.render()
+            self._draw_step(action)
         if not (events & _ENDED or self._diagnostics):
             return obs, reward, terminated, truncated, {}
         return obs, reward, terminated, truncated, self._info(events)
 
     def _info(self, events: int) -> dict[str, Any]:
-        e_q, e_w = self._batch.errors()[0]
-        info: dict[str, Any] = {}
-        if self._diagnostics:
-            info.update(zip(_core.DIAGNOSTICS, map(float, self._batch.diagnostics()[0])))
-            info.update(e_q=float(e_q), e_w=float(e_w))
+        errors = self._batch.errors()[0]
+        info = diagnostics_info(self._batch.diagnostics()[0], errors) if self._diagnostics else {}
         if events & _ENDED:
             self._needs_reset = True
-            info.update(episode_info(events, e_q, e_w))
+            info.update(episode_info(events, errors[0], errors[1]))
         return info
 
     def render(self) -> Optional[np.ndarray]:  # type: ignore[override]
@@ -343,14 +225,11 @@ class ChainCartEnv(JsonSpec, NativeBatchCopies, gym.Env[np.ndarray, np.ndarray])
         if self.render_mode is None:
             gym.logger.warn("ChainCartEnv.render() without a render_mode: pass render_mode='rgb_array' or 'human'")
             return None
-        return self._rendering.render([self._batch.states()[0]])
+        return self._draw()
 
     def close(self) -> None:
         """Closes the human-mode window, if one is open."""
-        self._rendering.close()
-
-    def _rebuild_batch(self) -> Any:
-        return self.config.make_batch(1, "disabled")
+        self._close_window()
 
 
 # The argument list comes from the core's one definition of the configuration keys.

@@ -12,32 +12,42 @@ import numpy as np
 from gymnasium.error import ResetNeeded
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
-from chaincart_env import _core
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.env import action_space, check_seed, episode_info, observation_space, start_state_option
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.native import NativeBatchCopies, check_num_envs
-from chaincart_env.rendering import EnvRendering, check_shown_envs
-from chaincart_env.vector import entropy_seed
+from chaincart_env.front_end import (
+    BatchFrontEnd,
+    EnvOfBatch,
+    action_space,
+    check_seed,
+    diagnostics_info,
+    entropy_seed,
+    episode_info,
+    fresh_seeds,
+    observation_space,
+    start_state_option,
+)
 
 __all__ = ["ChainCartVecEnv"]
 
 
-class _EnvView:
+class _EnvView(EnvOfBatch):
     """Sub-env ``index`` as ``get_attr``, ``set_attr`` and ``env_method`` see it: its
-    own ``state``, ``model_state``, ``elapsed_steps``, ``set_state``, ``render``, the
-    attributes set on it alone, and every attribute of the VecEnv (shared by all envs)."""
+    own ``state``, ``model_state`` (both settable), ``elapsed_steps``,
+    ``episode_target``, ``true_params``, ``set_state`` (those of :class:`EnvOfBatch`),
+    ``render``, the attributes set on it alone, and every attribute of the VecEnv (shared
+    by all envs; among them the batch, config and model :class:`EnvOfBatch` reads)."""
 
     #: Attributes stored on the view itself (everything else set goes to the VecEnv).
-    _OWN = ("_vec", "_index")
+    _OWN = ("_vec", "_env_index")
 
     def __init__(self, vec: "ChainCartVecEnv", index: int) -> None:
         object.__setattr__(self, "_vec", vec)
-        object.__setattr__(self, "_index", index)
+        object.__setattr__(self, "_env_index", index)
 
+    # The states of EnvOfBatch, settable here.
     @property
     def model_state(self) -> np.ndarray:
-        return self._vec._batch.states()[self._index]
+        return super().model_state
 
     @model_state.setter
     def model_state(self, state: np.ndarray) -> None:
@@ -45,40 +55,19 @@ class _EnvView:
 
     @property
     def state(self) -> np.ndarray:
-        y = self.model_state
-        return self._vec.model.to_spatial(y) if self._vec.config.planar else y
+        return super().state
 
     @state.setter
     def state(self, state: np.ndarray) -> None:
         y = np.asarray(state, dtype=np.float64)
         self.set_state(self._vec.model.from_spatial(y) if self._vec.config.planar else y)
 
-    @property
-    def elapsed_steps(self) -> int:
-        return int(self._vec._batch.step_counts()[self._index])
-
-    @property
-    def episode_target(self) -> tuple[int, ...]:
-        """This env's target equilibrium in its current episode."""
-        return tuple(int(v) for v in self._vec._batch.targets()[self._index])
-
-    def set_state(self, state: np.ndarray) -> None:
-        self._vec._batch.set_state(self._index, state)
-
-    @property
-    def true_params(self) -> dict[str, Any]:
-        """This env's true physical parameters in its current episode."""
-        return self._vec._batch.env_params(self._index)
-
-    def get_true_params(self) -> dict[str, Any]:
-        return self.true_params
-
     def get_wrapper_attr(self, name: str) -> Any:
         return getattr(self, name)
 
     def set_wrapper_attr(self, name: str, value: Any, *, force: bool = True) -> bool:
         """Sets ``name`` on this env alone, as ``set_attr`` with its index does."""
-        self._vec.set_attr(name, value, indices=[self._index])
+        self._vec.set_attr(name, value, indices=[self._env_index])
         return True
 
     def render(self) -> Optional[np.ndarray]:
@@ -86,7 +75,7 @@ class _EnvView:
         vec = self._vec
         if vec.render_mode is None:
             return None
-        return vec._rendering.frames([vec._batch.states()[self._index]], first=self._index)[0]
+        return vec._rendering.frames([vec._batch.states()[self._env_index]], first=self._env_index)[0]
 
     def __getattr__(self, name: str) -> Any:
         # Not the view's own: shared by all envs of the batch. (Special and own names
@@ -100,7 +89,7 @@ class _EnvView:
         object.__setattr__(self, name, value)
 
 
-class ChainCartVecEnv(NativeBatchCopies, VecEnv):
+class ChainCartVecEnv(BatchFrontEnd, VecEnv):
     """``num_envs`` chaincart envs as one stable-baselines3 ``VecEnv`` (for SB3's
     algorithms; :class:`chaincart_env.ChainCartVectorEnv` is the Gymnasium one).
 
@@ -147,47 +136,14 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         render_trail: float = 0.0,
         **kwargs: Any,
     ) -> None:
-        num_envs = check_num_envs(num_envs)
-        self.config = ChainCartConfig.coerce(config, **kwargs)
-        self.model: _core.ChainCart = self.config.make_model()
-        # First: the core refuses a num_envs too large to allocate before anything is.
-        self._batch = self.config.make_batch(num_envs, "same_step", entropy_seed())
-        self._rendering = EnvRendering(
-            render_mode,
-            self.config,
-            render_width,
-            render_height,
-            shown=check_shown_envs(render_envs, num_envs),
-            tiled=True,
-            tracked=num_envs,
-            camera=render_camera,
-            trail=render_trail,
-            targets=self._episode_targets if self.config.goal_conditioned else None,
-        )
-        self.render_mode: Optional[str] = self._rendering.mode
-        self._diagnostics = self.config.diagnostics
+        self._open_batch(config, kwargs, num_envs, "same_step", entropy_seed())
+        self._open_tiled_rendering(render_mode, render_width, render_height, render_envs, render_camera, render_trail)
         self._actions: Optional[np.ndarray] = None
-        self._seeded = False
-        self._views = [_EnvView(self, i) for i in range(num_envs)]
-        super().__init__(num_envs, observation_space(self.config), action_space(self.config))
-        self.metadata["render_fps"] = self._rendering.fps  # type: ignore[assignment]  # SB3 types it as lists
+        self._views = [_EnvView(self, i) for i in range(self._batch_size)]
+        super().__init__(self._batch_size, observation_space(self.config), action_space(self.config))
+        self.metadata = self._with_render_fps(self.metadata)  # type: ignore[assignment]  # SB3 types it as lists
         if seed is not None:
             self.seed(seed)
-
-    @property
-    def dt(self) -> float:
-        """Control period (s)."""
-        return self.config.dt
-
-    def _episode_targets(self) -> np.ndarray:
-        """Each env's episode target (one row per env), for the renderer's ghosts."""
-        return self._batch.targets()
-
-    @property
-    def episode_targets(self) -> np.ndarray:
-        """Each env's target signs for its current episode, shape ``(num_envs,
-        n_links)`` (goal-conditioned tasks draw them at every reset)."""
-        return self._episode_targets()
 
     def seed(self, seed: Optional[int] = None) -> Sequence[Optional[int]]:
         """Seeds of the next ``reset`` (SB3's ``seed``): env i gets ``seed + i``."""
@@ -201,19 +157,14 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         seeds: list[Optional[int]] = [None if s is None else check_seed(s) for s in self._seeds]
         starts = [start_state_option(options or None) for options in self._options]
         if not self._seeded and all(s is None for s in seeds):
-            base = entropy_seed()
-            seeds = [base + i for i in range(self.num_envs)]
+            seeds = fresh_seeds(self.num_envs)
         self._seeded = True
         obs = self._batch.reset(seeds, None)
         for i, start in enumerate(starts):
-            if start is not None:  # validated by the core, as in ChainCartEnv.reset
-                self._batch.set_state(i, start)
-                obs[i] = self._batch.observations()[i]
+            if start is not None:
+                obs[i] = self._start_at(i, start)
         if self.render_mode is not None:
-            self._rendering.clear_forces()
-            self._rendering.record_tips(self._batch.states)
-            if self._rendering.human_frame_due(reset=True):
-                self.render()
+            self._draw_reset()
         self.reset_infos = [{} for _ in range(self.num_envs)]
         if self.config.has_param_gap:
             for i, info in enumerate(self.reset_infos):
@@ -238,10 +189,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
         dones = terminated | truncated
         if self.render_mode is not None:
-            self._rendering.record_forces(actions, fresh=dones)  # done envs show their new start
-            self._rendering.record_tips(self._batch.states, fresh=dones)
-            if self._rendering.human_frame_due():
-                self.render()
+            self._draw_step(actions, fresh=dones)  # done envs show their new start
         # As DummyVecEnv: TimeLimit.truncated in every info.
         infos: list[dict[str, Any]] = [
             {"TimeLimit.truncated": bool(tr and not te)} for te, tr in zip(terminated, truncated)
@@ -249,8 +197,7 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         if self._diagnostics:
             diag, errors = self._batch.diagnostics(), self._batch.errors()
             for k, info in enumerate(infos):
-                info.update(zip(_core.DIAGNOSTICS, map(float, diag[k])))
-                info.update(e_q=float(errors[k, 0]), e_w=float(errors[k, 1]))
+                info.update(diagnostics_info(diag[k], errors[k]))
         if n_ended:
             events, errors = self._batch.events(), self._batch.errors()
             finals = self._batch.final_observations()
@@ -317,18 +264,15 @@ class ChainCartVecEnv(NativeBatchCopies, VecEnv):
         """Every env's frame (``None`` each without a render mode)."""
         if self.render_mode is None:
             return [None for _ in range(self.num_envs)]
-        return self._rendering.frames(self._batch.states())
+        return self._frames()
 
     def render(self, mode: Optional[str] = None) -> Optional[np.ndarray]:
         """The first ``render_envs`` envs tiled (``rgb_array``) or shown (``human``);
         another ``mode`` than the constructor's goes to SB3's ``VecEnv.render``."""
         if self.render_mode is None or (mode is not None and mode != self.render_mode):
             return super().render(mode)
-        return self._rendering.render(self._batch.states()[: self._rendering.shown])
+        return self._draw()
 
     def close(self) -> None:
         """Closes the human-mode window, if one is open."""
-        self._rendering.close()
-
-    def _rebuild_batch(self) -> Any:
-        return self.config.make_batch(self.num_envs, "same_step")
+        self._close_window()

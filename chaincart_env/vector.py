@@ -17,10 +17,16 @@ from gymnasium.vector.utils import batch_space
 
 from chaincart_env import _core
 from chaincart_env.config import REGISTERED_EPISODE_STEPS, ChainCartConfig
-from chaincart_env.env import action_space, check_seed, observation_space
 from chaincart_env.errors import InvalidInputError, InvalidTypeError
-from chaincart_env.native import NativeBatchCopies, check_num_envs
-from chaincart_env.rendering import VECTOR_RENDER_MODES, EnvRendering, check_shown_envs
+from chaincart_env.front_end import (
+    BatchFrontEnd,
+    action_space,
+    check_seed,
+    entropy_seed,
+    fresh_seeds,
+    observation_space,
+)
+from chaincart_env.rendering import VECTOR_RENDER_MODES
 from chaincart_env.spec import JsonSpec
 
 __all__ = ["ChainCartVectorEnv", "autoreset_mode_of"]
@@ -48,11 +54,6 @@ def autoreset_mode_of(mode: Union[AutoresetMode, str]) -> AutoresetMode:
     )
 
 
-def entropy_seed() -> int:
-    """A fresh 63-bit seed from the OS entropy pool."""
-    return int(np.random.SeedSequence().generate_state(1, np.uint64)[0] >> np.uint64(1))
-
-
 def episode_infos(batch: _core.EnvBatch) -> tuple[np.ndarray, dict[str, Any]]:
     """The envs whose episode ended on the last step and their batched episode-end info
     (Gymnasium's ``key`` / ``_key`` layout; the masks are one shared array)."""
@@ -75,7 +76,7 @@ def _scene_length_kept(kwargs: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in kwargs.items() if k != "max_episode_steps"}
 
 
-class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
+class ChainCartVectorEnv(JsonSpec, BatchFrontEnd, VectorEnv):
     """``num_envs`` copies of :class:`chaincart_env.ChainCartEnv` stepped together in
     Rust, as one Gymnasium ``VectorEnv`` (:class:`chaincart_env.ChainCartVecEnv` is the
     stable-baselines3 one, on the same native batch). Arguments as for the single env (a config and/or its keywords) plus
@@ -147,55 +148,21 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         render_trail: float = 0.0,
         **kwargs: Any,
     ) -> None:
-        self.num_envs = check_num_envs(num_envs)
-        self.config = ChainCartConfig.coerce(config, **_scene_length_kept(kwargs))
-        self.model: _core.ChainCart = self.config.make_model()
         self.autoreset_mode = autoreset_mode_of(autoreset_mode)
-        # First: the core refuses a num_envs too large to allocate before anything is.
-        self._batch = self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode], entropy_seed())
-        self._rendering = EnvRendering(
-            render_mode,
-            self.config,
-            render_width,
-            render_height,
-            shown=check_shown_envs(render_envs, self.num_envs),
-            tiled=True,
-            tracked=self.num_envs,
-            modes=VECTOR_RENDER_MODES,
-            camera=render_camera,
-            trail=render_trail,
-            targets=self._episode_targets if self.config.goal_conditioned else None,
+        native_mode = _NATIVE_MODE[self.autoreset_mode]
+        self._open_batch(config, _scene_length_kept(kwargs), num_envs, native_mode, entropy_seed())
+        self.num_envs = self._batch_size
+        self._open_tiled_rendering(
+            render_mode, render_width, render_height, render_envs, render_camera, render_trail, VECTOR_RENDER_MODES
         )
-        self.render_mode = self._rendering.mode
         # rgb_array_list: per step, the tuple of every env's frame
         self._frame_history: list[tuple[np.ndarray, ...]] = []
-        self.metadata = {
-            **type(self).metadata,
-            "autoreset_mode": self.autoreset_mode,
-            "render_fps": self._rendering.fps,
-        }
+        self.metadata = {**self._with_render_fps(type(self).metadata), "autoreset_mode": self.autoreset_mode}
         self.single_observation_space = observation_space(self.config)
         self.single_action_space = action_space(self.config)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._diagnostics = self.config.diagnostics
         self._same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
-        self._seeded = False
-
-    @property
-    def dt(self) -> float:
-        """Control period (s)."""
-        return self.config.dt
-
-    def _episode_targets(self) -> np.ndarray:
-        """Each env's episode target (one row per env), for the renderer's ghosts."""
-        return self._batch.targets()
-
-    @property
-    def episode_targets(self) -> np.ndarray:
-        """Each env's target signs for its current episode, shape ``(num_envs,
-        n_links)`` (goal-conditioned tasks draw them at every reset)."""
-        return self._episode_targets()
 
     @property
     def model_states(self) -> np.ndarray:
@@ -229,11 +196,7 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
             super().reset(seed=base)
             seeds: list[Optional[int]] = [(base + i) % 2**64 for i in range(self.num_envs)]
         elif seed is None:
-            if self._seeded:
-                seeds = [None] * self.num_envs
-            else:
-                base = entropy_seed()
-                seeds = [base + i for i in range(self.num_envs)]
+            seeds = [None] * self.num_envs if self._seeded else fresh_seeds(self.num_envs)
         elif isinstance(seed, Sequence) and not isinstance(seed, str):
             if len(seed) != self.num_envs:
                 raise InvalidInputError(f"seed has {len(seed)} entries, expected num_envs = {self.num_envs}")
@@ -261,10 +224,8 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         self._seeded = True
         obs = self._batch.reset(seeds, mask)
         if self.render_mode is not None:
-            self._rendering.clear_forces(mask)
-            self._rendering.record_tips(self._batch.states)
             self._frame_history.clear()
-            self._after_transition(reset=True)
+            self._draw_reset(mask)
         info: dict[str, Any] = {}
         if self.config.has_param_gap:
             info["params"] = self.true_params
@@ -287,27 +248,27 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
             raise ResetNeeded("ChainCartVectorEnv: call reset() before step()")
         obs, rewards, terminated, truncated, n_ended = self._batch.step(actions)
         if self.render_mode is not None:
-            self._record_forces(actions)
+            self._draw_step(actions, self._fresh_envs())
         if n_ended == 0 and not self._diagnostics:
             return obs, rewards, terminated, truncated, {}
         return obs, rewards, terminated, truncated, self._infos(n_ended)
 
-    def _record_forces(self, actions: np.ndarray) -> None:
-        # An env reset by this step (next-step autoreset: its action was ignored;
-        # same-step: it shows its new start) is drawn without a force.
+    def _fresh_envs(self) -> np.ndarray:
+        """The envs reset by the last step, drawn without a force: with next-step
+        autoreset their action was ignored; with same-step they show their new start."""
         events = self._batch.events()
         fresh = (events & _core.EVENT_RESET) != 0
         if self._same_step:
             fresh |= (events & _core.EVENT_ENDED) != 0
-        self._rendering.record_forces(actions, fresh)
-        self._rendering.record_tips(self._batch.states, fresh)
-        self._after_transition()
+        return fresh
 
-    def _after_transition(self, reset: bool = False) -> None:
+    def _show_frame(self, reset: bool = False) -> None:
+        """``rgb_array_list``: every env's frame kept for ``render()``; otherwise as for
+        every front end (human mode: the window's frame when due)."""
         if self.render_mode == "rgb_array_list":
-            self._frame_history.append(self._frames())
-        elif self._rendering.human_frame_due(reset=reset):
-            self._rendering.render(self._batch.states())
+            self._frame_history.append(tuple(self._frames()))
+        else:
+            super()._show_frame(reset)
 
     def _infos(self, n_ended: int) -> dict[str, Any]:
         info: dict[str, Any] = {}
@@ -356,12 +317,12 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         last call; ``human``: shows the tiled first ``render_envs`` envs (also done by
         every ``reset`` and ``step``) and returns ``None``. No render mode: ``None``."""
         if self.render_mode == "rgb_array":
-            return self._frames()
+            return tuple(self._frames())
         if self.render_mode == "rgb_array_list":
             history, self._frame_history = self._frame_history, []
             return tuple([frames[i] for frames in history] for i in range(self.num_envs))
         if self.render_mode == "human":
-            self._rendering.render(self._batch.states())
+            self._draw()
         return None
 
     def render_tiled(self) -> np.ndarray:
@@ -369,14 +330,6 @@ class ChainCartVectorEnv(JsonSpec, NativeBatchCopies, VectorEnv):
         image (the picture human mode shows), in any render mode."""
         return self._rendering.image(self._batch.states())
 
-    def _frames(self) -> tuple[np.ndarray, ...]:
-        return tuple(self._rendering.frames(self._batch.states()))
-
     def close_extras(self, **kwargs: Any) -> None:
         """Closes the human-mode window, if one is open (Gymnasium's ``close_extras``)."""
-        rendering = getattr(self, "_rendering", None)  # None: the constructor failed
-        if rendering is not None:
-            rendering.close()
-
-    def _rebuild_batch(self) -> Any:
-        return self.config.make_batch(self.num_envs, _NATIVE_MODE[self.autoreset_mode])
+        self._close_window()
