@@ -76,8 +76,9 @@ def test_a_bad_recipe_is_refused_with_its_place_and_value(entry, message):
 @pytest.mark.parametrize("env_id", ["ChainCart-inverted-2-v0", "ChainCart-swingup-2-robust-v0", "ChainCart-swingup-3-v0"])
 def test_the_zoo_trains_a_packaged_recipe(env_id: str, tmp_path: pathlib.Path):
     # swingup-3's recipe normalises observations: the zoo builds its VecNormalize from
-    # the same entry that compare reads. swingup-2's keywords (a decaying learning rate)
-    # run in the zoo too, without compare's plan starts and training reward.
+    # the same entry that compare reads. The robust swing-up's entry trains in the zoo on
+    # its own registered variant (parameters, noise and delay drawn per episode), without
+    # compare's nominal first stage, plan starts and training reward.
     hyperparams = pathlib.Path(str(hyperparameter_file("ppo")))
     command = [
         sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", env_id,

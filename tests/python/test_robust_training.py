@@ -61,7 +61,7 @@ def test_only_the_robust_controller_has_training_conditions():
 
 def test_the_robust_recipe_is_its_own_entry_with_history_or_else_the_scenes():
     robust = recipe_for("swingup-2", "ppo-robust")
-    assert robust.source == "ppo.yml: ChainCart-swingup-2-robust-v0" and robust.history == 2
+    assert robust.source == "ppo.yml: ChainCart-swingup-2-robust-v0"
     assert recipe_for("swingup-2", "ppo").history is None
     assert recipe_for("inverted-1", "ppo-robust") is GENERIC  # no entry for the variant nor the scene
     assert recipe_for("spatial-inverted-2", "ppo-robust") is recipe_for("spatial-inverted-2", "ppo")
@@ -85,26 +85,49 @@ TINY = [
 ]  # fmt: skip
 
 
-def test_a_robust_run_trains_on_the_draws_and_is_evaluated_on_the_scene(tmp_path: pathlib.Path, monkeypatch):
+def _record_training_configs(monkeypatch) -> list:
     from chaincart_env.tools.compare import training
-    from chaincart_env.tools.compare.policy_sources import load_run
 
-    trained_on = []
+    trained_on: list = []
     new_agent = training._new_agent
     monkeypatch.setattr(training, "_new_agent", lambda algo, config, *rest: (trained_on.append(config),
                                                                              new_agent(algo, config, *rest))[1])
+    return trained_on
+
+
+def test_a_robust_run_fine_tunes_the_nominal_agent_on_the_draws_and_is_evaluated_on_the_scene(
+    tmp_path: pathlib.Path, monkeypatch
+):
+    from chaincart_env.tools.compare.policy_sources import load_run
+
+    trained_on = _record_training_configs(monkeypatch)
     out = tmp_path / "run"
-    assert main(["compare", *TINY, "--policies", "ppo-robust,ppo", "--history", "2", "--out", str(out)]) == 0
+    assert main(["compare", *TINY, "--policies", "ppo,ppo-robust", "--history", "2", "--out", str(out)]) == 0
     run = json.loads((out / "run.json").read_text())
     scene = ChainCartConfig(scene="inverted-1", max_episode_steps=40)
-    assert run["settings"]["training"]["ppo-robust"]["conditions"] == training_conditions("ppo-robust")
+    robust = run["settings"]["training"]["ppo-robust"]
+    assert robust["conditions"] == training_conditions("ppo-robust") and robust["first_stage"]["conditions"] is None
+    assert robust["first_stage"]["algo"] == "ppo" and robust["first_stage"]["history"] == 2
     assert run["settings"]["training"]["ppo"]["conditions"] is None
-    # ppo-robust trains first (the order of --policies): on the draws; plain PPO on the scene.
-    assert trained_on == [robust_config(scene), scene]
+    # PPO trains on the scene; ppo-robust starts from that agent (no second nominal stage) and trains on the draws.
+    assert trained_on == [scene, robust_config(scene)]
+    assert run["seed_runs"]["ppo-robust/0"]["warm_start_from"] == str(out / "ppo" / "seed-0")
     saved = load_run(out / "ppo-robust" / "seed-0")
     assert saved.config == scene  # evaluated on the scene
     rows = (out / "comparison.csv").read_text()
     assert "\nPPO robust (seed 0)," in rows and "\nPPO (seed 0)," in rows
+
+
+def test_a_robust_run_alone_trains_its_own_nominal_stage_first(tmp_path: pathlib.Path, monkeypatch):
+    trained_on = _record_training_configs(monkeypatch)
+    out = tmp_path / "run"
+    assert main(["compare", *TINY, "--policies", "ppo-robust", "--out", str(out)]) == 0
+    scene = ChainCartConfig(scene="inverted-1", max_episode_steps=40)
+    assert trained_on == [scene, robust_config(scene)]
+    stage = out / "seed-0" / "nominal-stage"
+    assert (stage / "stage-finished").is_file() and (stage / "best_model.zip").is_file()
+    run = json.loads((out / "run.json").read_text())
+    assert run["seed_runs"]["0"]["warm_start_from"] == str(stage)
 
 
 def test_robust_training_with_rllib_is_refused(tmp_path: pathlib.Path, capsys):

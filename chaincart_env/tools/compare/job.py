@@ -53,7 +53,7 @@ from chaincart_env.tools.compare.study import (
 )  # fmt: skip
 from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
 from chaincart_env.tools.compare.tables import write_csv
-from chaincart_env.tools.controllers import LEARNED, parse_controllers
+from chaincart_env.tools.controllers import CONTROLLERS, LEARNED, parse_controllers
 
 __all__ = [
     "DEFAULT_POLICIES", "DEFAULT_SWEEPS", "EVALUATION_FILES", "OUTPUT_FILES", "SEED_FILES", "TRAINERS", "SeedCell",
@@ -181,27 +181,18 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
     if settings["trainer"] == "rllib":
         result, trained = _train_rllib(config, directory, seed, settings, resume)
     else:
-        from chaincart_env.tools.compare.training import train
+        warm_start_from = training.get("warm_start")
+        stage = training.get("first_stage")
+        if stage is not None:
+            from chaincart_env.tools.compare.stages import first_stage
 
-        eval_starts = list(range(settings["eval_seed"], settings["eval_seed"] + settings["eval_starts"]))
-        print(f"training {policy_label(algo)} for {timesteps} timesteps on {training['num_envs']} envs, seed {seed} -> "
-              f"{directory}")
-        result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=training["num_envs"],
-                       directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
-                       checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
-                       hyperparameters=training["hyperparameters"], resume=resume,
-                       normalize=training.get("normalize"), imitation=_imitation(training),
-                       curriculum=_curriculum(training), training_reward=training.get("training_reward"),
-                       history=training.get("history"), conditions=training.get("conditions"),
-                       off_track_penalty=training.get("off_track_penalty", 0.0),
-                       warm_start_from=training.get("warm_start"))
-        trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
-                       resumed_from=result.resumed_from, evaluations=result.evaluations,
-                       normalize=training.get("normalize"), imitation=result.imitation,
-                       curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
-                       history=training.get("history"), conditions=training.get("conditions"),
-                       off_track_penalty=training.get("off_track_penalty", 0.0),
-                       warm_start_from=training.get("warm_start"))
+            base = TrainingRun(stage["algo"], seed, run.shared)
+            reusable = base.directory(out) if stage["algo"] in settings.learned() else None
+            warm_start_from = str(first_stage(
+                directory, lambda folder: _train_sb3(config, folder, stage["algo"], seed, stage, settings, resume),
+                existing=reusable,
+            ))
+        result, trained = _train_sb3(config, directory, algo, seed, training, settings, resume, warm_start_from)
     print(f"{policy_label(algo)} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
     info = dict(trainer=settings["trainer"], algo=algo, timesteps=timesteps, seed=seed,
                 eval_seed=settings["eval_seed"], eval_episodes=settings["eval_episodes"],
@@ -212,6 +203,36 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
     curve = learning_curve(read_training_episodes(directory / "training_episodes.csv"), info["timesteps_trained"])
     write_csv(directory / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
     return info
+
+
+def _train_sb3(
+    config: ChainCartConfig, directory: Path, algo: str, seed: int, training: Mapping[str, Any],
+    settings: StudySettings, resume: bool, warm_start_from: Optional[str] = None,
+) -> tuple[Any, dict[str, Any]]:
+    """Trains ``algo`` with stable-baselines3 as ``training`` says into ``directory``
+    (from the agent at ``warm_start_from`` if given); the result and its record."""
+    from chaincart_env.tools.compare.training import train
+
+    timesteps = training["timesteps"]
+    eval_starts = list(range(settings["eval_seed"], settings["eval_seed"] + settings["eval_starts"]))
+    print(f"training {policy_label(algo)} for {timesteps} timesteps on {training['num_envs']} envs, seed {seed} -> "
+          f"{directory}")
+    result = train(config, algo=algo, timesteps=timesteps, seed=seed, num_envs=training["num_envs"],
+                   directory=directory, eval_seeds=eval_starts, eval_every=settings["eval_every"],
+                   checkpoint_every=settings["checkpoint_every"], progress_bar=settings["progress_bar"],
+                   hyperparameters=training["hyperparameters"], resume=resume,
+                   normalize=training.get("normalize"), imitation=_imitation(training),
+                   curriculum=_curriculum(training), training_reward=training.get("training_reward"),
+                   history=training.get("history"), conditions=training.get("conditions"),
+                   off_track_penalty=training.get("off_track_penalty", 0.0),
+                   warm_start_from=None if warm_start_from is None else Path(warm_start_from))
+    trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
+                   resumed_from=result.resumed_from, evaluations=result.evaluations,
+                   normalize=training.get("normalize"), imitation=result.imitation,
+                   curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
+                   history=training.get("history"), conditions=training.get("conditions"),
+                   off_track_penalty=training.get("off_track_penalty", 0.0), warm_start_from=warm_start_from)
+    return result, trained
 
 
 def _imitation(training: Mapping[str, Any]) -> Any:
@@ -451,7 +472,10 @@ def _training_settings(
         from chaincart_env.tools.compare.warm_start import agent_file
 
         warm_start_from = agent_file(Path(warm_start_from)).resolve()  # a missing agent fails before training
-    for algo in learned:
+    if history is not None and trainer != "sb3" and learned:
+        raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
+
+    def one(algo: str) -> dict[str, Any]:
         conditions = training_conditions(algo)
         if conditions is not None and trainer != "sb3":
             raise InvalidInputError(f"{algo} with --trainer {trainer}: expected the sb3 trainer")
@@ -461,21 +485,22 @@ def _training_settings(
             from chaincart_env.tools.compare.training import check_keywords
 
             check_keywords(algo, keywords)
-        out[algo] = dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
-                         num_envs=recipe.num_envs if num_envs is None else num_envs,
-                         hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize)
-        if history is not None and trainer != "sb3":
-            raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
         seen = recipe.history if history is None else history
         # The imitation's planner data has plain observations: an agent with history starts afresh.
         warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" and not seen else None
-        out[algo]["imitation"] = None if warm_start is None else warm_start.record()
-        out[algo]["curriculum"] = chosen_curriculum
-        out[algo]["training_reward"] = training_reward
-        out[algo]["history"] = seen
-        out[algo]["conditions"] = conditions
-        out[algo]["off_track_penalty"] = off_track_penalty
-        out[algo]["warm_start"] = None if warm_start_from is None else str(warm_start_from)
+        return dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
+                    num_envs=recipe.num_envs if num_envs is None else num_envs,
+                    hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
+                    imitation=None if warm_start is None else warm_start.record(), curriculum=chosen_curriculum,
+                    training_reward=training_reward, history=seen, conditions=conditions,
+                    off_track_penalty=off_track_penalty,
+                    warm_start=None if warm_start_from is None else str(warm_start_from))
+
+    for algo in learned:
+        out[algo] = one(algo)
+        base = CONTROLLERS[algo].recipe_algorithm
+        if base != algo and warm_start_from is None:  # a variant: its algorithm's nominal agent first
+            out[algo]["first_stage"] = {**one(base), "algo": base}
     return out
 
 

@@ -67,6 +67,15 @@ def train_agent(
     from chaincart_env.tools.controllers import CONTROLLERS
 
     directory = Path(directory)
+    base = CONTROLLERS[name].recipe_algorithm
+    warm_start_from = None
+    if base != name:  # a variant (ppo-robust): the algorithm's nominal agent of this seed first, then fine-tuned
+        from chaincart_env.tools.compare.stages import first_stage
+
+        # The leaderboard's own agent of that algorithm and seed (agents/<scene>/<algo>/seed-<s>), where trained.
+        nominal = directory.parents[1] / base / directory.name
+        warm_start_from = first_stage(directory, lambda folder: train_agent(
+            base, config, seed, folder, timesteps=timesteps, progress_bar=progress_bar, tiny=tiny), existing=nominal)
     recipe = recipe_for(config.scene, name)
     budget = recipe.timesteps if timesteps is None else timesteps
     num_envs, hyperparameters = recipe.num_envs, dict(recipe.hyperparameters)
@@ -82,6 +91,7 @@ def train_agent(
         curriculum=None if tiny else scene_curriculum(config.scene),
         training_reward=scene_training_reward(config.scene), history=recipe.history,
         conditions=training_conditions(name), off_track_penalty=scene_off_track_penalty(config.scene),
+        warm_start_from=warm_start_from,
     )
     copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)
 
