@@ -184,6 +184,14 @@ class ChainCartConfig:
     force_rate_limit: Optional[float] = _UNSET
     force_noise: Optional[dict[str, float]] = _UNSET
     render_view: Optional[str] = _UNSET
+    joint_damping: Floats = _UNSET
+    cart_viscous_friction: float = _UNSET
+    cart_coulomb_friction: float = _UNSET
+    coulomb_velocity: float = _UNSET
+    actuation: str = _UNSET
+    max_acceleration: float = _UNSET
+    max_voltage: float = _UNSET
+    motor: tuple[float, float, float, float, float] = _UNSET
     _resolved: _core.ResolvedConfig = field(default=_UNSET, init=False, repr=False, compare=False)
 
     def __new__(cls, *args: Any, **kwargs: Any) -> "ChainCartConfig":
@@ -278,6 +286,26 @@ class ChainCartConfig:
     def has_reality_gap(self) -> bool:
         """The true system or its sensing/actuation differs from the nominal model."""
         return any(getattr(self, name) != default for name, default, _ in REALITY_KEYS)
+
+    @property
+    def has_rig_effects(self) -> bool:
+        """The true system has joint damping, cart friction or an actuation other than
+        force (its envs then step one by one, in f64)."""
+        damping = self.joint_damping if isinstance(self.joint_damping, tuple) else (self.joint_damping,)
+        return (
+            any(c != 0.0 for c in damping)
+            or self.cart_viscous_friction != 0.0
+            or self.cart_coulomb_friction != 0.0
+            or self.actuation != "force"
+        )
+
+    @property
+    def command_scale(self) -> float:
+        """What an action of magnitude 1 commands per cart axis in this config's
+        actuation: ``max_force`` (N), ``max_acceleration`` (m/s^2) or ``max_voltage`` (V)."""
+        return {"force": self.max_force, "acceleration": self.max_acceleration, "voltage": self.max_voltage}[
+            self.actuation
+        ]
 
     @property
     def has_param_gap(self) -> bool:
