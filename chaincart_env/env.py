@@ -48,7 +48,9 @@ class ChainCartEnv(JsonSpec, EnvOfBatch, FrontEnd, gym.Env[np.ndarray, np.ndarra
     ## Action Space
 
     ``Box(-1, 1, (2,), float32)`` (planar: ``(1,)``): the horizontal force on the cart
-    divided by ``max_force``, held for one control period ``dt``. Values outside
+    divided by ``max_force``, held for one control period ``dt`` (with ``actuation``
+    ``"acceleration"`` or ``"voltage"``: the cart's acceleration divided by
+    ``max_acceleration``, or the motor's voltage divided by ``max_voltage``). Values outside
     ``[-1, 1]`` are clipped per axis; NaN or infinite actions raise
     :class:`ChainCartError`. With ``max_force = 0`` (scene ``paper-fig1``) every
     action is ignored.

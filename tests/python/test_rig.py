@@ -169,3 +169,19 @@ def test_the_command_line_takes_the_rig_keywords() -> None:
     c = config_from_options(args)
     assert c.joint_damping == (0.1, 0.2) and c.actuation == "voltage"
     assert c.motor[1] == 1.0 and c.cart_coulomb_friction == 0.5
+
+
+@pytest.mark.parametrize("cls", [ChainCartEnv, ChainCartVectorEnv])
+def test_copies_mid_episode_continue_identically(cls: type) -> None:
+    import copy
+
+    keywords = dict(RIG, actuation="voltage")
+    env = cls(**keywords) if cls is ChainCartEnv else cls(3, **keywords)
+    n = 1 if cls is ChainCartEnv else 3
+    env.reset(seed=9)
+    for step in range(7):
+        env.step(actions(step, n)[0] if n == 1 else actions(step, n))
+    twin = copy.deepcopy(env)
+    for step in range(7, 20):
+        a = actions(step, n)[0] if n == 1 else actions(step, n)
+        np.testing.assert_array_equal(env.step(a)[0], twin.step(a)[0])
