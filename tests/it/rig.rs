@@ -161,6 +161,78 @@ fn acceleration_mode_is_force_mode_under_the_force_that_produces_it() {
 }
 
 #[test]
+fn a_servo_run_is_a_force_run_under_the_dense_forces_it_needs() {
+    // Along a whole run: the servo's motion against force mode whose force, held over
+    // each small step, is the dense form's force for the commanded acceleration at the
+    // step's start (first order in the step: the force varies within it).
+    let n = 3;
+    let params = ChainParams::new(0.6, &[0.2, 0.1, 0.15], &[0.3, 0.4, 0.2], 9.81).unwrap();
+    let damping = vec![0.02, 0.01, 0.03];
+    let servo = Chain::<Spatial>::new(params.clone())
+        .with_rig(Rig {
+            joint_damping: damping.clone(),
+            actuation: Actuation::Acceleration,
+            ..Rig::default()
+        })
+        .unwrap();
+    let pushed = Chain::<Spatial>::new(params.clone())
+        .with_rig(damped(damping.clone()))
+        .unwrap();
+    let mut rng = rng(13);
+    let y0 = random_spatial_state(&mut rng, n, 2.0);
+    let accel = |t: f64| Vector2::new(3.0 * (4.0 * t).sin(), -2.0 * (3.0 * t).cos());
+    let opts = StepOptions::new(Method::Rk4, 1).unwrap();
+    let run = |h: f64| {
+        let (mut ys, mut yf) = (y0.clone(), y0.clone());
+        let (mut ss, mut sf) = (Stepper::new(&servo), Stepper::new(&pushed));
+        let steps = (0.5 / h).round() as usize;
+        for k in 0..steps {
+            let a = accel(k as f64 * h);
+            let u = dense_force_for_acceleration(&params, &yf, &damping, a);
+            ss.step(&servo, &mut ys, a, h, &opts).unwrap();
+            sf.step(&pushed, &mut yf, u, h, &opts).unwrap();
+        }
+        max_abs_diff(&ys, &yf) / max_abs(&ys)
+    };
+    let (coarse, fine) = (run(1e-3), run(2.5e-4));
+    eprintln!("servo vs dense-force run after 0.5 s: {coarse:.2e} at 1 ms, {fine:.2e} at 0.25 ms");
+    // First-order convergence to the same motion.
+    assert!(fine < 2e-3 && coarse / fine > 3.0, "{coarse:e} {fine:e}");
+}
+
+#[test]
+fn every_integrator_but_the_variational_one_steps_a_rig() {
+    let params = ChainParams::new(0.8, &[0.2, 0.15, 0.1], &[0.4, 0.3, 0.25], 9.81).unwrap();
+    let chain = Chain::<Spatial>::new(params)
+        .with_rig(full_rig(3, Actuation::Voltage(motor())))
+        .unwrap();
+    let mut rng = rng(17);
+    let y0 = random_spatial_state(&mut rng, 3, 2.0);
+    let run = |method: Method, substeps: usize| {
+        let mut y = y0.clone();
+        let mut opts = StepOptions::new(method, substeps).unwrap();
+        opts.tolerance = 1e-11;
+        let mut stepper = Stepper::new(&chain);
+        for k in 0..50 {
+            let volts = Vector2::new(8.0 * (0.3 * k as f64).sin(), 5.0);
+            stepper.step(&chain, &mut y, volts, 0.02, &opts).unwrap();
+        }
+        y
+    };
+    let reference = run(Method::Rk4, 200);
+    for (method, substeps, bound) in [
+        (Method::Rk4, 20, 1e-7),
+        (Method::Rkmk4, 20, 1e-7),
+        (Method::Adaptive, 1, 1e-7),
+        (Method::LieEuler, 200, 1e-1),
+    ] {
+        let error = max_abs_diff(&run(method, substeps), &reference);
+        eprintln!("{}: {error:.2e} after 1 s", method.name());
+        assert!(error < bound, "{}: {error:e}", method.name());
+    }
+}
+
+#[test]
 fn the_planar_rig_is_the_spatial_rig_in_the_plane() {
     let mut rng = rng(31);
     let n = 3;
