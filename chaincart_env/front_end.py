@@ -5,8 +5,8 @@ env classes share, each keeping its framework's API and base class.
   :class:`~chaincart_env.ChainCartVectorEnv`, :class:`~chaincart_env.ChainCartVecEnv`):
   the configuration resolved from a config and/or its keywords, the model, the native
   batch built from it, the rendering helpers, ``dt``, pickling and deepcopy.
-* :class:`BatchFrontEnd` (the two vector envs): tiled rendering of the first envs,
-  ``episode_targets`` and the seeds of a first reset.
+* :class:`BatchFrontEnd` (the two vector envs): tiled rendering of the first envs and
+  ``episode_targets``.
 * :class:`EnvOfBatch` (``ChainCartEnv``, and each sub-env of ``ChainCartVecEnv`` as
   ``get_attr`` and ``env_method`` see it): one env's ``state``, ``model_state``,
   ``elapsed_steps``, ``episode_target``, ``true_params`` and ``set_state``.
@@ -275,8 +275,7 @@ class FrontEnd:
 
 class BatchFrontEnd(FrontEnd):
     """What the two vector envs (Gymnasium's and stable-baselines3's) add: the first
-    ``render_envs`` envs drawn tiled, every env's episode target, and fresh seeds for a
-    first reset without any."""
+    ``render_envs`` envs drawn tiled, and every env's episode target."""
 
     def _open_tiled_rendering(
         self,
