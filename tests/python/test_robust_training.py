@@ -34,7 +34,7 @@ def test_every_scene_has_a_robust_id_with_the_scene_and_the_draws():
         assert spec.max_episode_steps == gym.spec(scene_env_id(scene)).max_episode_steps
     env = gym.make(scene_env_id("swingup-2", ROBUST_VARIANT))
     assert env.unwrapped.config == robust_config(ChainCartConfig(scene="swingup-2"))
-    assert env.unwrapped.config.action_delay == (0, 2) and env.unwrapped.config.obs_noise == [0.01]
+    assert env.unwrapped.config.action_delay == (0, 1) and env.unwrapped.config.obs_noise == [0.01]
     env.close()
 
 
@@ -100,7 +100,13 @@ def test_a_robust_run_fine_tunes_the_nominal_agent_on_the_draws_and_is_evaluated
 ):
     from chaincart_env.tools.compare.policy_sources import load_run
 
+    from chaincart_env.tools.compare import periodic_eval
+
     trained_on = _record_training_configs(monkeypatch)
+    judged_on: list = []
+    evaluation = periodic_eval.PeriodicEvaluation
+    monkeypatch.setattr(periodic_eval, "PeriodicEvaluation", lambda config, *rest, **kw: (judged_on.append(config),
+                                                                                          evaluation(config, *rest, **kw))[1])
     out = tmp_path / "run"
     assert main(["compare", *TINY, "--policies", "ppo,ppo-robust", "--history", "2", "--out", str(out)]) == 0
     run = json.loads((out / "run.json").read_text())
@@ -114,6 +120,8 @@ def test_a_robust_run_fine_tunes_the_nominal_agent_on_the_draws_and_is_evaluated
     assert run["seed_runs"]["ppo-robust/0"]["warm_start_from"] == str(out / "ppo" / "seed-0")
     saved = load_run(out / "ppo-robust" / "seed-0")
     assert saved.config == scene  # evaluated on the scene
+    # The periodic evaluations that choose each best model: PPO's on the scene, ppo-robust's on the draws.
+    assert judged_on == [scene, robust_config(scene)]
     rows = (out / "comparison.csv").read_text()
     assert "\nPPO robust (seed 0)," in rows and "\nPPO (seed 0)," in rows
 

@@ -239,7 +239,8 @@ def train(
     reward with it (``"exp"``, ``"tolerance"``) instead of ``config``'s reward; the
     evaluations keep ``config`` (its success criterion does not depend on the reward).
     ``conditions``: configuration keys the training envs take on top of ``config`` (a
-    robust agent's per-episode draws); the evaluations keep ``config``. ``off_track_penalty``:
+    robust agent's per-episode draws), and the periodic evaluations (which choose the best model)
+    take them too, with ``config``'s reward. ``off_track_penalty``:
     subtracted from the training reward of each step that leaves the track
     (:mod:`~chaincart_env.tools.compare.shaping`). ``warm_start_from``: a new agent starts
     from the weights of the agent saved there (:mod:`~chaincart_env.tools.compare.warm_start`).
@@ -271,7 +272,10 @@ def train(
     if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise
         print(f"{label_of(algo)} trains in {unit}: {timesteps} timesteps asked, {planned} trained")
     logger = EpisodeCsvLogger(directory / EPISODES_FILE, append=resuming)
-    evaluation = PeriodicEvaluation(config, eval_seeds, eval_every, directory, resume=resuming)
+    # An agent trained on drawn conditions is judged on them, so that its best model is the one that
+    # holds up under them (on the scene alone the starting agent of a fine-tuning could stay the best).
+    judged_on = config if not conditions else config.replace(**conditions)
+    evaluation = PeriodicEvaluation(judged_on, eval_seeds, eval_every, directory, resume=resuming)
     checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
                                keep=(BEST_MODEL_FILE, normalization_file(directory / BEST_MODEL_FILE).name))
     start = time.perf_counter()
