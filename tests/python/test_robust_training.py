@@ -98,9 +98,8 @@ def _record_training_configs(monkeypatch) -> list:
 def test_a_robust_run_fine_tunes_the_nominal_agent_on_the_draws_and_is_evaluated_on_the_scene(
     tmp_path: pathlib.Path, monkeypatch
 ):
-    from chaincart_env.tools.compare.policy_sources import load_run
-
     from chaincart_env.tools.compare import periodic_eval
+    from chaincart_env.tools.compare.policy_sources import load_run
 
     trained_on = _record_training_configs(monkeypatch)
     judged_on: list = []
