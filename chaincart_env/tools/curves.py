@@ -3,7 +3,8 @@
 Each argument is a study written by ``compare`` (``LABEL=DIR``, or ``DIR`` labelled by
 its folder name). Every learned algorithm of a study is one recipe; its training seeds
 are read from ``run.json`` and their periodic deterministic evaluations from each
-seed's ``evaluations.csv``. The command writes, into ``--out``:
+seed's ``evaluations.csv``. A folder of ``seed-<s>/`` training runs without a
+``run.json`` (a leaderboard's ``agents/<scene>/<controller>/``) is one recipe too. The command writes, into ``--out``:
 
 * ``learning-curves.png``: success and mean return of the deterministic policy against
   env steps and against wall time, the mean over seeds with its 95 % bootstrap
@@ -60,6 +61,16 @@ def _runs(study: Path, run: dict[str, Any]) -> list[tuple[str, int, Path]]:
     return [(r.algo, r.seed, r.directory(study)) for r in training_runs(learned, settings.get("seeds", []))]
 
 
+def _seed_folders(folder: Path) -> list[tuple[str, int, Path]]:
+    """The ``seed-<s>/`` training runs in ``folder``, by seed (one recipe)."""
+    found = []
+    for path in folder.glob("seed-*") if folder.is_dir() else []:
+        number = path.name[len("seed-"):]
+        if path.is_dir() and number.isdigit():
+            found.append((folder.name, int(number), path))
+    return sorted(found, key=lambda run: run[1])
+
+
 def _evaluations(directory: Path) -> list[dict[str, float]]:
     from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, read_evaluations
 
@@ -77,9 +88,13 @@ def read_study_curves(study: Path, label: Optional[str] = None) -> list[RecipeCu
     from chaincart_env.tools.controllers import label_of
 
     study = Path(study)
-    if not (study / RUN_FILE).is_file():
-        raise InvalidInputError(f"{study}: no {RUN_FILE}; expected a study written by compare")
-    runs = _runs(study, json.loads((study / RUN_FILE).read_text()))
+    if (study / RUN_FILE).is_file():
+        runs = _runs(study, json.loads((study / RUN_FILE).read_text()))
+    else:
+        runs = _seed_folders(study)
+        if not runs:
+            raise InvalidInputError(f"{study}: no {RUN_FILE} and no seed-<s>/ folders; expected a study written by "
+                                    "compare or a leaderboard's agents/<scene>/<controller>/")
     if not runs:
         raise InvalidInputError(f"{study}: no learned policy was trained; expected a study of ppo, sac, ...")
     algos = list(dict.fromkeys(algo for algo, _, _ in runs))

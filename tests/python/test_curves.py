@@ -65,7 +65,7 @@ def test_a_study_of_two_algorithms_is_two_recipes_cut_to_their_common_evaluation
 
 
 def test_bad_studies_are_refused_by_name(tmp_path: pathlib.Path):
-    with pytest.raises(InvalidInputError, match=r"nowhere: no run.json; expected a study written by compare"):
+    with pytest.raises(InvalidInputError, match=r"nowhere: no run.json and no seed-<s>/ folders"):
         write_curves([(None, tmp_path / "nowhere")], tmp_path / "out")
     study = _study(tmp_path / "a", {0: [0, 1]})
     with pytest.raises(InvalidInputError, match=r"recipes labelled \['same'\] more than once"):
@@ -75,3 +75,11 @@ def test_bad_studies_are_refused_by_name(tmp_path: pathlib.Path):
     (study / "seed-0" / "evaluations.csv").unlink()
     with pytest.raises(InvalidInputError, match=r"evaluations.csv: no such file"):
         read_study_curves(study)
+
+
+def test_a_leaderboard_agents_folder_is_one_recipe(tmp_path: pathlib.Path):
+    study = _study(tmp_path / "ppo-robust", {0: [0, 1, 1], 2: [0, 0.5, 1]})
+    (study / "run.json").unlink()  # as a leaderboard's agents/<scene>/<controller>/
+    (study / "seed-x").mkdir()  # not a seed
+    recipe = read_study_curves(study)[0]
+    assert recipe.label == "ppo-robust" and recipe.seeds == (0, 2) and recipe.success.tolist() == [[0, 1, 1], [0, 0.5, 1]]
