@@ -354,7 +354,7 @@ impl<G: LaneScene> EnvBatch<G> {
     }
 
     /// Writes every env's current observation (its state cast to `T`, or its last
-    /// noisy reading when sensor noise is on, then the target's signs when observed)
+    /// reading when sensor noise or an encoder is on, then the target's signs when observed)
     /// into `obs`.
     pub fn write_obs<T: Real>(&self, obs: &mut [T]) -> Result<()> {
         let (n, w) = (self.num_envs, &self.widths);
@@ -402,11 +402,12 @@ impl<G: LaneScene> EnvBatch<G> {
         task.start = Start::State(state.to_vec());
         let y = base_state(&self.chain, &task)?;
         let w = self.widths;
-        let reality = &self.task.reality;
+        let layout = self.chain.layout();
         let mut data = self.data.view();
         let mut e = data.env(env, &w);
         e.y.copy_from_slice(&y);
-        sense(reality, &mut e);
+        // A state put in place is a first reading: no count before it to difference.
+        sense(&self.task, layout, &mut e, true);
         Ok(())
     }
 
@@ -415,7 +416,7 @@ impl<G: LaneScene> EnvBatch<G> {
         let mut data = self.data.view();
         let mut e = data.env(env, &ctx.widths);
         reset_env(&ctx, &mut e);
-        sense(&ctx.task.reality, &mut e);
+        sense(ctx.task, ctx.chain.layout(), &mut e, true);
     }
 
     /// Starts new episodes in the envs where `mask` is true (all if `None`). Env k is

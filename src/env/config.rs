@@ -8,6 +8,7 @@ use super::keys::{
     REWARD_NAMES, START_NAMES, TARGET_NAMES,
 };
 use super::reality::RealityGap;
+use super::sensors::Sensors;
 use crate::analysis::equilibria::{check_signs, named_signs};
 use crate::batch::check_precision;
 use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
@@ -346,6 +347,8 @@ pub struct TaskConfig {
     /// Motor voltage (V) of a normalised action of magnitude 1, per cart axis, when the
     /// rig's actuation is `voltage`.
     pub max_voltage: f64,
+    /// The encoders of the observed state (default: none, the exact state).
+    pub sensors: Sensors,
 }
 
 impl TaskConfig {
@@ -375,6 +378,7 @@ impl TaskConfig {
             rig: Rig::default(),
             max_acceleration: DEFAULT_MAX_ACCELERATION,
             max_voltage: DEFAULT_MAX_VOLTAGE,
+            sensors: Sensors::default(),
         }
     }
 
@@ -443,6 +447,7 @@ impl TaskConfig {
         check_non_negative("max_acceleration", self.max_acceleration)?;
         check_non_negative("max_voltage", self.max_voltage)?;
         self.rig.validate(n)?;
+        self.sensors.validate()?;
         self.check_rig_stepping()
     }
 

@@ -491,6 +491,36 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                pulley_radius r (m), current_limit (A); force N k i / r with current i = (V - \
                k N v / r) / R clipped to the limit",
     },
+    ConfigKey {
+        name: "angle_encoder_counts",
+        kind: KeyKind::Integer,
+        default: KeyValue::None,
+        expected: crate::env::sensors::ANGLE_COUNTS_EXPECTED,
+        help: "encoder counts per revolution of the observed link angles (a planar link's \
+               angle; a spatial link's swing and tilt, the two angles of a universal joint): \
+               each angle reads rounded down to the grid 2 pi / counts, and the link's \
+               angular velocity is estimated from the change of the counts over dt (zero on \
+               an episode's first observation); none: exact angles and velocities",
+    },
+    ConfigKey {
+        name: "cart_encoder_counts",
+        kind: KeyKind::Number,
+        default: KeyValue::None,
+        expected: crate::env::sensors::CART_COUNTS_EXPECTED,
+        help: "encoder counts per metre of the observed cart position, per axis: the \
+               position reads rounded down to the grid 1 / counts, and the cart velocity is \
+               estimated from the change of the counts over dt (zero on an episode's first \
+               observation); none: exact position and velocity",
+    },
+    ConfigKey {
+        name: "velocity_filter",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(0.0),
+        expected: crate::env::sensors::VELOCITY_FILTER_EXPECTED,
+        help: "time constant tau (s) of a first-order low-pass filter of the encoders' \
+               velocity estimates, v += (1 - exp(-dt / tau)) (raw - v); 0: the raw finite \
+               differences",
+    },
 ];
 
 /// The key with this name.
@@ -676,6 +706,44 @@ mod expected_text {
                 1.0
             };
             task.max_voltage = if name == "max_voltage" { -1.0 } else { 1.0 };
+            let e = task.validate(2).unwrap_err().to_string();
+            assert!(
+                e.contains(name) && e.contains(expected(name)),
+                "{name}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn sensor_checks_say_what_the_table_says() {
+        use crate::env::Sensors;
+        let mut task = TaskConfig::new(vec![-1.0; 2], 0.02, StepOptions::default());
+        let cases = [
+            (
+                "angle_encoder_counts",
+                Sensors {
+                    angle_counts: Some(0),
+                    ..Sensors::default()
+                },
+            ),
+            (
+                "cart_encoder_counts",
+                Sensors {
+                    cart_counts: Some(0.0),
+                    ..Sensors::default()
+                },
+            ),
+            (
+                "velocity_filter",
+                Sensors {
+                    angle_counts: Some(100),
+                    velocity_filter: -1.0,
+                    ..Sensors::default()
+                },
+            ),
+        ];
+        for (name, sensors) in cases {
+            task.sensors = sensors;
             let e = task.validate(2).unwrap_err().to_string();
             assert!(
                 e.contains(name) && e.contains(expected(name)),

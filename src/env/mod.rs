@@ -4,7 +4,8 @@
 //! (`chaincart_env`) are thin front ends over [`EnvBatch`].
 //!
 //! * [`keys`], [`scenes`]: the one table of configuration keys and the named scenes.
-//! * [`config`], [`reality`], [`start`]: the task's types, the reality gap, start states.
+//! * [`config`], [`reality`], [`sensors`], [`start`]: the task's types, the reality gap,
+//!   the encoders, start states.
 //! * [`measure`]: what the task reads of a state (reward, errors), also in the lanes.
 //! * [`batch`], `step`, [`outputs`]: the env batch, one step of a chunk of envs, what a
 //!   step hands back.
@@ -15,7 +16,8 @@
 //! any env moves.
 //!
 //! **Observation.** The state in the scene's layout (spatial `4 + 6n`, planar
-//! `2 + 3n`), cast to `f32` or `f64`.
+//! `2 + 3n`), cast to `f32` or `f64`; with encoders ([`sensors`]) the quantised
+//! positions and the velocities estimated from them.
 //!
 //! **Reward.** `r = exp(-c)` in `(0, 1]`, with
 //! `c = w_q sum_i |q_i - s_i e3|^2 + w_w sum_i |w_i|^2 + w_x |x|^2 + w_v |xdot|^2 + w_u |a|^2`
@@ -44,6 +46,7 @@ pub mod measure;
 pub mod outputs;
 pub mod reality;
 pub mod scenes;
+pub mod sensors;
 pub mod start;
 mod step;
 
@@ -60,6 +63,7 @@ pub use reality::{
     RealityGap,
 };
 pub use scenes::{Scene, DEFAULT_SCENE, SCENES};
+pub use sensors::Sensors;
 pub use start::{base_state, paper_initial_condition, perturb};
 
 #[cfg(test)]

@@ -15,7 +15,7 @@ use super::outputs::{event, Real, DIAGNOSTICS};
 use super::reality::{EnvParams, ParamRow, RealityGap};
 use super::start::perturb;
 use crate::batch::{ChunkLanePath, EnvRange, Worker};
-use crate::geometry::{Geometry, Vector};
+use crate::geometry::{Geometry, Layout, Vector};
 use crate::integrate::StepStatus;
 use crate::lanes::StepPlan;
 use crate::model::Chain;
@@ -55,7 +55,7 @@ pub(super) struct Widths {
     pub param_scalars: usize,
     /// Delayed actions per env (the longest delay times `force`).
     pub queue: usize,
-    /// Noisy observation per env (`state` when noise is on).
+    /// Sensed observation per env (`state` when noise or an encoder is on).
     pub noisy: usize,
     /// Last applied force per env (`force` with a rate limit).
     pub last_force: usize,
@@ -76,6 +76,7 @@ impl Widths {
         let queue = reality.max_action_delay() * f;
         let last_force = if reality.has_rate_limit() { f } else { 0 };
         let force_noise = reality.has_force_noise();
+        let sensed = noise || task.sensors.is_on();
         Self {
             state: d,
             obs: task.obs_dim(d),
@@ -83,11 +84,11 @@ impl Widths {
             param_links: if randomized { chain.n_links() } else { 0 },
             param_scalars: randomized as usize,
             queue,
-            noisy: if noise { d } else { 0 },
+            noisy: if sensed { d } else { 0 },
             last_force,
             noise_rng: noise as usize,
             force_rng: force_noise as usize,
-            any_gap: randomized || noise || queue > 0 || last_force > 0 || force_noise,
+            any_gap: randomized || sensed || queue > 0 || last_force > 0 || force_noise,
         }
     }
 }
@@ -105,7 +106,8 @@ pub(super) struct EnvData {
     pub param_rngs: Vec<ChaCha8Rng>,
     /// Observation-noise stream of each env's generator (noise on).
     pub noise_rngs: Vec<ChaCha8Rng>,
-    /// The last observation each env emitted (noise on).
+    /// The last observation each env emitted (noise or an encoder on): the encoders'
+    /// previous reading and velocity filter state.
     pub noisy_obs: Vec<f64>,
     /// Actions waiting to be applied, a ring of the episode's delay per env (room for
     /// the longest).
@@ -509,7 +511,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         guard: &task.guard,
     };
     l.step(&mut data.states[..num_envs * w.state], num_envs, f, plan);
-    // Without noise or an observed goal, observations are the state rows.
+    // Without noise, encoders or an observed goal, observations are the state rows.
     let rows_are_obs = w.noisy == 0 && w.obs == w.state;
     for k in 0..num_envs {
         if !l.stepped[k] {
@@ -538,7 +540,7 @@ fn run_chunk_lanes<G: Geometry, T: Real, A: Real>(
         let mut o = out.env(k, w);
         let reset = finish_step(ctx, chain, &mut e, &mut o, status, &m);
         if !rows_are_obs {
-            emit_obs(task, &mut e, o.obs);
+            emit_obs(task, ctx.chain.layout(), &mut e, o.obs);
         }
         if reset {
             load_lane_params(scratch, l, k, &data.env(k, w).params);
@@ -627,20 +629,48 @@ fn add_noise(reality: &RealityGap, y: &[f64], rng: &mut ChaCha8Rng, dst: &mut [f
     }
 }
 
-/// With sensor noise on, takes a fresh noisy reading of env `e`'s state into
-/// `e.noisy_obs`, the env's current observation; without, does nothing.
-pub(super) fn sense(reality: &RealityGap, e: &mut EnvMut<'_>) {
-    if let Some(rng) = e.noise_rng.as_deref_mut() {
-        add_noise(reality, e.y, rng, e.noisy_obs);
+/// With sensor noise or an encoder on, takes a fresh reading of env `e`'s state into
+/// `e.noisy_obs`, the env's current observation (`first`: the first reading of an
+/// episode, with no previous count to estimate velocities from); without, does
+/// nothing.
+pub(super) fn sense<G: Geometry>(
+    task: &TaskConfig,
+    layout: Layout<G>,
+    e: &mut EnvMut<'_>,
+    first: bool,
+) {
+    let reality = &task.reality;
+    if !task.sensors.is_on() {
+        if let Some(rng) = e.noise_rng.as_deref_mut() {
+            add_noise(reality, e.y, rng, e.noisy_obs);
+        }
+        return;
     }
+    let y = &*e.y;
+    let mut noise = e.noise_rng.as_deref_mut();
+    // The noise of component k, drawn in component order as `add_noise` draws it.
+    let seen = |k: usize| match noise.as_deref_mut() {
+        None => y[k],
+        Some(rng) => {
+            let z: f64 = rng.sample(StandardNormal);
+            y[k] + reality.noise_scale(k) * z
+        }
+    };
+    task.sensors.read(layout, seen, first, task.dt, e.noisy_obs);
 }
 
-/// Writes env `e`'s observation: its state, or a fresh noisy reading of it, then the
-/// target's signs when the task observes them.
-pub(super) fn emit_obs<T: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, obs: &mut [T]) {
+/// Writes env `e`'s observation: its state, or a fresh reading of it (noise, encoders),
+/// then the target's signs when the task observes them.
+pub(super) fn emit_obs<T: Real, G: Geometry>(
+    task: &TaskConfig,
+    layout: Layout<G>,
+    e: &mut EnvMut<'_>,
+    obs: &mut [T],
+) {
     let d = e.y.len();
-    if e.noise_rng.is_some() {
-        sense(&task.reality, e);
+    if !e.noisy_obs.is_empty() {
+        let first = e.slot.steps == 0;
+        sense(task, layout, e, first);
         write_obs(e.noisy_obs, &mut obs[..d]);
     } else {
         write_obs(e.y, &mut obs[..d]);
@@ -729,7 +759,7 @@ fn autoreset_step<G: Geometry, T: Real, A: Real>(
     o: EnvOut<'_, T, A>,
 ) {
     reset_env(ctx, &mut e);
-    emit_obs(ctx.task, &mut e, o.obs);
+    emit_obs(ctx.task, ctx.chain.layout(), &mut e, o.obs);
     *o.reward = 0.0;
     *o.terminated = false;
     *o.truncated = false;
@@ -834,7 +864,7 @@ fn step_env<G: Geometry, T: Real, A: Real>(
     );
     let mut o = o;
     finish_step(ctx, chain, &mut e, &mut o, status, &m);
-    emit_obs(task, &mut e, o.obs);
+    emit_obs(task, chain.layout(), &mut e, o.obs);
 }
 
 /// After env `e`'s physics (status `status`, measures `m` of the state it holds and
@@ -866,9 +896,12 @@ fn finish_step<G: Geometry, T: Real, A: Real>(
         return false;
     }
     let d = e.y.len();
-    match e.noise_rng.as_deref_mut() {
-        None => o.finals[..d].copy_from_slice(e.y),
-        Some(rng) => add_noise(&task.reality, e.y, rng, &mut o.finals[..d]),
+    if e.noisy_obs.is_empty() {
+        o.finals[..d].copy_from_slice(e.y);
+    } else {
+        // The final observation is a reading like any other (noise drawn, counts kept).
+        sense(task, chain.layout(), e, false);
+        o.finals[..d].copy_from_slice(e.noisy_obs);
     }
     write_goal(task, e.slot.goal, &mut o.finals[d..]);
     reset_env(ctx, e);
