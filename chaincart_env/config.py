@@ -192,6 +192,9 @@ class ChainCartConfig:
     max_acceleration: float = _UNSET
     max_voltage: float = _UNSET
     motor: tuple[float, float, float, float, float] = _UNSET
+    angle_encoder_counts: Optional[int] = _UNSET
+    cart_encoder_counts: Optional[float] = _UNSET
+    velocity_filter: float = _UNSET
     _resolved: _core.ResolvedConfig = field(default=_UNSET, init=False, repr=False, compare=False)
 
     def __new__(cls, *args: Any, **kwargs: Any) -> "ChainCartConfig":

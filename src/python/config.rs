@@ -11,8 +11,8 @@ use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::any::AnyChain;
 use crate::env::keys::{config_key, ANY, KEY_NAMES};
 use crate::env::{
-    check_task, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Start,
-    SuccessTolerances, TaskConfig, Transitions, CONFIG_KEYS, SCENES,
+    check_task, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Sensors,
+    Start, SuccessTolerances, TaskConfig, Transitions, CONFIG_KEYS, SCENES,
 };
 use crate::error::{quoted, InputError};
 use crate::integrate::{Method, StepOptions};
@@ -624,7 +624,36 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
     task.rig = rig(values)?;
     task.max_acceleration = f("max_acceleration")?;
     task.max_voltage = f("max_voltage")?;
+    task.sensors = sensors(values)?;
     Ok(task)
+}
+
+/// The encoders of canonical values (`None` resolutions: off).
+fn sensors(values: &Bound<'_, PyDict>) -> PyResult<Sensors> {
+    let optional = |name: &str| Some(get(values, name)).filter(|v| !v.is_none());
+    let angle_counts = match optional("angle_encoder_counts") {
+        None => None,
+        Some(v) => {
+            let counts = integer("angle_encoder_counts", &v)?;
+            Some(
+                u32::try_from(counts).map_err(|_| InputError::InvalidParameter {
+                    name: "angle_encoder_counts",
+                    value: counts as f64,
+                    expected: crate::env::sensors::ANGLE_COUNTS_EXPECTED,
+                })?,
+            )
+        }
+    };
+    let cart_counts = optional("cart_encoder_counts")
+        .map(|v| number("cart_encoder_counts", &v))
+        .transpose()?;
+    let sensors = Sensors {
+        angle_counts,
+        cart_counts,
+        velocity_filter: number("velocity_filter", &get(values, "velocity_filter"))?,
+    };
+    sensors.validate()?;
+    Ok(sensors)
 }
 
 /// The real-rig effects of canonical values (the motor checked even when the

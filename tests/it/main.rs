@@ -19,6 +19,7 @@ mod lanes;
 mod paper_examples;
 mod properties;
 mod rig;
+mod sensors;
 
 /// Counts the allocations of the threads that `allocations` measures (no other's).
 #[global_allocator]

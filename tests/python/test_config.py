@@ -42,10 +42,11 @@ def test_the_config_has_the_agreed_keyword_names() -> None:
     # The only extras: success tolerances, the reward kind, the success hold, the
     # goal-conditioned task's pairs and observation, the diagnostics switch, the
     # physics' precision, the reality-gap keywords, exactly those the core defines, in
-    # its order, the rendered view and the real rig's effects.
+    # its order, the rendered view, the real rig's effects and its encoders.
     task = ["reward", "success_hold", "transitions", "goal_observation"]
     rig = ["joint_damping", "cart_viscous_friction", "cart_coulomb_friction", "coulomb_velocity", "actuation"]
     rig += ["max_acceleration", "max_voltage", "motor"]
+    rig += ["angle_encoder_counts", "cart_encoder_counts", "velocity_filter"]
     extras = ["success_tolerances", *task, "diagnostics", "precision", *(k[0] for k in REALITY_KEYS), "render_view", *rig]
     assert names[len(KEYWORDS) :] == extras
 
@@ -216,6 +217,7 @@ ADDED_SINCE = {
     "joint_damping": 0.0, "cart_viscous_friction": 0.0, "cart_coulomb_friction": 0.0,
     "coulomb_velocity": 0.01, "actuation": "force", "max_acceleration": 10.0, "max_voltage": 12.0,
     "motor": (0.02, 2.0, 5.0, 0.02, 5.0),
+    "angle_encoder_counts": None, "cart_encoder_counts": None, "velocity_filter": 0.0,
 }
 
 
