@@ -463,8 +463,8 @@ impl PyEnvBatch {
                 .into_any(),
         )
     }
-    /// Every env's current observation (its state, or its last noisy reading when
-    /// `obs_noise` is set), shape `(num_envs, state_dim)`.
+    /// Every env's current observation (its state, or its last reading when `obs_noise`
+    /// or an encoder is set), shape `(num_envs, obs_dim)`.
     fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let shape = self.obs_shape(false);
         let n = self.num_envs * self.obs_dim;
