@@ -21,12 +21,29 @@
 //!
 //! Structure worth knowing: every block is a 2x2 multiple of `I2` or of the rotation `E`,
 //! so the spatial problem is two copies of the planar one and every eigenvalue is double.
+//!
+//! **A real rig** ([`Linearization::with_rig`], docs/physics.md "Real-rig effects") adds
+//! `D xdot` to `M xdd + G x = B u`:
+//!
+//! * joint damping, Rayleigh `1/2 sum_i c_i |w_i - w_{i-1}|^2` with `w_i = (C^T xi_i)'` at
+//!   first order and `w_0 = 0`: the link block `D_qq` is tridiagonal, `(c_i + c_{i+1}) I2`
+//!   on the diagonal and `-c_{i+1} I2` beside it, whatever the signs `s`;
+//! * cart friction: `D_xx = (b + F_c / v_eps) I2`, the Coulomb law's slope at rest (exact
+//!   at first order, but the law is that steep only while `|v| < v_eps`);
+//! * voltage actuation: below the current limit the force is `k (V - k v) / R` with
+//!   `k = N k_t / r`, so `B = (k / R) [I2; 0]` and `D_xx` gains the back-EMF's `k^2 / R`;
+//! * acceleration actuation: the cart rows become `xdd = a`, so the first-order form
+//!   solves `[[I2, 0], [M_qx, M_qq]] xdd = [I2; 0] a - G x - D' xdot` (`D'` with the cart
+//!   rows zero: cart friction is refused in this mode, and the servo takes the first
+//!   joint's reaction).
+//!
+//! `modes` and `eigenvalues` stay those of the conservative part `(M, G)`.
 
 use crate::analysis::coordinates::LocalLayout;
 use crate::analysis::equilibria::check_signs;
 use crate::analysis::pencil::{solve_pencil, PencilEigen};
 use crate::error::{ChainError, Result};
-use crate::params::ChainParams;
+use crate::params::{Actuation, ChainParams, Rig};
 use nalgebra::{Cholesky, Complex, DMatrix, Matrix2};
 
 /// `E = C^T e3^ C`: the horizontal part of `e3 x (.)`, a rotation by +90 degrees.
@@ -40,7 +57,10 @@ pub struct Linearization {
     signs: Vec<f64>,
     mass: DMatrix<f64>,
     stiffness: DMatrix<f64>,
+    damping: DMatrix<f64>,
     input: DMatrix<f64>,
+    /// The cart's acceleration is the input (a servo axis), not a force.
+    cart_prescribed: bool,
 }
 
 /// First-order form `zdot = A z + B u` in `z = [x, C^T xi_i, xdot, C^T w_i]`.
@@ -85,8 +105,48 @@ impl Linearization {
             signs: s.to_vec(),
             mass,
             stiffness,
+            damping: DMatrix::zeros(dof, dof),
             input,
+            cart_prescribed: false,
         })
+    }
+
+    /// The linearisation at `s` of `params` with the real-rig effects `rig` (checked for
+    /// this chain), its input `u` the command of the rig's actuation (see the module docs).
+    pub fn with_rig(params: &ChainParams, s: &[f64], rig: &Rig) -> Result<Self> {
+        let n = params.n_links();
+        rig.validate(n)?;
+        let mut lin = Self::new(params, s)?;
+        let loc = LocalLayout::new(n);
+        let eye = Matrix2::identity();
+        for i in 0..n {
+            let outer = if i + 1 < n { rig.damping(i + 1) } else { 0.0 };
+            set_block(
+                &mut lin.damping,
+                loc.xi(i),
+                loc.xi(i),
+                &(eye * (rig.damping(i) + outer)),
+            );
+            if i + 1 < n {
+                set_block(&mut lin.damping, loc.xi(i), loc.xi(i + 1), &(-eye * outer));
+                set_block(&mut lin.damping, loc.xi(i + 1), loc.xi(i), &(-eye * outer));
+            }
+        }
+        let mut cart_damping = rig.cart_viscous_friction;
+        if rig.cart_coulomb_friction != 0.0 {
+            cart_damping += rig.cart_coulomb_friction / rig.coulomb_velocity;
+        }
+        match &rig.actuation {
+            Actuation::Force => {}
+            Actuation::Acceleration => lin.cart_prescribed = true,
+            Actuation::Voltage(motor) => {
+                let k = motor.force_per_amp();
+                lin.input *= k / motor.resistance;
+                cart_damping += k * k / motor.resistance;
+            }
+        }
+        set_block(&mut lin.damping, 0, 0, &(eye * cart_damping));
+        Ok(lin)
     }
 
     /// The equilibrium's sign tuple.
@@ -105,9 +165,18 @@ impl Linearization {
     pub fn stiffness_matrix(&self) -> &DMatrix<f64> {
         &self.stiffness
     }
-    /// `B = [I2; 0]`, `(2n + 2) x 2`.
+    /// `D`, `(2n + 2)` square, symmetric positive semi-definite: the rig's damping and
+    /// friction (zero for the ideal model).
+    pub fn damping_matrix(&self) -> &DMatrix<f64> {
+        &self.damping
+    }
+    /// `B = [I2; 0]` (times `k / R` in voltage actuation), `(2n + 2) x 2`.
     pub fn input_matrix(&self) -> &DMatrix<f64> {
         &self.input
+    }
+    /// The input is the cart's acceleration (acceleration actuation), not a force.
+    pub fn cart_prescribed(&self) -> bool {
+        self.cart_prescribed
     }
     /// `M_qq` (`2n` square), the chain's inertia with the cart held.
     pub fn m_qq(&self) -> DMatrix<f64> {
@@ -131,12 +200,39 @@ impl Linearization {
         let chol = Cholesky::new(self.mass.clone()).ok_or_else(|| ChainError::Analysis {
             reason: "linearised mass matrix M is not positive definite".into(),
         })?;
-        let minv_g = chol.solve(&self.stiffness);
-        let minv_b = chol.solve(&self.input);
+        let (minv_g, minv_d, minv_b) = if self.cart_prescribed {
+            // The cart rows say `xdd = a`; the link rows keep `M_qx xdd` (module docs).
+            let mut rows = self.mass.clone();
+            rows.view_mut((0, 0), (2, dof)).fill(0.0);
+            rows.view_mut((0, 0), (2, 2))
+                .copy_from(&DMatrix::identity(2, 2));
+            let mut damping = self.damping.clone();
+            damping.view_mut((0, 0), (2, dof)).fill(0.0);
+            let lu = rows.lu();
+            let solve = |m: &DMatrix<f64>| {
+                lu.solve(m).ok_or_else(|| ChainError::Analysis {
+                    reason: "the chain's inertia M_qq with the cart prescribed is singular".into(),
+                })
+            };
+            (
+                solve(&self.stiffness)?,
+                solve(&damping)?,
+                solve(&self.input)?,
+            )
+        } else {
+            (
+                chol.solve(&self.stiffness),
+                chol.solve(&self.damping),
+                chol.solve(&self.input),
+            )
+        };
         let mut a = DMatrix::zeros(2 * dof, 2 * dof);
         a.view_mut((0, dof), (dof, dof))
             .copy_from(&DMatrix::identity(dof, dof));
         a.view_mut((dof, 0), (dof, dof)).copy_from(&(-minv_g));
+        if self.damping.iter().any(|&v| v != 0.0) {
+            a.view_mut((dof, dof), (dof, dof)).copy_from(&(-minv_d));
+        }
         let mut b = DMatrix::zeros(2 * dof, 2);
         b.view_mut((dof, 0), (dof, 2)).copy_from(&minv_b);
         Ok(StateSpace { a, b })

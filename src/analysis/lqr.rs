@@ -19,7 +19,7 @@ use crate::analysis::linearize::{Linearization, StateSpace};
 use crate::analysis::riccati::{solve_care, CareSolution};
 use crate::error::{check_finite, check_len, InputError, Result};
 use crate::geometry::{Geometry, Layout, Spatial};
-use crate::params::ChainParams;
+use crate::params::{ChainParams, Rig};
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 
 /// LQR weights in the `z` ordering: `Q` is `(4 + 4n)` square, `R` is 2x2.
@@ -84,7 +84,23 @@ pub struct LqrController {
 impl LqrController {
     /// LQR design for `params` at `s` with the given weights.
     pub fn new(params: &ChainParams, s: &[f64], weights: &LqrWeights) -> Result<Self> {
-        let lin = Linearization::new(params, s)?;
+        Self::from_linearization(&Linearization::new(params, s)?, weights)
+    }
+
+    /// LQR design for `params` with the real-rig effects `rig` at `s`
+    /// ([`Linearization::with_rig`]): `u` is the command of the rig's actuation (a
+    /// force, the cart's acceleration or a voltage per axis).
+    pub fn with_rig(
+        params: &ChainParams,
+        s: &[f64],
+        rig: &Rig,
+        weights: &LqrWeights,
+    ) -> Result<Self> {
+        Self::from_linearization(&Linearization::with_rig(params, s, rig)?, weights)
+    }
+
+    fn from_linearization(lin: &Linearization, weights: &LqrWeights) -> Result<Self> {
+        let s = lin.signs();
         let StateSpace { a, b } = lin.state_space()?;
         let care = solve_care(&a, &b, &weights.q, &weights.r)?;
         let mut controller = Self::from_gain(s, care.gain.clone())?;

@@ -9,6 +9,7 @@ use chaincart::analysis::{
     all_signs, controllability, equilibria, solve_care, Linearization, LocalLayout, LqrController,
     LqrWeights,
 };
+use chaincart::params::{Actuation, Motor, Rig};
 use chaincart::{ChainError, ChainParams, InputError, SpatialChain};
 use nalgebra::{DMatrix, DVector, Vector2};
 use rand::rngs::StdRng;
@@ -106,6 +107,110 @@ fn prop2_matches_finite_differences_of_the_nonlinear_model() {
         }
     }
     println!("worst relative FD error of (A, B): {worst:e}");
+}
+
+/// The rigs the rig linearisation is checked with, for `n` links: joint damping alone,
+/// cart friction (viscous and Coulomb), a DC motor on a rough cart, a servo axis.
+fn test_rigs(n: usize) -> Vec<Rig> {
+    let damping: Vec<f64> = (0..n).map(|i| 0.02 + 0.01 * i as f64).collect();
+    let motor = Motor::from_array(chaincart::env::keys::DEFAULT_MOTOR);
+    vec![
+        Rig {
+            joint_damping: damping.clone(),
+            ..Rig::default()
+        },
+        Rig {
+            cart_viscous_friction: 0.7,
+            cart_coulomb_friction: 0.4,
+            coulomb_velocity: 0.05,
+            ..Rig::default()
+        },
+        Rig {
+            joint_damping: vec![0.03],
+            cart_viscous_friction: 0.2,
+            cart_coulomb_friction: 0.3,
+            coulomb_velocity: 0.1,
+            actuation: Actuation::Voltage(motor),
+        },
+        Rig {
+            joint_damping: damping,
+            actuation: Actuation::Acceleration,
+            ..Rig::default()
+        },
+    ]
+}
+
+#[test]
+fn rig_linearisation_matches_finite_differences_of_the_rig_dynamics() {
+    let mut rng = StdRng::seed_from_u64(11);
+    let mut worst: f64 = 0.0;
+    for n in 1..=4 {
+        let params = random_params(&mut rng, n, 10.0);
+        let mut cases: Vec<Vec<f64>> = ["hanging", "inverted"]
+            .iter()
+            .map(|name| named_signs(name, n).unwrap())
+            .collect();
+        cases.push(random_signs(&mut rng, n));
+        for rig in test_rigs(n) {
+            let chain = SpatialChain::new(params.clone())
+                .with_rig(rig.clone())
+                .unwrap();
+            for s in &cases {
+                let lin = Linearization::with_rig(&params, s, &rig).unwrap();
+                let ss = lin.state_space().unwrap();
+                let (a_fd, b_fd) = finite_difference_linearisation(&chain, s, 1e-6);
+                let (ea, eb) = (relative_error(&a_fd, &ss.a), relative_error(&b_fd, &ss.b));
+                let mode = rig.actuation.name();
+                assert!(
+                    ea < 1e-6 && eb < 1e-6,
+                    "n {n} s {s:?} {mode}: A {ea:e}, B {eb:e}"
+                );
+                worst = worst.max(ea).max(eb);
+                // The rig changes the model: the ideal linearisation is not the oracle's.
+                let ideal = Linearization::new(&params, s)
+                    .unwrap()
+                    .state_space()
+                    .unwrap();
+                assert!(
+                    relative_error(&a_fd, &ideal.a).max(relative_error(&b_fd, &ideal.b)) > 1e-4
+                );
+            }
+        }
+    }
+    println!("worst relative FD error of the rig's (A, B): {worst:e}");
+}
+
+#[test]
+fn acceleration_input_is_the_force_input_through_the_cart_row() {
+    // With the cart prescribed, the chain rows read M_qq pdd + G_qq p = -M_qx a; the
+    // force-mode linearisation gives the same rows once u is chosen so that xdd = a.
+    let params = ChainParams::paper();
+    let s = named_signs("inverted", 5).unwrap();
+    let servo = Rig {
+        actuation: Actuation::Acceleration,
+        ..Rig::default()
+    };
+    let acc = Linearization::with_rig(&params, &s, &servo)
+        .unwrap()
+        .state_space()
+        .unwrap();
+    let force = Linearization::new(&params, &s)
+        .unwrap()
+        .state_space()
+        .unwrap();
+    let dim = LocalLayout::new(5).dim();
+    let half = dim / 2;
+    // In force mode xdd = A_x z + B_x u; u = B_x^-1 (a - A_x z) gives xdd = a.
+    let b_x = force.b.view((half, 0), (2, 2)).into_owned();
+    let b_x_inv = b_x.try_inverse().unwrap();
+    let a_x = force.a.view((half, 0), (2, dim)).into_owned();
+    let a_via_force = &force.a - &force.b * &b_x_inv * &a_x;
+    let b_via_force = &force.b * &b_x_inv;
+    assert!(relative_error(&acc.a, &a_via_force) < 1e-10);
+    assert!(relative_error(&acc.b, &b_via_force) < 1e-10);
+    let lqr = LqrController::with_rig(&params, &s, &servo, &LqrWeights::paper_default(&s)).unwrap();
+    let closed = &acc.a - &acc.b * lqr.gain();
+    assert!(spectral_abscissa(&closed) < 0.0);
 }
 
 #[test]
