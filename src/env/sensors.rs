@@ -135,13 +135,13 @@ impl Sensors {
         for (k, xk) in x.iter_mut().enumerate().take(cart_dim) {
             *xk = seen(layout.x() + k);
         }
-        for k in 0..cart_dim {
+        for (k, &xk) in x.iter().enumerate().take(cart_dim) {
             let (ix, iv) = (layout.x() + k, layout.xdot() + k);
             let v = seen(iv);
             match self.cart_counts {
-                None => (row[ix], row[iv]) = (x[k], v),
+                None => (row[ix], row[iv]) = (xk, v),
                 Some(c) => {
-                    let count = (x[k] * c).floor();
+                    let count = (xk * c).floor();
                     let moved = if first {
                         0.0
                     } else {
@@ -445,8 +445,8 @@ mod tests {
             sensors.read(spatial, |k| s[k], t == 0, 0.02, &mut rows.1);
             let mut back = [0.0; 5];
             crate::geometry::spatial_to_planar(1, &rows.1, &mut back);
-            for k in 0..5 {
-                assert!((back[k] - rows.0[k]).abs() < 1e-12, "{t} {k}");
+            for (k, (b, p)) in back.iter().zip(&rows.0).enumerate() {
+                assert!((b - p).abs() < 1e-12, "{t} {k}");
             }
         }
     }

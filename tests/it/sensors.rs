@@ -129,12 +129,8 @@ fn spin_of_rates(theta: f64, phi: f64, theta_rate: f64, phi_rate: f64) -> [f64; 
 
 fn check_grid(planar: bool, n: usize, obs: &[f64], what: &str) {
     let c = if planar { 1 } else { 2 };
-    for k in 0..c {
-        assert!(
-            is_integer(obs[k] * CART_COUNTS, 1e-8),
-            "{what}: x = {}",
-            obs[k]
-        );
+    for x in &obs[..c] {
+        assert!(is_integer(x * CART_COUNTS, 1e-8), "{what}: x = {x}");
     }
     for (i, angles) in link_angles(planar, n, obs).iter().enumerate() {
         for a in angles {
