@@ -455,3 +455,37 @@ fn bad_sensor_values_are_named() {
         assert!(e.contains(name) && e.contains("expected"), "{e}");
     }
 }
+
+#[test]
+fn encoders_count_what_the_noisy_sensor_sees() {
+    // The same noise draws as without encoders: an encoder's reading is the noisy
+    // value rounded down, and a channel without an encoder is the noisy value itself.
+    let mut noisy = task(1, Sensors::default());
+    noisy.reality.obs_noise = vec![0.02];
+    let mut counted = noisy.clone();
+    counted.sensors = Sensors {
+        angle_counts: Some(ANGLE_COUNTS),
+        ..Sensors::default()
+    };
+    let a = run(
+        &mut batch::<Planar>(noisy, 1, 6, AutoresetMode::NextStep),
+        25,
+        0,
+    );
+    let b = run(
+        &mut batch::<Planar>(counted, 1, 6, AutoresetMode::NextStep),
+        25,
+        0,
+    );
+    let step = 2.0 * PI / ANGLE_COUNTS as f64;
+    for (s, (seen, read)) in a.obs.iter().zip(&b.obs).enumerate() {
+        assert_eq!(
+            &read[..2],
+            &seen[..2],
+            "step {s}: the cart is read as without encoders"
+        );
+        let count = (seen[2].atan2(seen[3]) / step).floor();
+        assert_eq!(read[2], (count * step).sin(), "step {s}");
+        assert_eq!(read[3], (count * step).cos(), "step {s}");
+    }
+}

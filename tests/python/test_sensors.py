@@ -238,3 +238,16 @@ def test_bad_values_are_named(keywords: dict, needles: list[str]) -> None:
 def test_a_non_integer_count_is_a_type_error() -> None:
     with pytest.raises(InvalidTypeError, match="angle_encoder_counts"):
         ChainCartConfig(angle_encoder_counts=10.5)
+
+
+def test_the_command_line_takes_the_encoder_keywords() -> None:
+    import argparse
+
+    from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options
+
+    parser = argparse.ArgumentParser()
+    add_scene_options(parser)
+    assert "--angle-encoder-counts" in parser.format_help() and "--velocity-filter" in parser.format_help()
+    args = parser.parse_args(["--angle-encoder-counts", "1024", "--cart-encoder-counts", "2000", "--velocity-filter", "0.02"])
+    c = config_from_options(args)
+    assert (c.angle_encoder_counts, c.cart_encoder_counts, c.velocity_filter) == (1024, 2000.0, 0.02)
