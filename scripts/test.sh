@@ -7,10 +7,26 @@
 # downloads and pytest (which runs on one core); their output goes to
 # target/cargo-test.log and is printed when both are done. `cargo test` alone runs the
 # same tests (and builds the examples too).
+#
+# A run that passed leaves a fingerprint of its inputs (every file of the checkout that
+# git does not ignore, the set-up's stamp and the arguments) in target/tests-passed; run
+# again on the same inputs, the command says so and stops at once. FORCE=1 runs
+# everything anyway.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 mkdir -p target
+fingerprint() {
+    { git ls-files -z --cached --others --exclude-standard | xargs -0 sha256sum 2>/dev/null
+      cat .venv/.chaincart-setup 2>/dev/null || true
+      printf '%s\n' "$@"; } | sha256sum | cut -d' ' -f1
+}
+passed=target/tests-passed
+if [ "${FORCE:-0}" != 1 ] && [ -f "$passed" ] && [ -f .venv/.chaincart-setup ] &&
+    [ "$(head -1 "$passed")" = "$(fingerprint "$@")" ]; then
+    echo "== nothing changed since the run that passed at $(sed -n 2p "$passed"): not run again (FORCE=1 runs it)"
+    exit 0
+fi
 log=target/cargo-test.log
 rust_tests() {
     # The library's unit tests, the integration tests and the doc tests; the examples
@@ -26,6 +42,7 @@ cargo_job=$!
 trap 'kill "$cargo_job" 2>/dev/null || true' EXIT
 
 scripts/setup.sh  # with every extra: the suite tests each optional path
+inputs=$(fingerprint "$@")  # what this run tests (edits made while it runs are not)
 
 echo "== ruff ($(date -u +%T))"
 .venv/bin/ruff check chaincart_env tests/python
@@ -44,4 +61,9 @@ cat "$log"
 
 verdict() { [ "$1" = 0 ] && echo passed || echo "FAILED (exit $1)"; }
 echo "== cargo test $(verdict "$cargo_status"); pytest $(verdict "$pytest_status")"
-[ "$cargo_status" = 0 ] && [ "$pytest_status" = 0 ]
+if [ "$cargo_status" = 0 ] && [ "$pytest_status" = 0 ]; then
+    printf '%s\n%s\n' "$inputs" "$(date -u '+%Y-%m-%d %H:%M UTC')" >"$passed"
+    exit 0
+fi
+rm -f "$passed"
+exit 1
