@@ -16,7 +16,7 @@ task; envs build their batches from it, so the configuration crosses into Rust o
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any, Optional, Union
 
@@ -309,6 +309,16 @@ class ChainCartConfig:
         return {"force": self.max_force, "acceleration": self.max_acceleration, "voltage": self.max_voltage}[
             self.actuation
         ]
+
+    def lqr_gain(
+        self, target: Sequence[float], Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None
+    ) -> np.ndarray:
+        """The LQR gain ``K`` (``(2, 4 + 4n)``) at equilibrium ``target`` of the nominal
+        model with this config's real-rig effects: joint damping and cart friction enter
+        the linearisation as damping, and ``u = -K z`` is the command of the actuation per
+        cart axis (N, m/s^2 or V; divide by :attr:`command_scale` for an action). Without
+        rig effects it is ``make_model().lqr_gain(target, Q, R)``."""
+        return np.asarray(self._resolved.lqr_gain(list(target), Q, R), dtype=np.float64)
 
     @property
     def has_param_gap(self) -> bool:

@@ -33,8 +33,9 @@ class EnergyPolicy:
     def from_env(cls, env: Any, *, oracle: bool = False, **gains: Any) -> "EnergyPolicy":
         """For a one-link ``ChainCartEnv`` (or its vector envs, SB3 VecEnv) with the upright
         target: the env's nominal model (``oracle=True``: its true parameters) and force
-        limit. ``gains`` go to ``_core.EnergyController``."""
-        return cls(env_settings(env, oracle), **gains)
+        limit. ``gains`` go to ``_core.EnergyController``. Refused unless the env's actions
+        command a force (``actuation="force"``)."""
+        return cls(env_settings(env, oracle, cls.__name__), **gains)
 
     def forces(self, observation: Any) -> np.ndarray:
         """Forces in newtons, shape (N, force_dim)."""

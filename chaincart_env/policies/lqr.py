@@ -10,6 +10,12 @@ then scaled to the env's normalised action space and clipped to [-1, 1] (the for
 saturates at ``max_force``). Planar observations are embedded in the spatial state
 (the planar dynamics are the e1-e3 block of the spatial ones) and only the e1 force
 is returned.
+
+On a rig (:attr:`ChainCartConfig.has_rig_effects`) :meth:`LQRPolicy.from_env` designs
+on the linearisation with the config's rig (:meth:`ChainCartConfig.lqr_gain`): joint
+damping and viscous cart friction enter as damping, and ``u`` is the command of the
+actuation (a force, the cart's acceleration or the motor's voltage), scaled by
+:attr:`ChainCartConfig.command_scale`.
 """
 
 from __future__ import annotations
@@ -55,8 +61,10 @@ def _planar_to_spatial(obs: np.ndarray, n: int) -> np.ndarray:
 class LQRPolicy:
     """LQR baseline: ``predict(obs) -> (action, None)`` like a stable-baselines3 model.
 
-    Build it with :meth:`from_env` (gain for the env's target, force limit and scene)
-    or :meth:`from_model`. Works on one observation or a batch. Keeps nothing from one
+    Build it with :meth:`from_env` (gain for the env's target, actuation, command scale
+    and scene) or :meth:`from_model`. ``max_force`` is what an action of magnitude 1
+    commands: the force limit (N) in force actuation, else the env's
+    ``command_scale`` (m/s^2 or V), and the gain's ``u`` is in the same unit. Works on one observation or a batch. Keeps nothing from one
     call to the next (gains designed per target are a cache), so one object serves
     any number of episodes, with or without ``episode_start``.
     """
@@ -83,8 +91,9 @@ class LQRPolicy:
 
     def goal_conditioned(self, model: Any, Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None) -> "LQRPolicy":
         """Reads the target from the observation's last ``n_links`` numbers (the
-        ``goal_observation`` layout) and designs that target's gain on ``model`` the
-        first time it is seen. Returns ``self``."""
+        ``goal_observation`` layout) and designs that target's gain on ``model`` (a
+        ``ChainCart``, or a ``ChainCartConfig`` to design with its rig) the first time it
+        is seen. Returns ``self``."""
         self._design = lambda signs: np.asarray(model.lqr_gain(list(signs), Q, R), dtype=np.float64)
         self._gains = {tuple(int(s) for s in self.target): self.gain}
         return self
@@ -128,11 +137,14 @@ class LQRPolicy:
             raise ValueError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
         if oracle:
             return OracleLQRPolicy(env, Q, R)
-        policy = cls.from_model(base.model, config.target_signs, config.max_force, Q, R, planar=config.planar)
-        return policy.goal_conditioned(base.model, Q, R) if config.goal_observation else policy
+        designer = config if config.has_rig_effects else base.model
+        policy = cls.from_model(designer, config.target_signs, config.command_scale, Q, R, planar=config.planar)
+        return policy.goal_conditioned(designer, Q, R) if config.goal_observation else policy
 
     def forces(self, observation: np.ndarray) -> np.ndarray:
-        """Unsaturated forces in newtons, shape (N, 2) for spatial, (N, 1) for planar."""
+        """Unsaturated commands (newtons in force actuation; m/s^2 or V on a rig that
+        commands the cart's acceleration or a motor's voltage), shape (N, 2) for
+        spatial, (N, 1) for planar."""
         obs = np.asarray(observation, dtype=np.float64)
         batch = np.atleast_2d(obs)
         if batch.ndim != 2 or batch.shape[1] != self.obs_dim:
@@ -206,12 +218,19 @@ class OracleLQRPolicy(LQRPolicy):
         base = getattr(env, "unwrapped", env)
         config = base.config
         self._env, self._Q, self._R = env, Q, R
-        self._make_model = lambda p: ChainCart(
-            config.n_links, p["cart_mass"], p["link_masses"], p["link_lengths"], p["gravity"], config.planar
-        )
+        if config.has_rig_effects:  # the true parameters with the rig (the same for every env)
+            self._make_model: Callable[[dict[str, Any]], Any] = lambda p: config.replace(
+                cart_mass=float(p["cart_mass"]), link_masses=tuple(map(float, p["link_masses"])),
+                link_lengths=tuple(map(float, p["link_lengths"])), gravity=float(p["gravity"]),
+            )
+            nominal = config.lqr_gain(config.target_signs, Q, R)
+        else:
+            self._make_model = lambda p: ChainCart(
+                config.n_links, p["cart_mass"], p["link_masses"], p["link_lengths"], p["gravity"], config.planar
+            )
+            nominal = base.model.lqr_gain(list(config.target_signs), Q, R)
         self._gains_by_params: dict[tuple[float, ...], np.ndarray] = {}
-        nominal = base.model.lqr_gain(list(config.target_signs), Q, R)
-        super().__init__(nominal, config.target_signs, config.max_force, config.planar)
+        super().__init__(nominal, config.target_signs, config.command_scale, config.planar)
 
     def _gain(self, params: dict[str, Any]) -> np.ndarray:
         key = (

@@ -118,8 +118,9 @@ class PlannedPolicy:
         ``plan_from`` where each episode's plan starts (``"equilibrium"`` or ``"state"``).
         Left out, ``duration`` and ``plan_from`` are the scene's on ``swingup-3`` and
         ``transitions-3`` (:data:`~chaincart_env.policies.settings.SCENE_PLANS`), the
-        planner's default length and ``"equilibrium"`` elsewhere."""
-        settings = env_settings(env, oracle)
+        planner's default length and ``"equilibrium"`` elsewhere. Refused unless the env's
+        actions command a force (``actuation="force"``)."""
+        settings = env_settings(env, oracle, cls.__name__)
         scene_duration, scene_start = SCENE_PLANS.get(settings.scene, (None, "equilibrium"))
         return cls(
             settings, duration=scene_duration if duration is None else duration, on_failure=on_failure,

@@ -12,7 +12,10 @@ from chaincart_env import _core
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.model import ChainCart
 
-__all__ = ["SCENE_PLANS", "EnvSettings", "env_settings", "goal_signs", "nearest_equilibrium", "observation_batch"]
+__all__ = [
+    "ACTUATION_COMMANDS", "SCENE_PLANS", "EnvSettings", "check_force_actuation", "env_settings", "goal_signs",
+    "nearest_equilibrium", "observation_batch",
+]
 
 #: The plan length (s) and the plan start (``"equilibrium"`` or ``"state"``) of the
 #: plan-following policies on the scenes where the planner's defaults (1 + n s from the
@@ -62,14 +65,17 @@ class EnvSettings:
         return self.state_dim + (self.n_links if self.goal_observation else 0)
 
 
-def env_settings(env: Any, oracle: bool = False) -> EnvSettings:
+def env_settings(env: Any, oracle: bool = False, controller: str = "this controller") -> EnvSettings:
     """The settings of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (anything that
     exposes the config through ``unwrapped`` or ``config``). ``oracle=True`` takes the
-    true parameters of the env (or of its first env) instead of the nominal model."""
+    true parameters of the env (or of its first env) instead of the nominal model.
+    Refused for an env whose actions command anything but a force (``actuation``):
+    ``controller`` (its name, for the message) plans and acts in forces."""
     base = getattr(env, "unwrapped", env)
     config = getattr(base, "config", None)
     if config is None:
         raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+    check_force_actuation(config, controller)
     model = base.model if hasattr(base, "model") else config.make_model()
     if oracle:
         from chaincart_env.policies.lqr import _true_param_rows
@@ -94,6 +100,22 @@ def env_settings(env: Any, oracle: bool = False) -> EnvSettings:
         max_episode_steps=int(getattr(config, "max_episode_steps", 0) or 0),
         obs_noise=float(np.max(config.obs_noise)) if getattr(config, "obs_noise", None) is not None else 0.0,
     )
+
+
+def check_force_actuation(config: Any, controller: str) -> None:
+    """Refuses a config whose actions do not command the cart's force: ``controller``
+    computes forces on the ideal model, which an acceleration or voltage command would
+    misread (``LQRPolicy`` designs for every actuation)."""
+    if config.actuation != "force":
+        raise InvalidInputError(
+            f"actuation = {config.actuation!r}: {controller} computes cart forces and the env's actions "
+            f"command the cart's {ACTUATION_COMMANDS.get(config.actuation, config.actuation)}; expected "
+            "actuation='force' (LQRPolicy designs for every actuation)"
+        )
+
+
+#: What an action commands in each actuation but force, for messages.
+ACTUATION_COMMANDS = {"acceleration": "acceleration (m/s^2)", "voltage": "motor voltage (V)"}
 
 
 def nearest_equilibrium(model: _core.ChainCart, state: np.ndarray) -> tuple[int, ...]:

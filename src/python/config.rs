@@ -6,8 +6,9 @@
 //! values into plain types.
 
 use super::convert::{error, signs, type_error};
-use super::model::ChainCart;
+use super::model::{lqr_weights, matrix_to_numpy, state_space_tuple, ChainCart};
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
+use crate::analysis::{Linearization, LqrController};
 use crate::any::AnyChain;
 use crate::env::keys::{config_key, ANY, KEY_NAMES};
 use crate::env::{
@@ -41,6 +42,14 @@ impl ResolvedConfig {
     /// The model's chain.
     pub fn chain(&self) -> &AnyChain {
         &self.model.get().chain
+    }
+
+    /// A validated sign tuple (or equilibrium name) for this chain.
+    fn equilibrium_signs(&self, s: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+        let n = self.chain().n_links();
+        let s = signs(s, n)?;
+        crate::analysis::check_signs(&s, n)?;
+        Ok(s)
     }
 }
 
@@ -84,6 +93,40 @@ impl ResolvedConfig {
     #[getter]
     fn obs_dim(&self) -> usize {
         self.task.obs_dim(self.chain().state_dim())
+    }
+    /// The LQR gain at equilibrium `s` (`2 x (4 + 4n)`, in `z` coordinates) for the
+    /// model with this configuration's real-rig effects (joint damping, cart friction,
+    /// actuation): `u = -K z` is the command of the actuation, per cart axis (N, m/s^2
+    /// or V). `Q`, `R` default to the paper's weights.
+    #[pyo3(signature = (s, Q=None, R=None))]
+    #[allow(non_snake_case)]
+    fn lqr_gain<'py>(
+        &self,
+        py: Python<'py>,
+        s: &Bound<'py, PyAny>,
+        Q: Option<&Bound<'py, PyAny>>,
+        R: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let s = self.equilibrium_signs(s)?;
+        let weights = lqr_weights(&s, Q, R)?;
+        let params = self.chain().params().clone();
+        let rig = self.task.rig.clone();
+        let controller = py.detach(|| LqrController::with_rig(&params, &s, &rig, &weights))?;
+        Ok(matrix_to_numpy(py, controller.gain()))
+    }
+    /// The first-order linearisation `(A, B)` at equilibrium `s` with this
+    /// configuration's real-rig effects, `B` per unit of the actuation's command
+    /// (docs/physics.md, "Real-rig effects").
+    fn linearize<'py>(
+        &self,
+        py: Python<'py>,
+        s: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let s = self.equilibrium_signs(s)?;
+        state_space_tuple(
+            py,
+            &Linearization::with_rig(self.chain().params(), &s, &self.task.rig)?,
+        )
     }
     /// Pickled as its canonical values, resolved again when loaded.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {

@@ -28,7 +28,7 @@ fn array<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyArray1<f64>> {
 }
 
 /// A matrix as a 2-D float64 array (row-major copy).
-fn matrix_to_numpy<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyAny> {
+pub(crate) fn matrix_to_numpy<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyAny> {
     let rows: Vec<f64> = (0..m.nrows())
         .flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)]))
         .collect();
@@ -36,6 +36,44 @@ fn matrix_to_numpy<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyAny> 
         .reshape([m.nrows(), m.ncols()])
         .expect("size matches")
         .into_any()
+}
+
+/// The LQR weights `Q`, `R` given from Python, each left out the paper's default for `s`.
+#[allow(non_snake_case)]
+pub(crate) fn lqr_weights<'py>(
+    s: &[f64],
+    Q: Option<&Bound<'py, PyAny>>,
+    R: Option<&Bound<'py, PyAny>>,
+) -> PyResult<LqrWeights> {
+    let matrix = |name: &str, obj: &Bound<'py, PyAny>| -> PyResult<DMatrix<f64>> {
+        let a: Floats<'py> = obj
+            .extract()
+            .map_err(|_| type_error(format!("{name} = {obj}: expected a 2-D matrix of numbers")))?;
+        match a.shape() {
+            [r, c] => Ok(DMatrix::from_row_slice(*r, *c, &contiguous(&a))),
+            shape => Err(error(format!(
+                "{name} has shape {}, expected a 2-D matrix",
+                super::convert::shape_text(shape)
+            ))),
+        }
+    };
+    let mut weights = LqrWeights::paper_default(s);
+    if let Some(q) = Q {
+        weights.q = matrix("Q", q)?;
+    }
+    if let Some(r) = R {
+        weights.r = matrix("R", r)?;
+    }
+    Ok(weights)
+}
+
+/// A first-order form `(A, B)` as a tuple of NumPy matrices.
+pub(crate) fn state_space_tuple<'py>(
+    py: Python<'py>,
+    lin: &Linearization,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let ss = lin.state_space()?;
+    PyTuple::new(py, [matrix_to_numpy(py, &ss.a), matrix_to_numpy(py, &ss.b)])
 }
 
 impl ChainCart {
@@ -287,25 +325,7 @@ impl ChainCart {
         R: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let s = self.signs(s)?;
-        let matrix = |name: &str, obj: &Bound<'py, PyAny>| -> PyResult<DMatrix<f64>> {
-            let a: Floats<'py> = obj.extract().map_err(|_| {
-                type_error(format!("{name} = {obj}: expected a 2-D matrix of numbers"))
-            })?;
-            match a.shape() {
-                [r, c] => Ok(DMatrix::from_row_slice(*r, *c, &contiguous(&a))),
-                shape => Err(error(format!(
-                    "{name} has shape {}, expected a 2-D matrix",
-                    super::convert::shape_text(shape)
-                ))),
-            }
-        };
-        let mut weights = LqrWeights::paper_default(&s);
-        if let Some(q) = Q {
-            weights.q = matrix("Q", q)?;
-        }
-        if let Some(r) = R {
-            weights.r = matrix("R", r)?;
-        }
+        let weights = lqr_weights(&s, Q, R)?;
         let params = self.chain.params().clone();
         let controller = py.detach(|| LqrController::new(&params, &s, &weights))?;
         Ok(matrix_to_numpy(py, controller.gain()))
@@ -331,8 +351,7 @@ impl ChainCart {
             ];
             PyTuple::new(py, parts.map(|m| matrix_to_numpy(py, m)))
         } else {
-            let ss = lin.state_space()?;
-            PyTuple::new(py, [matrix_to_numpy(py, &ss.a), matrix_to_numpy(py, &ss.b)])
+            state_space_tuple(py, &lin)
         }
     }
 

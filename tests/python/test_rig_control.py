@@ -1,0 +1,117 @@
+"""The model-based controllers on a real rig: the LQR designs on the linearisation with
+the rig (damping, friction, acceleration or voltage actuation) and commands in the
+actuation's unit; the planners and the energy controller refuse an actuation other
+than a force, naming it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from chaincart_env import ChainCartConfig, ChainCartEnv
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.policies import EnergyPolicy, LQRPolicy, MPCPolicy, OracleLQRPolicy, TrajectoryPolicy
+from chaincart_env.policies.lqr import lqr_coordinates
+
+RIGS = {
+    "damped": dict(joint_damping=[0.03, 0.01], cart_viscous_friction=2.0),
+    "acceleration": dict(actuation="acceleration", max_acceleration=15.0, joint_damping=0.01),
+    "voltage": dict(actuation="voltage", max_voltage=12.0, cart_viscous_friction=1.0),
+}
+
+
+def episode(env: ChainCartEnv, policy: LQRPolicy, seed: int) -> tuple[bool, bool]:
+    """(terminated, is_success) of one episode under ``policy``."""
+    obs, _ = env.reset(seed=seed)
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy.predict(obs)[0])
+        if terminated or truncated:
+            return terminated, bool(info.get("is_success", False))
+
+
+def test_without_a_rig_the_design_is_the_models() -> None:
+    env = ChainCartEnv()
+    policy = LQRPolicy.from_env(env)
+    np.testing.assert_array_equal(policy.gain, env.model.lqr_gain(list(env.config.target_signs)))
+    np.testing.assert_array_equal(env.config.lqr_gain(env.config.target_signs), policy.gain)
+    assert policy.max_force == env.config.max_force
+
+
+@pytest.mark.parametrize("rig", list(RIGS))
+def test_the_lqr_designs_with_the_rig_and_commands_in_its_unit(rig: str) -> None:
+    config = ChainCartConfig(**RIGS[rig])
+    env = ChainCartEnv(config)
+    policy = LQRPolicy.from_env(env)
+    ideal = env.model.lqr_gain(list(config.target_signs))
+    assert policy.max_force == config.command_scale
+    assert np.max(np.abs(policy.gain - ideal)) > 1e-3 * np.max(np.abs(ideal))
+    np.testing.assert_array_equal(policy.gain, config.lqr_gain(config.target_signs))
+    obs, _ = env.reset(seed=3)
+    z = lqr_coordinates(_spatial(obs, config.n_links), config.target_signs)
+    expected = np.clip(-(z @ policy.gain.T)[:, :1] / config.command_scale, -1, 1)
+    np.testing.assert_allclose(policy.predict(obs)[0], expected[0], rtol=1e-6, atol=1e-7)
+
+
+def _spatial(obs: np.ndarray, n: int) -> np.ndarray:
+    from chaincart_env.policies.lqr import _planar_to_spatial
+
+    return _planar_to_spatial(np.atleast_2d(obs), n)
+
+
+def test_the_linearisation_with_the_rig_has_the_closed_forms() -> None:
+    # A planar pendulum of one link on a servo axis: theta'' = (g th - a) / l (upright,
+    # angle th from upright) less the damping c w / (m l^2); in voltage mode the cart
+    # feels k (V - k v) / R besides the chain.
+    m, length, c = 0.2, 0.4, 0.01
+    config = ChainCartConfig(
+        n_links=1, link_masses=m, link_lengths=length, joint_damping=c, actuation="acceleration"
+    )
+    a, b = config._resolved.linearize([-1])
+    # z = [x(2), xi(2), xdot(2), w(2)]: the cart row is a double integrator driven by a.
+    np.testing.assert_allclose(b[4:6], np.eye(2), atol=1e-12)
+    np.testing.assert_allclose(a[4:6], 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.abs(a[6, 2]), 9.81 / length, rtol=1e-12)
+    np.testing.assert_allclose(a[6, 6], -c / (m * length * length), rtol=1e-12)
+    np.testing.assert_allclose(np.abs(b[6, 0]) + np.abs(b[6, 1]), 1.0 / length, rtol=1e-12)
+    motor = (0.02, 2.0, 5.0, 0.02, 5.0)
+    k = motor[2] * motor[0] / motor[3]
+    volt = ChainCartConfig(n_links=1, actuation="voltage", motor=motor, cart_viscous_friction=0.5)
+    force = ChainCartConfig(n_links=1)
+    (av, bv), (af, bf) = volt._resolved.linearize([-1]), force._resolved.linearize([-1])
+    np.testing.assert_allclose(bv, bf * k / motor[1], rtol=1e-12)
+    # The cart's damping (b + k^2 / R) enters through the same column as the input.
+    np.testing.assert_allclose(av[:, 4:5] - af[:, 4:5], -bf[:, :1] * (0.5 + k * k / motor[1]), rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("rig", list(RIGS))
+def test_the_lqr_designed_with_the_rig_holds_the_rig(rig: str) -> None:
+    env = ChainCartEnv(ChainCartConfig(**RIGS[rig]))
+    policy = LQRPolicy.from_env(env)
+    for seed in range(3):
+        terminated, success = episode(env, policy, seed)
+        assert not terminated and success, (rig, seed)
+
+
+def test_the_oracle_designs_with_the_rig_on_the_true_parameters() -> None:
+    config = ChainCartConfig(**RIGS["voltage"], mismatch={"cart_mass": 0.3})
+    env = ChainCartEnv(config)
+    env.reset(seed=1)
+    oracle = OracleLQRPolicy(env)
+    true = env.unwrapped.true_params
+    expected = config.replace(cart_mass=float(true["cart_mass"]), mismatch=None).lqr_gain(config.target_signs)
+    np.testing.assert_allclose(oracle.gains()[0], expected, rtol=1e-12)
+    assert oracle.max_force == config.command_scale
+
+
+@pytest.mark.parametrize("actuation", ["acceleration", "voltage"])
+@pytest.mark.parametrize("policy", [TrajectoryPolicy, MPCPolicy, EnergyPolicy])
+def test_force_controllers_refuse_another_actuation_naming_it(policy: type, actuation: str) -> None:
+    scene = "swingup-1" if policy is EnergyPolicy else "swingup-2"
+    env = ChainCartEnv(ChainCartConfig(scene=scene, actuation=actuation))
+    with pytest.raises(InvalidInputError, match=rf"actuation = '{actuation}': {policy.__name__} computes cart forces"):
+        policy.from_env(env)
+
+
+def test_force_controllers_serve_a_damped_force_rig() -> None:
+    env = ChainCartEnv(ChainCartConfig(scene="swingup-1", joint_damping=0.001))
+    assert EnergyPolicy.from_env(env).predict(env.reset(seed=0)[0])[0].shape == (1,)
