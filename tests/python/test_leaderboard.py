@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import pathlib
 
+import numpy as np
 import pytest
 
 from chaincart_env.__main__ import main
@@ -96,3 +97,38 @@ def test_a_cluster_needs_ray_and_learned_controllers_need_sb3() -> None:
     assert set(leaderboard_needs(Namespace(policies="lqr,mpc", address=None))) == {"plot"}
     assert set(leaderboard_needs(Namespace(policies="lqr,SAC", address=None))) == {"plot", "sb3"}
     assert leaderboard_needs(Namespace(policies="lqr", address="local"))["rllib"] == ("ray",)
+
+
+def test_friction_and_damping_axes_change_the_true_system_not_the_design() -> None:
+    from chaincart_env import ChainCartConfig, ChainCartEnv
+    from chaincart_env.policies import LQRPolicy
+    from chaincart_env.tools.leaderboard.controllers import DesignSource, fixed_source
+
+    config = ChainCartConfig(scene="inverted-1")
+    source = fixed_source("lqr", config)  # what every cell of the scene runs
+    assert source == DesignSource.of("lqr", config)
+    scene_gain = LQRPolicy.from_env(ChainCartEnv(config)).gain
+    for name, value in (("joint_damping", 0.02), ("cart_friction", 0.5)):
+        (axis,) = parse_axes(name)
+        variant = axis.apply(config, value)
+        assert axis.apply(config, 0.0) == config and variant.has_rig_effects and not config.has_rig_effects
+        np.testing.assert_array_equal(source.load().gain, scene_gain)
+        # Designed on the cell's system the gain would differ: the axis is unmodelled.
+        assert np.max(np.abs(LQRPolicy.from_env(ChainCartEnv(variant)).gain - scene_gain)) > 1e-3
+    (damping,) = parse_axes("joint_damping")
+    assert damping.apply(ChainCartConfig(joint_damping=[0.01, 0.02]), 0.01).joint_damping == (0.02, 0.03)
+    (friction,) = parse_axes("cart_friction")
+    servo = ChainCartConfig(actuation="acceleration")
+    assert friction.apply(servo, 0.5) == servo  # a servo axis absorbs cart friction
+
+
+def test_a_quick_leaderboard_has_the_friction_and_damping_axes(tmp_path: pathlib.Path) -> None:
+    out, report = tmp_path / "run", tmp_path / "board.md"
+    argv = ["leaderboard", "--scenes", "inverted-1", "--policies", "lqr", "--quick", "--axes", "joint_damping,cart_friction",
+            "--episodes", "2", "--out", str(out), "--report", str(report), "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    cells = _read(out / "cells.csv")
+    assert [(c["axis"], float(c["value"])) for c in cells] == [
+        ("joint_damping", 0.0), ("joint_damping", 0.02), ("cart_friction", 0.0), ("cart_friction", 0.5)]
+    header = next(line for line in report.read_text().splitlines() if line.startswith("| controller | robustness"))
+    assert "| joint_damping | cart_friction |" in header

@@ -13,6 +13,14 @@ that the axes share the nominal point.
 | ``delay`` | control delay, control periods | 0 to 4 |
 | ``force_rate_limit`` | largest change of the force, N/s | none to 200 |
 | ``start_noise`` | half-width of the start perturbation | the scene's to 0.5 |
+| ``joint_damping`` | viscous damping added at every joint, N m s/rad | 0 to 0.03 |
+| ``cart_friction`` | Coulomb friction added on the cart, N | 0 to 1 |
+
+The friction and damping axes change the true system only: the model-based
+controllers are designed on the scene (``DesignSource``), so they meet them as an
+unmodelled effect, as the dfki double-pendulum benchmark's friction axes do. A servo
+axis (``actuation="acceleration"``) absorbs cart friction, so on such a scene
+``cart_friction`` leaves the scene as it is.
 """
 
 from __future__ import annotations
@@ -52,6 +60,19 @@ def _force_noise(config: ChainCartConfig, value: float) -> ChainCartConfig:
     return config.replace(force_noise=None if value == 0 else {"multiplicative": value})
 
 
+def _added_joint_damping(config: ChainCartConfig, value: float) -> ChainCartConfig:
+    if value == 0:
+        return config
+    damping = config.joint_damping if isinstance(config.joint_damping, tuple) else (config.joint_damping,)
+    return config.replace(joint_damping=tuple(c + value for c in damping))
+
+
+def _added_cart_friction(config: ChainCartConfig, value: float) -> ChainCartConfig:
+    if value == 0 or config.actuation == "acceleration":  # a servo axis tracks its command whatever the friction
+        return config
+    return config.replace(cart_coulomb_friction=config.cart_coulomb_friction + value)
+
+
 #: The axes, in table order.
 AXES: tuple[RobustnessAxis, ...] = (
     RobustnessAxis("mismatch", "model mismatch p", (0.0, 0.1, 0.2, 0.3, 0.4), (0.0, 0.3), _sweep_axis("mismatch")),
@@ -63,6 +84,10 @@ AXES: tuple[RobustnessAxis, ...] = (
                    (math.inf, 500.0), _rate_limit),
     RobustnessAxis("start_noise", "start perturbation (half-width)", (0.05, 0.1, 0.2, 0.3, 0.5), (0.05, 0.3),
                    _sweep_axis("start_noise")),
+    RobustnessAxis("joint_damping", "joint damping added (N m s/rad)", (0.0, 0.003, 0.01, 0.02, 0.03), (0.0, 0.02),
+                   _added_joint_damping),
+    RobustnessAxis("cart_friction", "cart Coulomb friction added (N)", (0.0, 0.1, 0.2, 0.5, 1.0), (0.0, 0.5),
+                   _added_cart_friction),
 )
 
 #: The axis names, in table order.
