@@ -172,13 +172,14 @@ def _steps_text(step: Optional[float]) -> str:
     return f"{step / 1e6:.2f}M" if step >= 1e6 else f"{step / 1e3:.0f}k" if step >= 1e3 else f"{step:.0f}"
 
 
-def _page(recipes: Sequence[RecipeCurves], goal: float, command: str) -> str:
+def _page(recipes: Sequence[RecipeCurves], goal: float, command: str, note: str = "") -> str:
     lines = [
         "# Learning curves",
         "",
         f"Generated {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC on {platform.machine()} "
         f"by `{command}`. Wall times are those each run measured, under its machine's load.",
         "",
+        *([note, ""] if note else []),
         f"![learning curves]({FIGURE_FILE})",
         "",
         f"| recipe | seeds | mean success first >= {goal:g} | per seed: first >= {goal:g} (steady: last "
@@ -202,9 +203,9 @@ def _page(recipes: Sequence[RecipeCurves], goal: float, command: str) -> str:
 
 
 def write_curves(studies: Sequence[tuple[Optional[str], Path]], out: Path, goal: float = 0.9,
-                 command: str = "python -m chaincart_env curves") -> list[RecipeCurves]:
+                 command: str = "python -m chaincart_env curves", note: str = "") -> list[RecipeCurves]:
     """Reads every study (``(label or None, folder)``) and writes the figure and the
-    page into ``out``; returns the recipes read."""
+    page (with ``note`` under its first line) into ``out``; returns the recipes read."""
     if not 0 < goal <= 1:
         raise InvalidInputError(f"goal = {goal!r}: expected a success rate in (0, 1]")
     recipes = [recipe for label, study in studies for recipe in read_study_curves(study, label)]
@@ -215,7 +216,7 @@ def write_curves(studies: Sequence[tuple[Optional[str], Path]], out: Path, goal:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     _plot(out / FIGURE_FILE, recipes)
-    (out / PAGE_FILE).write_text(_page(recipes, goal, command))
+    (out / PAGE_FILE).write_text(_page(recipes, goal, command, note))
     return recipes
 
 
@@ -234,13 +235,16 @@ def add_curves_command(commands: "argparse._SubParsersAction[argparse.ArgumentPa
                         help="compare output folders, each optionally labelled")
     parser.add_argument("--out", type=Path, required=True, help="where learning-curves.png and .md go")
     parser.add_argument("--goal", type=float, default=0.9, help="the success rate the page times (default 0.9)")
+    parser.add_argument("--note", default="", help="a paragraph for the page: where the runs came from")
 
     def run(args: argparse.Namespace, _top: Any = None) -> int:
-        import sys
+        import shlex
 
-        command = "python -m chaincart_env " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["curves"] else "curves"
+        given = ["curves", *(str(d) if label is None else f"{label}={d}" for label, d in args.studies),
+                 "--out", str(args.out), *(["--goal", f"{args.goal:g}"] if args.goal != 0.9 else [])]
+        command = "python -m chaincart_env " + shlex.join(given)
         try:
-            recipes = write_curves(args.studies, args.out, args.goal, command)
+            recipes = write_curves(args.studies, args.out, args.goal, command, args.note)
         except InvalidInputError as error:
             parser.error(str(error))
         print(f"{len(recipes)} recipe(s); wrote {args.out / FIGURE_FILE} and {args.out / PAGE_FILE}")

@@ -41,8 +41,9 @@ def test_the_page_times_the_goal_per_seed_and_over_seeds(tmp_path: pathlib.Path)
         1: [0, 0, 0, 0.9, 0.8, 1, 1, 1],
         2: [0, 0, 0, 0, 0, 0, 0, 0],
     })
-    assert main(["curves", f"mine={study}", "--out", str(tmp_path / "out")]) == 0
+    assert main(["curves", f"mine={study}", "--out", str(tmp_path / "out"), "--note", "Runs of the test."]) == 0
     page = (tmp_path / "out" / "learning-curves.md").read_text()
+    assert "\n\nRuns of the test.\n\n" in page and f"curves mine={study} --out" in page
     # Mean success reaches 0.9 never (seed 2 holds it at 2/3 at most); seed 0 at step 200, steady;
     # seed 1 at step 300 but not steady (0.8 among its last five).
     assert "| mine | 3 | never | 0: 200 steady, 1: 300, 2: never |" in page
