@@ -87,6 +87,23 @@ const ANY_TRANSITION: &[(&str, KeyValue)] = &[
     ("goal_observation", KeyValue::Bool(true)),
 ];
 
+/// A linear cart driven by a DC motor through a gearbox and a rack and pinion, with the
+/// values published for Quanser's IP02 cart (docs/sim-to-real.md, "Scenes of real
+/// rigs", gives the sources and marks the assumed values): 0.57 kg, motor `R = 2.6`
+/// ohm, gearbox 3.71, pinion radius 6.4 mm, viscous friction 4.3 N s/m as seen at the
+/// pinion; the torque constant 0.00767 N m/A, the 4 A current limit and the 6 V
+/// command are assumptions.
+const MOTOR_CART: &[(&str, KeyValue)] = &[
+    ("cart_mass", KeyValue::Float(0.57)),
+    ("cart_viscous_friction", KeyValue::Float(4.3)),
+    ("actuation", KeyValue::Name("voltage")),
+    ("max_voltage", KeyValue::Float(6.0)),
+    (
+        "motor",
+        KeyValue::Floats(&[0.00767, 2.6, 3.71, 0.0064, 4.0]),
+    ),
+];
+
 /// Every scene, in documentation order.
 pub const SCENES: &[Scene] = &[
     // A CartPole-sized planar inverted pendulum. PPO solves it in seconds.
@@ -218,6 +235,38 @@ pub const SCENES: &[Scene] = &[
         name: "inverted-2-noisy",
         summary: "as inverted-2: observation noise 0.01 and a one-step control delay",
         values: &[NOISY],
+    },
+    // Rigs: an actuation other than a force, and damping and friction the ideal model
+    // lacks. The LQR (designed with the rig) holds both; the planners refuse them.
+    Scene {
+        name: "inverted-2-motor",
+        summary: "double inverted pendulum on a voltage-driven linear cart (IP02-like motor, gearbox and friction; 0.23 kg at 0.33 m, 0.127 kg at 0.18 m, joint damping 0.0024 N m s/rad): keep both links upright, 6 V",
+        values: &[
+            MOTOR_CART,
+            &[
+                ("link_masses", KeyValue::Floats(&[0.230, 0.127])),
+                ("link_lengths", KeyValue::Floats(&[0.3302, 0.1778])),
+                ("joint_damping", KeyValue::Float(0.0024)),
+                ("dt", KeyValue::Float(0.01)),
+                ("track_limit", KeyValue::Float(0.4)),
+            ],
+        ],
+    },
+    Scene {
+        name: "inverted-3-servo",
+        summary: "planar triple inverted pendulum on an acceleration-driven cart (a servo axis, as in triple-pendulum rigs; 0.1 kg, 0.3 m links, joint damping 0.001 N m s/rad): keep all three upright from +-0.02 noise, 20 m/s^2",
+        values: &[
+            THREE_LINKS,
+            &[
+                ("link_lengths", KeyValue::Float(0.3)),
+                ("joint_damping", KeyValue::Float(0.001)),
+                ("actuation", KeyValue::Name("acceleration")),
+                ("max_acceleration", KeyValue::Float(20.0)),
+                ("dt", KeyValue::Float(0.01)),
+                // From +-0.05 the LQR runs off the 2.4 m track in half the episodes.
+                ("start_noise", KeyValue::Float(0.02)),
+            ],
+        ],
     },
     // The same three on the spatial double pendulum.
     Scene {

@@ -250,7 +250,10 @@ def test_overridden_configs_resolve_as_before(case: dict) -> None:
 
 
 #: Scenes defined since the fixture was saved.
-SCENES_ADDED_SINCE = {"swingup-2", "swingup-3", "spatial-swingup-2", "transitions-2", "transitions-3", "spatial-inverted-2"}
+SCENES_ADDED_SINCE = {
+    "swingup-2", "swingup-3", "spatial-swingup-2", "transitions-2", "transitions-3", "spatial-inverted-2",
+    "inverted-2-motor", "inverted-3-servo",
+}
 
 
 def test_the_scenes_are_the_cores() -> None:

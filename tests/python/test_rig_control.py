@@ -1,9 +1,14 @@
 """The model-based controllers on a real rig: the LQR designs on the linearisation with
 the rig (damping, friction, acceleration or voltage actuation) and commands in the
 actuation's unit; the planners and the energy controller refuse an actuation other
-than a force, naming it."""
+than a force, naming it; the scenes of real rigs build, step, match their documented
+values and are held by the LQR."""
 
 from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +23,8 @@ RIGS = {
     "acceleration": dict(actuation="acceleration", max_acceleration=15.0, joint_damping=0.01),
     "voltage": dict(actuation="voltage", max_voltage=12.0, cart_viscous_friction=1.0),
 }
+RIG_SCENES = ("inverted-2-motor", "inverted-3-servo")
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 def episode(env: ChainCartEnv, policy: LQRPolicy, seed: int) -> tuple[bool, bool]:
@@ -115,3 +122,36 @@ def test_force_controllers_refuse_another_actuation_naming_it(policy: type, actu
 def test_force_controllers_serve_a_damped_force_rig() -> None:
     env = ChainCartEnv(ChainCartConfig(scene="swingup-1", joint_damping=0.001))
     assert EnergyPolicy.from_env(env).predict(env.reset(seed=0)[0])[0].shape == (1,)
+
+
+def documented_scene_values(scene: str) -> dict[str, str]:
+    """The ``key = value`` pairs the sim-to-real page lists for ``scene``."""
+    text = (DOCS / "sim-to-real.md").read_text()
+    block = text.split(f"### `{scene}`", 1)[1].split("\n#", 1)[0]
+    return dict(re.findall(r"^\| `(\w+)` \| `([^`]+)` \|", block, flags=re.M))
+
+
+@pytest.mark.parametrize("scene", RIG_SCENES)
+def test_the_rig_scenes_have_the_documented_values(scene: str) -> None:
+    config = ChainCartConfig(scene=scene)
+    documented = documented_scene_values(scene)
+    assert len(documented) >= 5
+    for key, text in documented.items():
+        value = getattr(config, key)
+        expected = ast.literal_eval(text)
+        if isinstance(value, tuple) and not isinstance(expected, tuple):
+            expected = (expected,) * len(value) if key != "motor" else expected
+        assert value == expected or np.allclose(value, expected, rtol=0, atol=0), (key, value, text)
+    assert config.has_rig_effects
+
+
+@pytest.mark.parametrize("scene", RIG_SCENES)
+def test_the_rig_scenes_build_step_and_are_held_by_the_lqr(scene: str) -> None:
+    env = ChainCartEnv(scene=scene)
+    obs, _ = env.reset(seed=0)
+    obs, *_ = env.step(env.action_space.sample() * 0)
+    assert np.all(np.isfinite(obs))
+    policy = LQRPolicy.from_env(env)
+    for seed in range(3):
+        terminated, success = episode(env, policy, seed)
+        assert not terminated and success, (scene, seed)
