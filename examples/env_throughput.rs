@@ -69,7 +69,7 @@ fn rate(n: usize, num_envs: usize, variant: &str, repeats: usize) -> f64 {
 fn raw_rate(n: usize, num_envs: usize) -> f64 {
     let chain = Chain::<Planar>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
     let opts = StepOptions::new(Method::Rk4, 2).unwrap();
-    let mut b = chaincart::batch::ChainBatch::new(chain, num_envs, 0.02, opts).unwrap();
+    let mut b = chaincart::engine::ChainBatch::new(chain, num_envs, 0.02, opts).unwrap();
     let y0: Vec<f64> = b.states().to_vec();
     let forces = vec![0.1; num_envs];
     let steps = (4_000 / num_envs).max(1);

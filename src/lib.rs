@@ -22,10 +22,10 @@ macro_rules! dispatch {
 }
 
 pub mod analysis;
-pub mod any;
-pub mod batch;
+pub mod any_chain;
 pub mod control;
 pub mod dense;
+pub mod engine;
 pub mod env;
 pub mod error;
 pub mod geometry;

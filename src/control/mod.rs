@@ -17,7 +17,7 @@
 //! The names below are the surface others use; the modules stay public for the
 //! derivatives' tests and benchmarks.
 
-pub mod any;
+pub mod any_control;
 pub mod boxqp;
 pub mod chart;
 pub mod cost;
@@ -32,7 +32,7 @@ pub mod planner;
 pub mod tvlqr;
 pub mod vector;
 
-pub use any::{AnyEnergy, AnyMpc, AnyPlan, AnyTracker};
+pub use any_control::{AnyEnergy, AnyMpc, AnyPlan, AnyTracker};
 pub use cost::CostWeights;
 pub use energy::{EnergyController, EnergyOptions};
 pub use mpc::{Mpc, MpcOptions, MpcStats, Reference};

@@ -8,7 +8,7 @@
 //! makes results independent of the thread count. Nothing is allocated in
 //! [`EnvBatch::step`] or [`EnvBatch::reset`].
 //!
-//! With rk4, batches of [`crate::batch::MIN_LANE_ENVS`] or more envs step their physics through the
+//! With rk4, batches of [`crate::engine::MIN_LANE_ENVS`] or more envs step their physics through the
 //! lane kernel of [`crate::lanes`] (one env per SIMD lane, each env with its own
 //! parameters when they are randomised), which gives every env the same bits as the
 //! env-by-env path; [`EnvBatch::set_precision`] trades that for f32 lanes.
@@ -21,7 +21,7 @@ use super::start::base_state;
 use super::step::{
     reset_env, run_chunk, sense, write_goal, write_obs, Ctx, EnvData, Pass, Slot, Widths,
 };
-use crate::batch::{Engine, Shared, StateHome, CHUNK};
+use crate::engine::{Engine, Shared, StateHome, CHUNK};
 use crate::error::{InputError, Result};
 use crate::lanes::{Kernel, LaneScene, Precision};
 use crate::model::Chain;

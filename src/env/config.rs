@@ -10,7 +10,7 @@ use super::keys::{
 use super::reality::RealityGap;
 use super::sensors::Sensors;
 use crate::analysis::equilibria::{check_signs, named_signs};
-use crate::batch::check_precision;
+use crate::engine::check_precision;
 use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
 use crate::integrate::Method;
 use crate::integrate::{Guard, StepOptions};

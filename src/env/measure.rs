@@ -12,8 +12,8 @@
 use super::config::{RewardKind, RewardWeights, TaskConfig};
 use crate::geometry::{Geometry, Layout, Vector};
 use crate::lanes::exp::exp;
+use crate::lanes::lane_vectors::{LaneGeometry, LaneVector};
 use crate::lanes::simd::{LaneReal, Lanes};
-use crate::lanes::vector::{LaneGeometry, LaneVector};
 use crate::lanes::{room, AfterStep, LANES};
 
 /// The quantities of one state the task's reward, termination and success read.

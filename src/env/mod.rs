@@ -1,6 +1,6 @@
 //! The reinforcement-learning task layer, pure Rust: a target equilibrium, a start
 //! distribution, reward, termination, success and autoreset for a batch of envs,
-//! on top of the batch engine ([`crate::batch::Engine`]). The Python envs
+//! on top of the batch engine ([`crate::engine::Engine`]). The Python envs
 //! (`chaincart_env`) are thin front ends over [`EnvBatch`].
 //!
 //! * [`keys`], [`scenes`]: the one table of configuration keys and the named scenes.

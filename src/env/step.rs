@@ -1,7 +1,7 @@
 //! One control period of a range of envs: named per-env views of the batch's arrays,
 //! the reset of one env and the step of one env (actuation, physics, scoring,
 //! sensing). The engine splits the envs into fixed chunks of
-//! [`crate::batch::CHUNK`] envs, each with its own [`Worker`]; chunks run in parallel,
+//! [`crate::engine::CHUNK`] envs, each with its own [`Worker`]; chunks run in parallel,
 //! and no env reads another's data, so the split never changes a result.
 //!
 //! With a lane kernel (rk4) a chunk runs in three phases instead of env by env:
@@ -14,7 +14,7 @@ use super::measure::{measure, MeasureInto, RewardSpec, StateMeasure};
 use super::outputs::{event, Real, DIAGNOSTICS};
 use super::reality::{EnvParams, ParamRow, RealityGap};
 use super::start::perturb;
-use crate::batch::{ChunkLanePath, EnvRange, Worker};
+use crate::engine::{ChunkLanePath, EnvRange, Worker};
 use crate::geometry::{Geometry, Layout, Vector};
 use crate::integrate::StepStatus;
 use crate::lanes::StepPlan;

@@ -1,7 +1,7 @@
 //! Tests of the task layer that need whole batches.
 
 use super::*;
-use crate::batch::CHUNK;
+use crate::engine::CHUNK;
 use crate::geometry::{Planar, Spatial};
 use crate::integrate::{Method, StepOptions};
 use crate::lanes::LaneScene;

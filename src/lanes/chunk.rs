@@ -6,10 +6,10 @@
 
 use super::dispatch::Kernel;
 use super::hook::{AfterStep, LaneHook};
+use super::lane_vectors::LaneGeometry;
 use super::params::LaneParams;
 use super::simd::{LaneReal, Precision};
 use super::stepper::{LaneStepper, StepPlan};
-use super::vector::LaneGeometry;
 use super::{LaneScene, LANES, LANES_F32};
 use crate::error::{InputError, Result};
 use crate::integrate::StepStatus;

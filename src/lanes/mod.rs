@@ -21,23 +21,23 @@
 pub mod chunk;
 pub mod dispatch;
 pub mod exp;
+pub mod guarded_rk4;
 mod hook;
+pub mod lane_vectors;
 pub mod params;
-pub mod resident;
-pub mod rk4;
+pub mod resident_groups;
 pub mod simd;
 pub mod stepper;
 mod transpose;
-pub mod vector;
 
 pub use chunk::{chunk_lanes, ChunkLanes, ChunkSpec, LaneChunk};
 pub use dispatch::Kernel;
 pub use hook::{room, AfterStep, LaneHook, NoHook};
+pub use lane_vectors::LaneGeometry;
 pub use params::LaneParams;
-pub use resident::LaneStates;
+pub use resident_groups::LaneStates;
 pub use simd::{LaneReal, Precision};
 pub use stepper::{LaneStepper, StepPlan};
-pub use vector::LaneGeometry;
 
 /// Lanes per group in f64: one AVX-512 register, two AVX2 registers, four SSE2 ones.
 pub const LANES: usize = 8;

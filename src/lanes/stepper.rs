@@ -9,12 +9,12 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::dispatch::{run_on, Kernel, LaneWork};
+use super::guarded_rk4::{guarded_rk4, roll_back, LaneWorkspace, StepSpec};
 use super::hook::{AfterStep, NoHook};
+use super::lane_vectors::{LaneGeometry, LaneVector};
 use super::params::LaneParams;
-use super::rk4::{guarded_rk4, roll_back, LaneWorkspace, StepSpec};
 use super::simd::{LaneReal, Lanes};
 use super::transpose::RowMover;
-use super::vector::{LaneGeometry, LaneVector};
 use crate::integrate::{Guard, StepStatus};
 
 /// How a control period is stepped: period, integrator substeps, failure guard.

@@ -9,7 +9,7 @@ use super::convert::{error, signs, type_error};
 use super::model::{lqr_weights, matrix_to_numpy, state_space_tuple, ChainCart};
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::analysis::{Linearization, LqrController};
-use crate::any::AnyChain;
+use crate::any_chain::AnyChain;
 use crate::env::keys::{config_key, ANY, KEY_NAMES};
 use crate::env::{
     check_task, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Sensors,

@@ -3,8 +3,8 @@
 //! of one link is in `energy`).
 
 use super::convert::{contiguous, error, signs, Floats};
-use crate::any::AnyChain;
-use crate::control::any::{AnyMpc, AnyPlan, AnyTracker};
+use crate::any_chain::AnyChain;
+use crate::control::any_control::{AnyMpc, AnyPlan, AnyTracker};
 use crate::control::cost::CostWeights;
 use crate::control::mpc::MpcOptions;
 use crate::control::planner::PlanOptions;

@@ -3,7 +3,7 @@
 
 use super::convert::{contiguous, Floats};
 use super::model::ChainCart;
-use crate::control::any::AnyEnergy;
+use crate::control::any_control::AnyEnergy;
 use crate::control::energy::EnergyOptions;
 use numpy::PyArray1;
 use pyo3::prelude::*;

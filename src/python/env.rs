@@ -8,7 +8,7 @@
 use super::config::{resolve, ResolvedConfig};
 use super::convert::{check_shape, error, shape_text, type_error, ActionSlice, Actions, Floats};
 use super::reality::{param_arrays, params_dict};
-use crate::any::AnyChain;
+use crate::any_chain::AnyChain;
 use crate::env::EnvParams;
 use crate::env::{
     AutoresetMode, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS, RNG_BYTES,

@@ -2,7 +2,7 @@
 
 use super::convert::{contiguous, error, per_link, signs, type_error, vector, Floats};
 use crate::analysis::{Linearization, LqrController, LqrWeights};
-use crate::any::AnyChain;
+use crate::any_chain::AnyChain;
 use crate::env::PaperFigure;
 use crate::error::InputError;
 use crate::integrate::{Method, StepOptions};

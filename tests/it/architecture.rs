@@ -30,10 +30,10 @@ const LADDER: &[(&str, &[&str])] = &[
     ("integrators", &["integrate"]),
     (
         "analysis, lanes, rendering, one chain from front ends",
-        &["analysis", "lanes", "render", "scaling", "any"],
+        &["analysis", "lanes", "render", "scaling", "any_chain"],
     ),
     ("controllers", &["control"]),
-    ("the batch engine", &["batch"]),
+    ("the batch engine", &["engine"]),
     ("the task", &["env"]),
     ("the Python bindings", &["python"]),
 ];
@@ -553,7 +553,7 @@ fn the_reader_finds_the_paths_it_must() {
             .iter()
             .any(|(x, y)| x.join("::") == a && y.join("::") == b)
     };
-    assert!(has("lanes::rk4", "geometry"), "{edges:?}");
+    assert!(has("lanes::guarded_rk4", "geometry"), "{edges:?}");
     assert!(has("model", "params"));
 }
 

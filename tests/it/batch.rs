@@ -3,7 +3,7 @@
 
 use crate::common;
 
-use chaincart::batch::CHUNK;
+use chaincart::engine::CHUNK;
 use chaincart::integrate::StepStatus;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions, Stepper};
 use common::batches::{forces, random_batch};

@@ -8,7 +8,7 @@
 
 use crate::common;
 
-use chaincart::batch::MIN_LANE_ENVS;
+use chaincart::engine::MIN_LANE_ENVS;
 use chaincart::env::{
     event, AutoresetMode, Distribution, Ends, EnvBatch, ForceNoise, PaperFigure,
     ParamRandomization, Real, RewardKind, Start, StepOutputs, TaskConfig, Transitions,

@@ -1,7 +1,7 @@
 //! The reality gap of the task layer: per-env parameters drawn at reset, fixed
 //! mismatch, observation noise, control delay, force-rate limit and force noise.
 
-use chaincart::batch::CHUNK;
+use chaincart::engine::CHUNK;
 use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, ForceNoise, Param, ParamRandomization, ParamValues,
     Randomization, RealityGap, Start, StepOutputs, TaskConfig,

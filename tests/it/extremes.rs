@@ -7,7 +7,7 @@
 
 use crate::common;
 
-use chaincart::batch::ChainBatch;
+use chaincart::engine::ChainBatch;
 use chaincart::integrate::{Guard, GuardedStepper, StepStatus};
 use chaincart::lanes::Kernel;
 use chaincart::lanes::Precision;

@@ -586,7 +586,7 @@ fn states_read_or_written_between_lane_steps_are_the_per_env_ones() {
 /// next step starts from them as it would from rows written in place.
 #[test]
 fn states_set_on_a_batch_split_between_threads_read_back_and_step_as_given() {
-    use chaincart::batch::LANE_CHUNK;
+    use chaincart::engine::LANE_CHUNK;
     let num_envs = 2 * LANE_CHUNK + 7;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(3)

@@ -2,7 +2,7 @@
 //! counts (and filtered), the true state untouched, single envs equal to a batch's,
 //! snapshots, and the checks.
 
-use chaincart::batch::CHUNK;
+use chaincart::engine::CHUNK;
 use chaincart::env::{AutoresetMode, EnvBatch, Sensors, StepOutputs, TaskConfig};
 use chaincart::lanes::LaneScene;
 use chaincart::{Chain, ChainParams, Planar, Spatial, StepOptions};

@@ -1,7 +1,7 @@
 //! The RL task layer's step and reset allocate nothing.
 
 use super::counter::allocations_of;
-use chaincart::batch::CHUNK;
+use chaincart::engine::CHUNK;
 use chaincart::env::{
     AutoresetMode, Distribution, EnvBatch, ForceNoise, ParamRandomization, StepOutputs, TaskConfig,
 };

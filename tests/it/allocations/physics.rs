@@ -2,7 +2,7 @@
 
 use super::counter::allocations_of;
 use crate::common::batches::{forces, random_batch};
-use chaincart::batch::CHUNK;
+use chaincart::engine::CHUNK;
 use chaincart::integrate::{Guard, GuardedStepper};
 use chaincart::lanes::Precision;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions};

@@ -1,7 +1,7 @@
 //! Batches of the paper's system from random states, and deterministic force patterns.
 
 use super::{random_spatial_state, rng};
-use chaincart::batch::ChainBatch;
+use chaincart::engine::ChainBatch;
 use chaincart::{ChainParams, Method, SpatialChain, StepOptions};
 
 pub fn random_batch(

@@ -10,11 +10,11 @@
 //!
 //! Where the states live decides how the lanes step them ([`StateHome`]): a
 //! physics-only batch keeps them in lane groups between steps
-//! ([`super::resident`]); a task, which reads and writes env rows every step, hands
+//! ([`super::lane_path`]); a task, which reads and writes env rows every step, hands
 //! each chunk's rows to its worker ([`ChunkLanePath`]) and runs its own per-env work
 //! around that step in the same pass ([`Engine::run_chunks`]).
 
-use super::resident::ResidentLanes;
+use super::lane_path::ResidentLanes;
 use crate::error::{check_positive, InputError, Result};
 use crate::geometry::{Geometry, Vector};
 use crate::integrate::{Guard, GuardedStepper, Method, StepOptions, StepStatus};

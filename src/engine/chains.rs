@@ -4,7 +4,7 @@
 //! lane, with the same bits as the per-env path, and the states stay in the lanes
 //! between steps.
 
-use super::engine::{Engine, Shared, StateHome};
+use super::stepping::{Engine, Shared, StateHome};
 use crate::error::{check_finite, check_len, InputError, Result};
 use crate::integrate::{Guard, StepOptions, StepStatus};
 use crate::lanes::{Kernel, LaneScene, NoHook, Precision};

@@ -9,9 +9,9 @@
 // inlined, and whatever is not inlined runs as baseline code.
 #![allow(clippy::needless_range_loop, clippy::manual_memcpy)]
 
+use super::lane_vectors::{LaneGeometry, LaneVector};
 use super::params::LaneParams;
 use super::simd::{flat, flat_mut, is_dense, LaneReal, Lanes};
-use super::vector::{LaneGeometry, LaneVector};
 use crate::geometry::Layout;
 use crate::integrate::{swept_per_step, swept_surely_within, Guard, StepStatus};
 

@@ -10,12 +10,12 @@
 //! The task (`crate::env`) builds its env batch on the same [`Engine`].
 
 mod chains;
-pub mod engine;
-mod resident;
+mod lane_path;
+pub mod stepping;
 
 pub use chains::ChainBatch;
-pub use engine::{
+pub use lane_path::LANE_CHUNK;
+pub use stepping::{
     check_ideal_for_lanes, check_precision, ChunkLanePath, Engine, EnvRange, Shared, StateHome,
     Worker, CHUNK, F32_MIN_UNIT_LENGTH_TOLERANCE, MIN_LANE_ENVS,
 };
-pub use resident::LANE_CHUNK;

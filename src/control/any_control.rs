@@ -5,7 +5,7 @@ use super::energy::{EnergyController, EnergyOptions};
 use super::mpc::{Mpc, MpcOptions, MpcStats, Reference};
 use super::planner::{Plan, PlanOptions, Planner};
 use super::tvlqr::Tracker;
-use crate::any::AnyChain;
+use crate::any_chain::AnyChain;
 use crate::error::{check_finite, check_len, Result};
 use crate::geometry::{Planar, Spatial};
 
