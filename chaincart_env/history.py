@@ -39,9 +39,27 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "HistoryObservation", "HistoryPolicy", "VecHistoryObservation", "check_history", "history_of", "history_space",
-    "with_history",
+    "HistoryObservation", "HistoryPolicy", "PicklableVecWrapper", "VecHistoryObservation", "check_history",
+    "history_of", "history_space", "with_history",
 ]  # fmt: skip
+
+
+class PicklableVecWrapper:
+    """Mixin for a stable-baselines3 ``VecEnvWrapper`` that must pickle with its envs
+    (compare's checkpoints pickle the training envs): ``VecEnvWrapper`` keeps a table of
+    its class's members, which does not pickle, so the state leaves it out and a
+    restored wrapper builds it again. Put it before ``VecEnvWrapper`` among the bases."""
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("class_attributes", None)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        import inspect
+
+        self.__dict__.update(state)
+        self.class_attributes = dict(inspect.getmembers(self.__class__))
 
 
 def check_history(k: Any) -> int:
@@ -198,7 +216,7 @@ def _vec_history_class() -> type:
     """:class:`VecHistoryObservation`, made on first use (stable-baselines3 loads then)."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
-    class VecHistoryObservation(VecEnvWrapper):  # type: ignore[misc]
+    class VecHistoryObservation(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
         """A stable-baselines3 ``VecEnv`` whose observations carry each env's last ``k``
         observations and actions (:mod:`chaincart_env.history`). An env whose episode
         ended on this step (same-step autoreset) restarts its history at its new first
@@ -242,19 +260,6 @@ def _vec_history_class() -> type:
             if ended.size:
                 self._buffers.restart(ended, obs[ended])
             return self._buffers.augmented(obs), rewards, dones, infos
-
-        def __getstate__(self) -> dict[str, Any]:
-            # Pickled with its envs and histories (compare's checkpoints): without the
-            # table of class attributes VecEnvWrapper keeps, which does not pickle.
-            state = dict(self.__dict__)
-            state.pop("class_attributes", None)
-            return state
-
-        def __setstate__(self, state: dict[str, Any]) -> None:
-            import inspect
-
-            self.__dict__.update(state)
-            self.class_attributes = dict(inspect.getmembers(self.__class__))
 
     VecHistoryObservation.__module__ = __name__
     VecHistoryObservation.__qualname__ = "VecHistoryObservation"

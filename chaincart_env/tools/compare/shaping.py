@@ -12,7 +12,6 @@ training log (``training_episodes.csv``) records returns with the penalty in the
 
 from __future__ import annotations
 
-import inspect
 import math
 from typing import Any
 
@@ -20,6 +19,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.history import PicklableVecWrapper
 
 __all__ = ["OffTrackPenalty", "check_off_track_penalty"]
 
@@ -31,7 +31,7 @@ def check_off_track_penalty(penalty: Any) -> float:
     return float(penalty)
 
 
-class OffTrackPenalty(VecEnvWrapper):  # type: ignore[misc]
+class OffTrackPenalty(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
     """A stable-baselines3 ``VecEnv`` (whose infos say ``out_of_track``) with ``penalty``
     subtracted from the reward of each step that leaves the track."""
 
@@ -50,14 +50,3 @@ class OffTrackPenalty(VecEnvWrapper):  # type: ignore[misc]
             if infos[i].get("out_of_track", False):
                 rewards[i] -= self.penalty
         return obs, rewards, dones, infos
-
-    def __getstate__(self) -> dict[str, Any]:
-        # Pickled with compare's checkpoints: without VecEnvWrapper's table of class
-        # attributes, which does not pickle.
-        state = dict(self.__dict__)
-        state.pop("class_attributes", None)
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self.class_attributes = dict(inspect.getmembers(self.__class__))
