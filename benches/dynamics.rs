@@ -19,8 +19,8 @@
 //!   the same chain, period and substeps), for n = 5 spatial and one planar link. The
 //!   env rows minus the physics rows are the task layer's cost.
 
-use chaincart::engine::ChainBatch;
 use chaincart::dense::dense_derivative;
+use chaincart::engine::ChainBatch;
 use chaincart::env::{AutoresetMode, EnvBatch, StepOutputs};
 use chaincart::geometry::planar_to_spatial;
 use chaincart::integrate::{Guard, StepStatus};
