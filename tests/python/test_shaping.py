@@ -1,6 +1,8 @@
-"""The training-only off-track penalty: exactly the penalty on each step that leaves the
-track and nothing else, kept through a checkpoint's pickling, the scene's default
-recorded in the run's settings, and bad values refused by name."""
+"""The training-only reward shaping. The off-track penalty: exactly the penalty on each
+step that leaves the track and nothing else. The plan bonus: the scale times the
+progress along the plan on the plan's own states, nothing hanging still, and only on
+steps that did not end an episode. Both kept through a checkpoint's pickling, the
+scene's default recorded in the run's settings, and bad values refused by name."""
 
 from __future__ import annotations
 
@@ -12,8 +14,10 @@ import pytest
 from chaincart_env import ChainCartConfig, ChainCartVecEnv
 from chaincart_env.__main__ import main
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.curriculum import plan_states
 from chaincart_env.tools.compare.job import _training_settings
-from chaincart_env.tools.compare.shaping import OffTrackPenalty, check_off_track_penalty
+from chaincart_env.tools.compare.shaped_rewards import OffTrackPenalty, PlanProgress
+from chaincart_env.tools.compare.shaping import Shaping, check_off_track_penalty, check_plan_bonus
 
 PENALTY = 7.5
 
@@ -61,24 +65,81 @@ def test_a_bad_penalty_names_itself(bad):
         check_off_track_penalty(bad)
 
 
-def test_the_scene_default_and_a_given_penalty_are_recorded(monkeypatch):
-    from chaincart_env.tools.compare import curriculum
-
-    monkeypatch.setitem(curriculum.SCENE_OFF_TRACK_PENALTIES, "swingup-2", 10.0)
-
-    def penalty(scene: str, given=None, trainer="sb3") -> float:
+def test_the_scene_default_and_given_terms_are_recorded():
+    def shaping(scene: str, trainer="sb3", **given) -> dict:
         settings = _training_settings(ChainCartConfig(scene=scene), ["ppo"], trainer, None, None, {}, {},
-                                      imitation=False, curriculum=None, training_reward=None,
-                                      off_track_penalty=given)
-        return settings["ppo"]["off_track_penalty"]
+                                      imitation=False, curriculum=None, training_reward=None, shaping=given)
+        return settings["ppo"]["shaping"]
 
-    assert penalty("swingup-2") == 10.0 and penalty("inverted-2") == 0.0 and penalty("inverted-2", 3.0) == 3.0
-    assert penalty("swingup-2", trainer="rllib") == 0.0
+    assert shaping("swingup-2") == {"off_track_penalty": 0.0, "plan_bonus": 0.3}
+    assert shaping("inverted-2") == {"off_track_penalty": 0.0, "plan_bonus": 0.0}
+    assert shaping("swingup-2", off_track_penalty=3.0, plan_bonus=None) == {"off_track_penalty": 3.0,
+                                                                            "plan_bonus": 0.3}
+    assert shaping("swingup-2", plan_bonus=0.0) == {"off_track_penalty": 0.0, "plan_bonus": 0.0}
+    assert shaping("swingup-2", trainer="rllib") == {"off_track_penalty": 0.0, "plan_bonus": 0.0}
     with pytest.raises(InvalidInputError, match="--off-track-penalty 3.0 with --trainer rllib: expected the sb3"):
-        penalty("inverted-2", 3.0, trainer="rllib")
+        shaping("inverted-2", trainer="rllib", off_track_penalty=3.0)
+    with pytest.raises(InvalidInputError, match="transitions-2"):  # no single plan to follow
+        shaping("transitions-2", plan_bonus=0.3)
 
 
-def test_the_command_line_refuses_a_negative_penalty(tmp_path, capsys):
+@pytest.mark.parametrize("option, name", [("--off-track-penalty", "off-track penalty"), ("--plan-bonus", "plan bonus")])
+def test_the_command_line_refuses_a_negative_term(option, name, tmp_path, capsys):
     with pytest.raises(SystemExit):
-        main(["compare", "--off-track-penalty", "-2", "--out", str(tmp_path)])
-    assert "off-track penalty = -2.0: expected a finite number >= 0" in capsys.readouterr().err
+        main(["compare", option, "-2", "--out", str(tmp_path)])
+    assert f"{name} = -2.0: expected a finite number >= 0" in capsys.readouterr().err
+
+
+SCALE = 0.3
+
+
+def _swingup_envs() -> tuple[ChainCartVecEnv, np.ndarray]:
+    config = ChainCartConfig(scene="swingup-2", reward="exp")
+    return ChainCartVecEnv(4, config, seed=5), plan_states(config)
+
+
+def test_the_plan_bonus_pays_the_progress_along_the_plan():
+    envs, plan = _swingup_envs()
+    bonus = PlanProgress(envs, SCALE, plan)
+    progress = np.linspace(0.0, 1.0, len(plan))
+    on_plan = bonus.bonus(plan)
+    assert np.all(on_plan >= SCALE * progress - 1e-12) and np.all(on_plan <= SCALE)
+    model = envs.model
+    hanging, upright = model.equilibrium([1, 1]), model.equilibrium([-1, -1])
+    assert bonus.bonus(hanging[None])[0] < 0.05 * SCALE  # only the first states of the plan are near it
+    assert bonus.bonus(upright[None])[0] == pytest.approx(SCALE, rel=1e-3)
+    moved = upright.copy()
+    moved[0] += 1.0  # the cart's place is left out
+    assert bonus.bonus(moved[None])[0] == bonus.bonus(upright[None])[0]
+
+
+def test_the_plan_bonus_falls_on_running_steps_only_and_pickles():
+    plain, plan = _swingup_envs()
+    shaped = PlanProgress(_swingup_envs()[0], SCALE, plan)
+    actions = np.array([[1.0], [-1.0], [0.5], [0.0]], dtype=np.float32)
+    plain.reset(), shaped.reset()
+    any_ended = False
+    for step in range(320):  # past the 300-step episodes' end
+        _, expected, ended, _ = plain.step(actions)
+        states = plain._batch.states()
+        _, got, ended_too, _ = shaped.step(actions)
+        assert np.array_equal(ended, ended_too)
+        any_ended |= bool(ended.any())
+        extra = np.where(ended, 0.0, shaped.bonus(states))
+        assert np.allclose(got, expected + extra, rtol=0, atol=1e-6), step
+    assert any_ended
+    copy = pickle.loads(pickle.dumps(shaped))
+    for _ in range(5):
+        a, b = shaped.step(actions), copy.step(actions)
+        assert np.array_equal(a[1], b[1])
+
+
+def test_the_plan_bonus_refuses_a_bad_scale_or_plan():
+    envs, plan = _swingup_envs()
+    with pytest.raises(InvalidInputError, match=r"plan of shape \(151, 3\)"):
+        PlanProgress(envs, SCALE, plan[:, :3])
+    for bad in (-0.1, float("nan"), True, "0.3"):
+        with pytest.raises(InvalidInputError, match=r"plan bonus = .*: expected a finite number >= 0"):
+            check_plan_bonus(bad)
+    with pytest.raises(InvalidInputError, match=r"plan bonus = -1"):
+        Shaping(plan_bonus=-1)

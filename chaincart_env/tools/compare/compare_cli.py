@@ -109,10 +109,14 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "folder: its best model; or a model file), e.g. a nominal agent fine-tuned by ppo-robust; same "
                         "algorithm and observation/action spaces (the same --history). The file is loaded with SB3's "
                         "loader: trusted code only")
-    parser.add_argument("--off-track-penalty", type=_off_track_penalty, default=None, metavar="P",
+    parser.add_argument("--off-track-penalty", type=_scale("off_track_penalty"), default=None, metavar="P",
                         help="training only: subtract P from the reward of the step that leaves the track, so that "
                         "running off costs something while the reward is still near zero (chaincart_env.tools.compare."
                         "shaping); evaluations keep the scene's reward (default: 0)")
+    parser.add_argument("--plan-bonus", type=_scale("plan_bonus"), default=None, metavar="C",
+                        help="training only: add up to C to each step's reward for a state near the planner's "
+                        "swing-up, more the further along it (chaincart_env.tools.compare.shaping); 0 turns it off; "
+                        "evaluations keep the scene's reward (default: 0.3 on swingup-2, 0 elsewhere)")
     parser.add_argument("--history", type=_integer(1, "history"), default=None, metavar="K",
                         help="the learned agents observe the last K observations and actions too (oldest first, zeros "
                         "before an episode's start; chaincart_env.history), in training and in every evaluation, for "
@@ -126,17 +130,22 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_compare_command(args, parser))
 
 
-def _off_track_penalty(text: str) -> float:
-    from chaincart_env.tools.compare.shaping import check_off_track_penalty
+def _scale(term: str) -> Callable[[str], float]:
+    """A parser of a shaping term's value (a finite number >= 0), erring in its name."""
 
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"off-track penalty = {text!r}: expected a finite number >= 0") from None
-    try:
-        return check_off_track_penalty(value)
-    except ChainCartError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
+    def parse(text: str) -> float:
+        from chaincart_env.tools.compare.shaping import Shaping
+
+        try:
+            value = float(text)
+        except ValueError:
+            value = text  # type: ignore[assignment]  # refused by name below
+        try:
+            return getattr(Shaping(**{term: value}), term)
+        except ChainCartError as error:
+            raise argparse.ArgumentTypeError(str(error)) from None
+
+    return parse
 
 
 def _add_rllib_options(parser: argparse.ArgumentParser) -> None:
@@ -261,7 +270,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
                     address=args.address, imitation=not args.no_imitation, curriculum=curriculum,
                     training_reward="scene" if args.training_reward is None else args.training_reward,
-                    history=args.history, off_track_penalty=args.off_track_penalty,
+                    history=args.history,
+                    shaping=dict(off_track_penalty=args.off_track_penalty, plan_bonus=args.plan_bonus),
                     warm_start_from=args.warm_start)
     except ChainCartError as error:
         parser.error(str(error))

@@ -34,8 +34,8 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "CURRICULA", "SCENE_CURRICULA", "SCENE_OFF_TRACK_PENALTIES", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_states",
-    "scene_curriculum", "scene_off_track_penalty", "scene_training_reward",
+    "CURRICULA", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_states",
+    "scene_curriculum", "scene_training_reward",
 ]  # fmt: skip
 
 #: The curricula ``compare --curriculum`` offers.
@@ -103,12 +103,6 @@ SCENE_CURRICULA: dict[str, PlanStarts] = {"swingup-2": PlanStarts(0.5)}
 #: reward, which pays almost nothing away from the top, where the bounded ``tolerance``
 #: reward's gentle slope left PPO unable to learn the hold (the same runs).
 SCENE_TRAINING_REWARDS: dict[str, str] = {"swingup-2": "exp"}
-#: The off-track penalty the learned agents of a scene train with by default
-#: (:mod:`~chaincart_env.tools.compare.shaping`; ``--off-track-penalty`` overrides it).
-#: None yet: on the double swing-up a penalty of 10 kept a seed that used to run off the
-#: track on it (off-track episodes from about 70 % to under 10 %), but that seed still did
-#: not learn the swing-up from hanging in 1.5M steps (docs/main-job.md).
-SCENE_OFF_TRACK_PENALTIES: dict[str, float] = {}
 
 
 def scene_curriculum(scene: Optional[str]) -> Optional[PlanStarts]:
@@ -119,11 +113,6 @@ def scene_curriculum(scene: Optional[str]) -> Optional[PlanStarts]:
 def scene_training_reward(scene: Optional[str]) -> Optional[str]:
     """The reward ``scene``'s agents train on when it is not the scene's, or ``None``."""
     return SCENE_TRAINING_REWARDS.get(scene or "")
-
-
-def scene_off_track_penalty(scene: Optional[str]) -> float:
-    """The off-track penalty ``scene``'s agents train with by default (0: none)."""
-    return SCENE_OFF_TRACK_PENALTIES.get(scene or "", 0.0)
 
 
 def check_plan_scene(config: Any) -> None:

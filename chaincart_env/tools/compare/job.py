@@ -41,6 +41,7 @@ from chaincart_env.tools.compare.plots import plot_learning_curve
 from chaincart_env.tools.compare.policy_sources import load_run
 from chaincart_env.tools.compare.recipes import GENERIC, recipe_for, training_conditions
 from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, save_run, write_folder
+from chaincart_env.tools.compare.shaping import Shaping, scene_shaping
 from chaincart_env.tools.compare.study import (
     EVALUATION_FILES,
     StudyEvaluation,
@@ -224,15 +225,22 @@ def _train_sb3(
                    normalize=training.get("normalize"), imitation=_imitation(training),
                    curriculum=_curriculum(training), training_reward=training.get("training_reward"),
                    history=training.get("history"), conditions=training.get("conditions"),
-                   off_track_penalty=training.get("off_track_penalty", 0.0),
+                   shaping=_shaping(training),
                    warm_start_from=None if warm_start_from is None else Path(warm_start_from))
     trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                    resumed_from=result.resumed_from, evaluations=result.evaluations,
                    normalize=training.get("normalize"), imitation=result.imitation,
                    curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
                    history=training.get("history"), conditions=training.get("conditions"),
-                   off_track_penalty=training.get("off_track_penalty", 0.0), warm_start_from=warm_start_from)
+                   shaping=_shaping(training).record(), warm_start_from=warm_start_from)
     return result, trained
+
+
+def _shaping(training: Mapping[str, Any]) -> Shaping:
+    """The shaping a run's settings record (an older run's: its off-track penalty alone)."""
+    if "shaping" in training:
+        return Shaping.from_record(training["shaping"])
+    return Shaping(off_track_penalty=training.get("off_track_penalty", 0.0))
 
 
 def _imitation(training: Mapping[str, Any]) -> Any:
@@ -434,7 +442,8 @@ def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
     imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
-    history: Optional[int] = None, off_track_penalty: Optional[float] = None, warm_start_from: Optional[Path] = None,
+    history: Optional[int] = None, shaping: Optional[Mapping[str, Optional[float]]] = None,
+    warm_start_from: Optional[Path] = None,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
@@ -459,13 +468,14 @@ def _training_settings(
         from chaincart_env.tools.compare.training import training_config
 
         training_config(config, training_reward)  # an unknown reward fails before training
-    if off_track_penalty is None:
-        from chaincart_env.tools.compare.curriculum import scene_off_track_penalty
+    given = Shaping().with_overrides(**(shaping or {}))
+    if given and trainer != "sb3" and learned:
+        raise InvalidInputError(f"{' '.join(given.given())} with --trainer {trainer}: expected the sb3 trainer")
+    chosen_shaping = scene_shaping(config.scene).with_overrides(**(shaping or {})) if trainer == "sb3" else Shaping()
+    if chosen_shaping.plan_bonus and learned:
+        from chaincart_env.tools.compare.curriculum import check_plan_scene
 
-        off_track_penalty = scene_off_track_penalty(config.scene) if trainer == "sb3" else 0.0
-    elif off_track_penalty and trainer != "sb3" and learned:
-        raise InvalidInputError(f"--off-track-penalty {off_track_penalty} with --trainer {trainer}: expected the sb3 "
-                                "trainer")
+        check_plan_scene(config)  # a scene without one plan fails before training
     if warm_start_from is not None and learned:
         if trainer != "sb3":
             raise InvalidInputError(f"--warm-start with --trainer {trainer}: expected the sb3 trainer")
@@ -493,7 +503,7 @@ def _training_settings(
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
                     imitation=None if warm_start is None else warm_start.record(), curriculum=chosen_curriculum,
                     training_reward=training_reward, history=seen, conditions=conditions,
-                    off_track_penalty=off_track_penalty,
+                    shaping=chosen_shaping.record(),
                     warm_start=None if warm_start_from is None else str(warm_start_from))
 
     for algo in learned:
@@ -530,7 +540,7 @@ def run_compare(
     curriculum: Any = "scene",
     training_reward: Optional[str] = "scene",
     history: Optional[int] = None,
-    off_track_penalty: Optional[float] = None,
+    shaping: Optional[Mapping[str, Optional[float]]] = None,
     warm_start_from: Optional[Path] = None,
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
@@ -558,9 +568,10 @@ def run_compare(
     planner's plan). ``training_reward``: the SB3 training envs reward with it (``"exp"``
     or ``"tolerance"``) instead of the scene's; ``"scene"`` (the default): the scene's
     training reward (:data:`~chaincart_env.tools.compare.curriculum.SCENE_TRAINING_REWARDS`),
-    its own reward on most scenes. ``off_track_penalty``: subtracted from the SB3 training
-    reward of each step that leaves the track (``None``: the scene's,
-    :data:`~chaincart_env.tools.compare.curriculum.SCENE_OFF_TRACK_PENALTIES`).
+    its own reward on most scenes. ``shaping``: terms of the SB3 training reward's shaping
+    (:class:`~chaincart_env.tools.compare.shaping.Shaping`'s fields, e.g.
+    ``{"off_track_penalty": 10.0, "plan_bonus": 0.3}``) on top of the scene's
+    (:data:`~chaincart_env.tools.compare.shaping.SCENE_SHAPING`); a term given ``None`` keeps the scene's.
     ``warm_start_from``: every learned agent starts from the weights of the agent saved
     there (a model file or a training run's folder; same algorithm and spaces). Every
     evaluation keeps the scene."""
@@ -577,7 +588,7 @@ def run_compare(
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
                                     dict(algo_hyperparameters or {}), imitation, curriculum, training_reward,
-                                    history, off_track_penalty, warm_start_from),
+                                    history, shaping, warm_start_from),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve

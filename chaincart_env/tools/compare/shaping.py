@@ -1,52 +1,108 @@
-"""Training-only reward shaping: a penalty on the step that leaves the track.
+"""Training-only reward shaping: a penalty on the step that leaves the track, and a
+bonus for following the planner's swing-up.
 
 The swing-ups train on the sharp ``exp`` reward, which is almost zero anywhere far from
-the target. Leaving the track ends the episode, but while the chain still hangs that
-ends nothing worth having: an agent pumping energy into the chain loses nothing by
-running off the end, and a seed that learns to pump hard before it learns to brake
-never learns to stay. A penalty on the step that leaves the track (the reward of that
-step minus ``penalty``) makes running off cost what holding the target would earn
-over ``penalty`` steps. Evaluations keep the scene's reward and success, and the
-training log (``training_episodes.csv``) records returns with the penalty in them.
+the target. Two consequences, and a term for each:
+
+* Leaving the track ends the episode, but while the chain still hangs that ends nothing
+  worth having: an agent pumping energy into the chain loses nothing by running off the
+  end. The off-track penalty (the reward of the step that leaves the track minus
+  ``off_track_penalty``) makes running off cost what holding the target would earn over
+  that many steps.
+* A hanging chain and one swung almost high enough earn the same nothing, so from
+  hanging there is no slope to climb: plan starts teach an agent to finish a swing-up,
+  not to begin one. The plan bonus pays on every step for being
+  near the planner's swing-up, and more the further along it the state lies, so that the
+  beginning of the swing-up pays too. It has no clock: any state on the path earns its
+  progress, whenever it is reached.
+
+Evaluations keep the scene's reward and success, and the training log
+(``training_episodes.csv``) records returns with the shaping in them. The settings live
+here; the SB3 wrappers that apply them, in :mod:`~chaincart_env.tools.compare.shaped_rewards`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
-
-import numpy as np
-from stable_baselines3.common.vec_env import VecEnvWrapper
+from dataclasses import asdict, dataclass, fields
+from typing import Any, Mapping, Optional
 
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.history import PicklableVecWrapper
 
-__all__ = ["OffTrackPenalty", "check_off_track_penalty"]
+__all__ = ["SCENE_SHAPING", "Shaping", "check_off_track_penalty", "check_plan_bonus", "scene_shaping"]
+
+
+def _check_scale(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        raise InvalidInputError(f"{what} = {value!r}: expected a finite number >= 0")
+    return float(value)
 
 
 def check_off_track_penalty(penalty: Any) -> float:
     """``penalty`` as a float, or an InvalidInputError naming it: a finite number >= 0."""
-    if isinstance(penalty, bool) or not isinstance(penalty, (int, float)) or not math.isfinite(penalty) or penalty < 0:
-        raise InvalidInputError(f"off-track penalty = {penalty!r}: expected a finite number >= 0")
-    return float(penalty)
+    return _check_scale(penalty, "off-track penalty")
 
 
-class OffTrackPenalty(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
-    """A stable-baselines3 ``VecEnv`` (whose infos say ``out_of_track``) with ``penalty``
-    subtracted from the reward of each step that leaves the track."""
+def check_plan_bonus(scale: Any) -> float:
+    """``scale`` as a float, or an InvalidInputError naming it: a finite number >= 0."""
+    return _check_scale(scale, "plan bonus")
 
-    def __init__(self, venv: Any, penalty: float) -> None:
-        super().__init__(venv)
-        self.penalty = check_off_track_penalty(penalty)
 
-    def reset(self) -> Any:
-        """The wrapped envs' reset."""
-        return self.venv.reset()
+@dataclass(frozen=True)
+class Shaping:
+    """The training-only shaping of a learned agent's reward (0: none of that term):
+    ``off_track_penalty`` on the step that leaves the track, and ``plan_bonus``, the
+    most a step earns for following the planner's swing-up
+    (:class:`~chaincart_env.tools.compare.shaped_rewards.PlanProgress`)."""
 
-    def step_wait(self) -> Any:
-        """The wrapped envs' step, with the penalty on each step that left the track."""
-        obs, rewards, dones, infos = self.venv.step_wait()
-        for i in np.flatnonzero(dones):
-            if infos[i].get("out_of_track", False):
-                rewards[i] -= self.penalty
-        return obs, rewards, dones, infos
+    off_track_penalty: float = 0.0
+    plan_bonus: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "off_track_penalty", check_off_track_penalty(self.off_track_penalty))
+        object.__setattr__(self, "plan_bonus", check_plan_bonus(self.plan_bonus))
+
+    def __bool__(self) -> bool:
+        return bool(self.off_track_penalty or self.plan_bonus)
+
+    def given(self) -> list[str]:
+        """The command-line options of the terms in use."""
+        return [f"--{f.name.replace('_', '-')} {getattr(self, f.name)}" for f in fields(self) if getattr(self, f.name)]
+
+    def record(self) -> dict[str, float]:
+        """The settings as ``run.json`` records them."""
+        return asdict(self)
+
+    @classmethod
+    def from_record(cls, record: Optional[Mapping[str, Any]]) -> "Shaping":
+        """The settings :meth:`record` wrote (``None``: no shaping)."""
+        return cls(**(record or {}))
+
+    def with_overrides(self, **given: Optional[float]) -> "Shaping":
+        """These settings with each term given (not ``None``) replaced."""
+        return Shaping(**{**self.record(), **{k: v for k, v in given.items() if v is not None}})
+
+    def wrap(self, venv: Any, config: Any) -> Any:
+        """``venv`` (chaincart's SB3 envs of ``config``, possibly wrapped) with these terms."""
+        from chaincart_env.tools.compare.shaped_rewards import OffTrackPenalty, PlanProgress
+
+        if self.plan_bonus:
+            from chaincart_env.tools.compare.curriculum import plan_states
+
+            venv = PlanProgress(venv, self.plan_bonus, plan_states(config))
+        if self.off_track_penalty:
+            venv = OffTrackPenalty(venv, self.off_track_penalty)
+        return venv
+
+
+#: The shaping the learned agents of a scene train with unless an option overrides it.
+#: The double swing-up takes the plan bonus: with it PPO swung up from hanging for seeds
+#: where plan starts and the ``exp`` reward alone never did (docs/main-job.md, "Training
+#: recipes"). The off-track penalty is no scene's default: it kept a seed on the track
+#: but did not make it learn the swing-up.
+SCENE_SHAPING: dict[str, Shaping] = {"swingup-2": Shaping(plan_bonus=0.3)}
+
+
+def scene_shaping(scene: Optional[str]) -> Shaping:
+    """The scene's default shaping (none for most scenes)."""
+    return SCENE_SHAPING.get(scene or "", Shaping())

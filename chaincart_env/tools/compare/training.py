@@ -22,6 +22,7 @@ from chaincart_env.tools.compare.curriculum import PlanStarts
 from chaincart_env.tools.compare.imitation import Imitation, imitate
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, plan_start_envs, write_curriculum_log
+from chaincart_env.tools.compare.shaping import Shaping
 from chaincart_env.tools.controllers import label_of
 
 __all__ = [
@@ -136,7 +137,7 @@ def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
 def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
     normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
-    history: Optional[int] = None, off_track_penalty: float = 0.0,
+    history: Optional[int] = None, shaping: Optional[Shaping] = None,
 ) -> BaseAlgorithm:
     from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
@@ -149,10 +150,8 @@ def _new_agent(
         from chaincart_env.history import VecHistoryObservation
 
         native = VecHistoryObservation(native, history)
-    if off_track_penalty:
-        from chaincart_env.tools.compare.shaping import OffTrackPenalty
-
-        native = OffTrackPenalty(native, off_track_penalty)
+    if shaping:
+        native = shaping.wrap(native, config)
     # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the rewards trained on, unscaled.
     venv = normalized_envs(VecMonitor(native), normalize)
     try:
@@ -218,7 +217,7 @@ def train(
     training_reward: Optional[str] = None,
     history: Optional[int] = None,
     conditions: Optional[Mapping[str, Any]] = None,
-    off_track_penalty: float = 0.0,
+    shaping: Optional[Shaping] = None,
     warm_start_from: Optional[Path] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
@@ -240,9 +239,9 @@ def train(
     evaluations keep ``config`` (its success criterion does not depend on the reward).
     ``conditions``: configuration keys the training envs take on top of ``config`` (a
     robust agent's per-episode draws), and the periodic evaluations (which choose the best model)
-    take them too, with ``config``'s reward. ``off_track_penalty``:
-    subtracted from the training reward of each step that leaves the track
-    (:mod:`~chaincart_env.tools.compare.shaping`). ``warm_start_from``: a new agent starts
+    take them too, with ``config``'s reward. ``shaping``: the
+    training reward's shaping terms (an off-track penalty, a bonus for following the
+    planner's swing-up: :mod:`~chaincart_env.tools.compare.shaping`). ``warm_start_from``: a new agent starts
     from the weights of the agent saved there (:mod:`~chaincart_env.tools.compare.warm_start`).
     ``history``:
     the agent observes the last ``history`` observations and actions too
@@ -261,7 +260,7 @@ def train(
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     trained_on = training_config(config, training_reward, conditions)
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
-                                                                    normalize, curriculum, history, off_track_penalty)
+                                                                    normalize, curriculum, history, shaping)
     if warm_start_from is not None and not resuming:
         from chaincart_env.tools.compare.warm_start import warm_start
 

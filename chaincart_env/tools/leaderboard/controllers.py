@@ -54,15 +54,12 @@ def train_agent(
     during training, so the last model can be a bad one, and compare reports the best
     too. A run that was cut short resumes from its checkpoint. The leaderboard reuses an
     agent whose ``model.zip`` exists."""
-    from chaincart_env.tools.compare.curriculum import (
-        scene_curriculum,
-        scene_off_track_penalty,
-        scene_training_reward,
-    )
+    from chaincart_env.tools.compare.curriculum import scene_curriculum, scene_training_reward
     from chaincart_env.tools.compare.imitation import scene_imitation
     from chaincart_env.tools.compare.normalization import copy_agent
     from chaincart_env.tools.compare.recipes import recipe_for, training_conditions
     from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, MODEL_FILE
+    from chaincart_env.tools.compare.shaping import scene_shaping
     from chaincart_env.tools.compare.training import train
     from chaincart_env.tools.controllers import CONTROLLERS
 
@@ -90,7 +87,7 @@ def train_agent(
         imitation=None if tiny or recipe.history else scene_imitation(config.scene, name),
         curriculum=None if tiny else scene_curriculum(config.scene),
         training_reward=scene_training_reward(config.scene), history=recipe.history,
-        conditions=training_conditions(name), off_track_penalty=scene_off_track_penalty(config.scene),
+        conditions=training_conditions(name), shaping=None if tiny else scene_shaping(config.scene),
         warm_start_from=warm_start_from,
     )
     copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)

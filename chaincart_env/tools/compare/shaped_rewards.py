@@ -1,0 +1,80 @@
+"""The SB3 ``VecEnv`` wrappers of the training reward's shaping
+(:mod:`~chaincart_env.tools.compare.shaping` has the settings and why)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnvWrapper
+
+from chaincart_env.errors import InvalidInputError
+from chaincart_env.history import PicklableVecWrapper
+from chaincart_env.tools.compare.shaping import check_off_track_penalty, check_plan_bonus
+
+__all__ = ["OffTrackPenalty", "PlanProgress"]
+
+
+class OffTrackPenalty(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
+    """A stable-baselines3 ``VecEnv`` (whose infos say ``out_of_track``) with ``penalty``
+    subtracted from the reward of each step that leaves the track."""
+
+    def __init__(self, venv: Any, penalty: float) -> None:
+        super().__init__(venv)
+        self.penalty = check_off_track_penalty(penalty)
+
+    def reset(self) -> Any:
+        """The wrapped envs' reset."""
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        """The wrapped envs' step, with the penalty on each step that left the track."""
+        obs, rewards, dones, infos = self.venv.step_wait()
+        for i in np.flatnonzero(dones):
+            if infos[i].get("out_of_track", False):
+                rewards[i] -= self.penalty
+        return obs, rewards, dones, infos
+
+
+class PlanProgress(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
+    """chaincart's SB3 ``VecEnv`` (possibly wrapped) with the plan bonus
+    ``scale * max_k (k / K) exp(-d_k^2 / width^2)`` added to the reward of each step that
+    did not end its episode (an ended env already holds its next start). ``d_k``: the
+    distance of the chain's state (link directions, and angular velocities times
+    ``rate_weight``; the cart left out, so that the path may run anywhere on the track)
+    to state ``k`` of the ``K + 1`` of ``plan`` (model layout)."""
+
+    def __init__(self, venv: Any, scale: float, plan: np.ndarray, width: float = 0.5, rate_weight: float = 0.1) -> None:
+        super().__init__(venv)
+        self.scale = check_plan_bonus(scale)
+        plan = np.asarray(plan, dtype=np.float64)
+        layout = venv.unwrapped.model.state_layout
+        if plan.ndim != 2 or plan.shape[0] < 2 or plan.shape[1] != venv.unwrapped.model.state_dim:
+            raise InvalidInputError(f"plan of shape {plan.shape}: expected (K + 1, state_dim) states with K >= 1")
+        (q_start, q_stop), (w_start, w_stop) = layout["q"], layout["w"]
+        self._columns = np.r_[q_start:q_stop, w_start:w_stop]
+        self._weights = np.r_[np.ones(q_stop - q_start), np.full(w_stop - w_start, rate_weight)]
+        self._plan = plan[:, self._columns] * self._weights
+        self._progress = np.linspace(0.0, 1.0, plan.shape[0])
+        self._inverse_width2 = 1.0 / (width * width)
+
+    def bonus(self, states: np.ndarray) -> np.ndarray:
+        """The bonus of each of ``states`` (model layout, one per row)."""
+        chain = np.asarray(states, dtype=np.float64)[:, self._columns] * self._weights
+        distance2 = ((chain[:, None, :] - self._plan[None, :, :]) ** 2).sum(axis=2)
+        return self.scale * (self._progress * np.exp(-distance2 * self._inverse_width2)).max(axis=1)
+
+    def reset(self) -> Any:
+        """The wrapped envs' reset."""
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        """The wrapped envs' step, with the bonus on each step that did not end an episode."""
+        obs, rewards, dones, infos = self.venv.step_wait()
+        running = ~np.asarray(dones, dtype=bool)
+        if running.any():
+            native: Any = self.venv.unwrapped  # chaincart's envs: the states after the step
+            states = native._batch.states()[running]
+            rewards = np.array(rewards, dtype=np.float32)
+            rewards[running] += self.bonus(states).astype(np.float32)
+        return obs, rewards, dones, infos
