@@ -94,9 +94,9 @@ class PlanStarts:
 
 #: The scenes whose learned agents train with plan starts unless ``--curriculum none``:
 #: the double swing-up, where half the episodes starting along the plan (with the exp
-#: training reward) took PPO from hanging to 96 % success at 1.25M steps and 100 % from
-#: 1.75M in one seed of three; the other two never swung up (docs/main-job.md,
-#: "Training recipes").
+#: training reward) took PPO from hanging to 96 % success at 1.25M steps in one seed of
+#: three, and with the plan bonus of :mod:`~chaincart_env.tools.compare.shaping` in every
+#: seed (docs/main-job.md, "Training recipes").
 SCENE_CURRICULA: dict[str, PlanStarts] = {"swingup-2": PlanStarts(0.5)}
 #: The reward the learned agents of a scene train on, where it is not the scene's own
 #: (``--training-reward`` overrides it): the double swing-up trains on the sharp ``exp``
