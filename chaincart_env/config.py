@@ -181,7 +181,7 @@ class ChainCartConfig:
     mismatch: Optional[dict[str, Any]] = _UNSET
     obs_noise: Optional[Floats] = _UNSET
     action_delay: Union[int, tuple[int, int]] = _UNSET
-    force_rate_limit: Optional[float] = _UNSET
+    force_rate_limit: Union[float, tuple[float, float], None] = _UNSET
     force_noise: Optional[dict[str, float]] = _UNSET
     render_view: Optional[str] = _UNSET
     joint_damping: Floats = _UNSET

@@ -397,9 +397,12 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         name: "force_rate_limit",
         kind: KeyKind::RealityGap,
         default: KeyValue::None,
-        expected: "a number > 0 (N/s), or none for no limit",
+        expected: crate::env::reality::FORCE_RATE_LIMIT_EXPECTED,
         help: "Largest change of the applied force per second, per cart axis (N/s); \
-               None for no limit.",
+               None for no limit. A range (low, high) draws each episode's limit at its \
+               reset (its inverse uniform between 1/high and 1/low; high may be inf, \
+               no limit), from the env's seeded start stream after the delay, for \
+               training that covers several limits.",
     },
     ConfigKey {
         name: "force_noise",

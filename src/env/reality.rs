@@ -395,6 +395,9 @@ impl ForceNoise {
 /// What `action_delay` accepts (the key table's words, and every check's).
 pub const ACTION_DELAY_EXPECTED: &str = "an integer >= 0 (control periods), or a range (low, high) of integers with 0 <= low <= high drawn per episode";
 
+/// What `force_rate_limit` accepts (the key table's words, and every check's).
+pub const FORCE_RATE_LIMIT_EXPECTED: &str = "a number > 0 (N/s), none for no limit, or a range (low, high) with 0 < low <= high <= inf drawn per episode";
+
 /// How the env's true system, its sensors and its actuator differ from the nominal
 /// model. The default is the nominal model, sensed exactly, actuated at once.
 #[derive(Debug, Clone, PartialEq)]
@@ -416,8 +419,13 @@ pub struct RealityGap {
     /// state (`None`: every episode has `action_delay`).
     pub action_delay_high: Option<usize>,
     /// Largest change of the applied force per second, per cart axis (N/s);
-    /// `f64::INFINITY` is no limit.
+    /// `f64::INFINITY` is no limit. With a range, its low end.
     pub force_rate_limit: f64,
+    /// `Some(high)`: each episode's limit is drawn at its reset, its inverse uniform
+    /// between `1 / high` and `1 / force_rate_limit` (so that a range up to infinity
+    /// draws unlimited episodes as readily as stiff ones), from the env's start stream
+    /// after the delay (`None`: every episode has `force_rate_limit`).
+    pub force_rate_limit_high: Option<f64>,
     /// Gaussian disturbance of the delivered force (default: none).
     pub force_noise: ForceNoise,
 }
@@ -432,6 +440,7 @@ impl Default for RealityGap {
             action_delay: 0,
             action_delay_high: None,
             force_rate_limit: f64::INFINITY,
+            force_rate_limit_high: None,
             force_noise: ForceNoise::default(),
         }
     }
@@ -472,13 +481,24 @@ impl RealityGap {
                 .into());
             }
         }
-        if self.force_rate_limit.is_nan() || self.force_rate_limit <= 0.0 {
-            return Err(InputError::InvalidParameter {
+        let bad_rate = |value: f64| -> Result<()> {
+            Err(InputError::InvalidParameter {
                 name: "force_rate_limit",
-                value: self.force_rate_limit,
-                expected: "a number > 0 (N/s), or none for no limit",
+                value,
+                expected: FORCE_RATE_LIMIT_EXPECTED,
             }
-            .into());
+            .into())
+        };
+        if self.force_rate_limit.is_nan() || self.force_rate_limit <= 0.0 {
+            return bad_rate(self.force_rate_limit);
+        }
+        if let Some(high) = self.force_rate_limit_high {
+            if !self.force_rate_limit.is_finite() {
+                return bad_rate(self.force_rate_limit);
+            }
+            if high.is_nan() || high < self.force_rate_limit {
+                return bad_rate(high);
+            }
         }
         self.force_noise.validate()
     }
@@ -519,9 +539,31 @@ impl RealityGap {
         link_value(&self.obs_noise, k)
     }
 
-    /// A force-rate limit is set.
+    /// A force-rate limit is set (fixed, or drawn per episode).
     pub fn has_rate_limit(&self) -> bool {
         self.force_rate_limit.is_finite()
+    }
+
+    /// Each episode draws its own force-rate limit.
+    pub fn draws_rate_limit(&self) -> bool {
+        self.force_rate_limit_high.is_some()
+    }
+
+    /// The force-rate limit of a new episode (N/s): drawn from `rng` with a range (its
+    /// inverse uniform between the ends' inverses), else the fixed one.
+    pub fn draw_force_rate_limit<R: Rng>(&self, rng: &mut R) -> f64 {
+        match self.force_rate_limit_high {
+            Some(high) => {
+                let (stiff, loose) = (1.0 / self.force_rate_limit, 1.0 / high);
+                let inverse = loose + (stiff - loose) * rng.random::<f64>();
+                if inverse > 0.0 {
+                    1.0 / inverse
+                } else {
+                    f64::INFINITY
+                }
+            }
+            None => self.force_rate_limit,
+        }
     }
 
     /// The delivered force is disturbed.

@@ -57,7 +57,8 @@ pub(super) struct Widths {
     pub queue: usize,
     /// Sensed observation per env (`state` when noise or an encoder is on).
     pub noisy: usize,
-    /// Last applied force per env (`force` with a rate limit).
+    /// Last applied force per env (`force` with a rate limit), then the episode's
+    /// limit where each episode draws one.
     pub last_force: usize,
     /// 1 when each env has an observation-noise stream.
     pub noise_rng: usize,
@@ -74,7 +75,13 @@ impl Widths {
         let randomized = !reality.randomize.is_off();
         let noise = reality.has_obs_noise();
         let queue = reality.max_action_delay() * f;
-        let last_force = if reality.has_rate_limit() { f } else { 0 };
+        let last_force = if reality.draws_rate_limit() {
+            f + 1
+        } else if reality.has_rate_limit() {
+            f
+        } else {
+            0
+        };
         let force_noise = reality.has_force_noise();
         let sensed = noise || task.sensors.is_on();
         Self {
@@ -619,6 +626,13 @@ pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
     }
     e.queue.fill(0.0);
     e.last_force.fill(0.0);
+    if ctx.task.reality.draws_rate_limit() {
+        // After the delay's draw, so that a fixed limit leaves the start stream as it was.
+        let limit = ctx.task.reality.draw_force_rate_limit(e.start_rng);
+        if let Some(slot) = e.last_force.get_mut(ctx.widths.force) {
+            *slot = limit;
+        }
+    }
 }
 
 /// `dst = y + sigma * z` per component, `z` standard normal from `rng`.
@@ -727,7 +741,13 @@ fn actuate<A: Real>(task: &TaskConfig, e: &mut EnvMut<'_>, action: &[A], force: 
         *fk = ak * scale;
     }
     if !e.last_force.is_empty() {
-        let max_change = task.reality.force_rate_limit * task.dt;
+        // The episode's own limit sits after the last forces where each episode draws one.
+        let limit = e
+            .last_force
+            .get(f)
+            .copied()
+            .unwrap_or(task.reality.force_rate_limit);
+        let max_change = limit * task.dt;
         a2 = 0.0;
         for (k, (fk, last)) in force.iter_mut().zip(e.last_force.iter_mut()).enumerate() {
             *fk = fk.clamp(*last - max_change, *last + max_change);

@@ -309,6 +309,26 @@ fn action_delay(value: &Bound<'_, PyAny>) -> PyResult<(i64, Option<i64>)> {
     Ok((low, high.filter(|&h| h != low)))
 }
 
+/// `force_rate_limit`: a number (N/s) or a range (low, high) drawn per episode, as
+/// `(low, Some(high))`; the core checks the values.
+fn force_rate_limit(value: &Bound<'_, PyAny>) -> PyResult<(f64, Option<f64>)> {
+    use crate::env::reality::FORCE_RATE_LIMIT_EXPECTED;
+    let name = "force_rate_limit";
+    let bound = |item: &Bound<'_, PyAny>| {
+        number(name, item).map_err(|_| wrong_type(name, value, FORCE_RATE_LIMIT_EXPECTED))
+    };
+    let sequence = !value.is_instance_of::<PyString>()
+        && (value.is_instance_of::<PyTuple>() || value.is_instance_of::<pyo3::types::PyList>());
+    if !sequence {
+        return Ok((bound(value)?, None));
+    }
+    let items: Vec<Bound<'_, PyAny>> = value.try_iter()?.collect::<PyResult<_>>()?;
+    if items.len() != 2 {
+        return Err(wrong_value(name, value, FORCE_RATE_LIMIT_EXPECTED));
+    }
+    Ok((bound(&items[0])?, Some(bound(&items[1])?)))
+}
+
 /// A count of at least one, the bound taken from the key table.
 fn count(key: &ConfigKey, value: &Bound<'_, PyAny>) -> PyResult<u64> {
     let v = integer(key.name, value)?;
@@ -659,7 +679,7 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
         obs_noise: optional("obs_noise").as_ref(),
         action_delay: action_delay(&get(values, "action_delay"))?,
         force_rate_limit: optional("force_rate_limit")
-            .map(|v| number("force_rate_limit", &v))
+            .map(|v| force_rate_limit(&v))
             .transpose()?,
         force_noise: optional("force_noise").as_ref(),
     })?;

@@ -21,7 +21,8 @@ pub struct RealityArgs<'a, 'py> {
     pub obs_noise: Option<&'a Bound<'py, PyAny>>,
     /// The fixed delay (or a range's low end) and a range's high end.
     pub action_delay: (i64, Option<i64>),
-    pub force_rate_limit: Option<f64>,
+    /// The fixed limit (or a range's low end) and a range's high end.
+    pub force_rate_limit: Option<(f64, Option<f64>)>,
     pub force_noise: Option<&'a Bound<'py, PyAny>>,
 }
 
@@ -234,7 +235,8 @@ pub fn reality_gap(args: RealityArgs<'_, '_>) -> PyResult<RealityGap> {
             .1
             .map(RealityGap::delay_from)
             .transpose()?,
-        force_rate_limit: args.force_rate_limit.unwrap_or(f64::INFINITY),
+        force_rate_limit: args.force_rate_limit.map_or(f64::INFINITY, |(low, _)| low),
+        force_rate_limit_high: args.force_rate_limit.and_then(|(_, high)| high),
         force_noise: force_noise(args.force_noise)?,
     })
 }
@@ -297,10 +299,13 @@ pub fn write_task_keys(py: Python<'_>, r: &RealityGap, d: &Bound<'_, PyDict>) ->
         Some(high) => d.set_item("action_delay", (r.action_delay, high))?,
         None => d.set_item("action_delay", r.action_delay)?,
     }
-    d.set_item(
-        "force_rate_limit",
-        r.has_rate_limit().then_some(r.force_rate_limit),
-    )?;
+    match r.force_rate_limit_high {
+        Some(high) => d.set_item("force_rate_limit", (r.force_rate_limit, high))?,
+        None => d.set_item(
+            "force_rate_limit",
+            r.has_rate_limit().then_some(r.force_rate_limit),
+        )?,
+    }
     d.set_item("force_noise", force_noise_dict(py, &r.force_noise)?)?;
     Ok(())
 }

@@ -763,3 +763,87 @@ fn env_a_delay_range_draws_each_episodes_delay_in_its_range() {
         "{e}"
     );
 }
+
+/// A force-rate-limit range draws each episode's limit at its reset (kept after the
+/// last forces): the limits lie in the range and spread over it, env i of a batch is the
+/// single env seeded seed + i over several episodes, a snapshot keeps them, and an
+/// episode with a drawn limit steps as an env whose fixed limit is that value.
+#[test]
+fn env_a_force_rate_limit_range_draws_each_episodes_limit() {
+    let ranged = |high: f64| {
+        let mut t = everything_on(2);
+        t.reality.force_rate_limit = 200.0;
+        t.reality.force_rate_limit_high = Some(high);
+        t
+    };
+    let num_envs = CHUNK + 5;
+    let mut big = batch::<Spatial>(ranged(f64::INFINITY), num_envs, 40, AutoresetMode::SameStep);
+    let limits: Vec<f64> = big.snapshot().last_force.chunks(3).map(|c| c[2]).collect();
+    assert!(limits.iter().all(|&l| l >= 200.0), "{limits:?}");
+    assert!(
+        limits.iter().any(|&l| l < 400.0) && limits.iter().any(|&l| l > 2000.0),
+        "{limits:?}"
+    );
+    let h_big = history(&mut big, 60, 0); // episodes of 25 steps: three limits drawn per env
+    for env in [0, CHUNK + 4] {
+        let mut one = batch::<Spatial>(
+            ranged(f64::INFINITY),
+            1,
+            40 + env as u64,
+            AutoresetMode::SameStep,
+        );
+        let mut out = Out::new(&one);
+        let d = one.state_dim();
+        for (s, row) in h_big.iter().enumerate() {
+            let a = actions(s, num_envs, 2, 0);
+            out.step(&mut one, &a[2 * env..2 * env + 2]);
+            assert_eq!(
+                &out.obs[..],
+                &row[env * d..(env + 1) * d],
+                "env {env} step {s}"
+            );
+        }
+    }
+    let snap = big.snapshot();
+    let after = history(&mut big, 30, 0);
+    big.restore(&snap).unwrap();
+    assert_eq!(history(&mut big, 30, 0), after);
+
+    // The first episode with a drawn limit is the episode with that limit fixed.
+    let mut drawn = batch::<Spatial>(ranged(1000.0), 1, 7, AutoresetMode::NextStep);
+    let limit = drawn.snapshot().last_force[2];
+    assert!((200.0..=1000.0).contains(&limit), "{limit}");
+    let mut fixed_task = everything_on(2);
+    fixed_task.reality.force_rate_limit = limit;
+    let mut fixed = batch::<Spatial>(fixed_task, 1, 7, AutoresetMode::NextStep);
+    assert_eq!(drawn.states(), fixed.states());
+    assert_eq!(history(&mut drawn, 20, 0), history(&mut fixed, 20, 0));
+}
+
+#[test]
+fn a_bad_force_rate_limit_range_is_an_error_naming_it() {
+    for (low, high) in [
+        (500.0, 200.0),
+        (f64::INFINITY, f64::INFINITY),
+        (100.0, f64::NAN),
+    ] {
+        let mut t = task(2);
+        t.reality.force_rate_limit = low;
+        t.reality.force_rate_limit_high = Some(high);
+        let e = EnvBatch::<Spatial>::new(
+            Chain::new(nominal(2)),
+            t,
+            1,
+            0,
+            AutoresetMode::NextStep,
+            false,
+        )
+        .err()
+        .expect("a bad range")
+        .to_string();
+        assert!(
+            e.contains("force_rate_limit") && e.contains("0 < low <= high <= inf"),
+            "{low} {high}: {e}"
+        );
+    }
+}
