@@ -1,12 +1,11 @@
 """Robust training: the conditions a robust agent trains under.
 
 An agent trained on the nominal system alone meets the leaderboard's axes (model
-mismatch, sensor noise, force noise, control delay, force-rate limit) for the first
-time when it is scored on them. A robust agent trains on a distribution that covers them instead,
+mismatch, sensor noise, force noise, control delay) for the first time when it is
+scored on them. A robust agent trains on a distribution that covers them instead,
 each drawn afresh at every episode's reset: masses and lengths within +-30 %,
 observation noise, a multiplicative force disturbance of 30 %, a control delay of 0 or
-1 period, a force-rate limit from 200 N/s to none (its inverse uniform) and starts
-spread over +-0.3 (a recipe may add the last observations and
+1 period and starts spread over +-0.3 (a recipe may add the last observations and
 actions to what the agent sees, :mod:`chaincart_env.history`, with its zoo entry's
 ``env_wrapper``). ``compare`` and the leaderboard train it in two stages
 (:mod:`chaincart_env.tools.compare.stages`): the nominal agent first, then fine-tuned on
@@ -21,7 +20,6 @@ on the same conditions and evaluate on the scene itself.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Mapping
 
 from chaincart_env.config import ChainCartConfig
@@ -39,7 +37,6 @@ ROBUST_CONDITIONS: Mapping[str, Any] = {
     "obs_noise": 0.01,
     "force_noise": {"multiplicative": 0.3},
     "action_delay": (0, 1),
-    "force_rate_limit": (200.0, math.inf),
     "start_noise": 0.3,
 }
 

@@ -709,6 +709,30 @@ fn force_noise_changes_no_other_random_number() {
     assert_eq!(b.snapshot().force_rng.len(), 40);
 }
 
+/// Envs 0 and `num_envs - 1` of a batch seeded `seed`, whose observations over its
+/// steps are `history`, are the single envs of `task()` seeded `seed + i`.
+fn assert_envs_are_single_envs(
+    history: &[Vec<f64>],
+    task: impl Fn() -> TaskConfig,
+    num_envs: usize,
+    seed: u64,
+) {
+    for env in [0, num_envs - 1] {
+        let mut one = batch::<Spatial>(task(), 1, seed + env as u64, AutoresetMode::SameStep);
+        let mut out = Out::new(&one);
+        let d = one.state_dim();
+        for (s, row) in history.iter().enumerate() {
+            let a = actions(s, num_envs, 2, 0);
+            out.step(&mut one, &a[2 * env..2 * env + 2]);
+            assert_eq!(
+                &out.obs[..],
+                &row[env * d..(env + 1) * d],
+                "env {env} step {s}"
+            );
+        }
+    }
+}
+
 /// A delay range draws each episode's delay from `low..=high` at its reset: every value
 /// comes up, env i of a batch is the single env seeded seed + i over several episodes,
 /// and a snapshot keeps the drawn delays.
@@ -726,20 +750,7 @@ fn env_a_delay_range_draws_each_episodes_delay_in_its_range() {
     assert!(drawn.iter().all(|&d| (1..=4).contains(&d)), "{drawn:?}");
     assert!((1..=4).all(|d| drawn.contains(&d)), "{drawn:?}");
     let h_big = history(&mut big, 60, 0); // episodes of 25 steps: three delays drawn per env
-    for env in [0, CHUNK + 4] {
-        let mut one = batch::<Spatial>(ranged(), 1, 40 + env as u64, AutoresetMode::SameStep);
-        let mut out = Out::new(&one);
-        let d = one.state_dim();
-        for (s, row) in h_big.iter().enumerate() {
-            let a = actions(s, num_envs, 2, 0);
-            out.step(&mut one, &a[2 * env..2 * env + 2]);
-            assert_eq!(
-                &out.obs[..],
-                &row[env * d..(env + 1) * d],
-                "env {env} step {s}"
-            );
-        }
-    }
+    assert_envs_are_single_envs(&h_big, ranged, num_envs, 40);
     let snap = big.snapshot();
     let after = history(&mut big, 30, 0);
     big.restore(&snap).unwrap();
@@ -785,25 +796,7 @@ fn env_a_force_rate_limit_range_draws_each_episodes_limit() {
         "{limits:?}"
     );
     let h_big = history(&mut big, 60, 0); // episodes of 25 steps: three limits drawn per env
-    for env in [0, CHUNK + 4] {
-        let mut one = batch::<Spatial>(
-            ranged(f64::INFINITY),
-            1,
-            40 + env as u64,
-            AutoresetMode::SameStep,
-        );
-        let mut out = Out::new(&one);
-        let d = one.state_dim();
-        for (s, row) in h_big.iter().enumerate() {
-            let a = actions(s, num_envs, 2, 0);
-            out.step(&mut one, &a[2 * env..2 * env + 2]);
-            assert_eq!(
-                &out.obs[..],
-                &row[env * d..(env + 1) * d],
-                "env {env} step {s}"
-            );
-        }
-    }
+    assert_envs_are_single_envs(&h_big, || ranged(f64::INFINITY), num_envs, 40);
     let snap = big.snapshot();
     let after = history(&mut big, 30, 0);
     big.restore(&snap).unwrap();
