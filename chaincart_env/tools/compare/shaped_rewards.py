@@ -10,9 +10,9 @@ from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.history import PicklableVecWrapper
-from chaincart_env.tools.compare.shaping import check_off_track_penalty, check_plan_bonus
+from chaincart_env.tools.compare.shaping import Shaping, check_off_track_penalty, check_plan_bonus
 
-__all__ = ["OffTrackPenalty", "PlanProgress"]
+__all__ = ["OffTrackPenalty", "PlanProgress", "shaped_envs"]
 
 
 class OffTrackPenalty(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
@@ -78,3 +78,15 @@ class PlanProgress(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
             rewards = np.array(rewards, dtype=np.float32)
             rewards[running] += self.bonus(states).astype(np.float32)
         return obs, rewards, dones, infos
+
+
+def shaped_envs(venv: Any, shaping: Shaping, config: Any) -> Any:
+    """``venv`` (chaincart's SB3 envs of ``config``, possibly wrapped) with the terms of
+    ``shaping`` in use: the plan bonus inside, the off-track penalty outside."""
+    if shaping.plan_bonus:
+        from chaincart_env.tools.compare.curriculum import plan_states
+
+        venv = PlanProgress(venv, shaping.plan_bonus, plan_states(config))
+    if shaping.off_track_penalty:
+        venv = OffTrackPenalty(venv, shaping.off_track_penalty)
+    return venv

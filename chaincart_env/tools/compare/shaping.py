@@ -82,17 +82,6 @@ class Shaping:
         """These settings with each term given (not ``None``) replaced."""
         return Shaping(**{**self.record(), **{k: v for k, v in given.items() if v is not None}})
 
-    def wrap(self, venv: Any, config: Any) -> Any:
-        """``venv`` (chaincart's SB3 envs of ``config``, possibly wrapped) with these terms."""
-        from chaincart_env.tools.compare.shaped_rewards import OffTrackPenalty, PlanProgress
-
-        if self.plan_bonus:
-            from chaincart_env.tools.compare.curriculum import plan_states
-
-            venv = PlanProgress(venv, self.plan_bonus, plan_states(config))
-        if self.off_track_penalty:
-            venv = OffTrackPenalty(venv, self.off_track_penalty)
-        return venv
 
 
 #: The shaping the learned agents of a scene train with unless an option overrides it.

@@ -151,7 +151,9 @@ def _new_agent(
 
         native = VecHistoryObservation(native, history)
     if shaping:
-        native = shaping.wrap(native, config)
+        from chaincart_env.tools.compare.shaped_rewards import shaped_envs
+
+        native = shaped_envs(native, shaping, config)
     # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the rewards trained on, unscaled.
     venv = normalized_envs(VecMonitor(native), normalize)
     try:
