@@ -83,7 +83,6 @@ class Shaping:
         return Shaping(**{**self.record(), **{k: v for k, v in given.items() if v is not None}})
 
 
-
 #: The shaping the learned agents of a scene train with unless an option overrides it.
 #: The double swing-up takes the plan bonus: with it PPO swung up from hanging for seeds
 #: where plan starts and the ``exp`` reward alone never did (docs/main-job.md, "Training
