@@ -284,25 +284,33 @@ fn integer(name: &str, value: &Bound<'_, PyAny>) -> PyResult<i64> {
 
 /// `action_delay`: a fixed delay `(d, None)`, or a range `(low, Some(high))` drawn per
 /// episode (a range of one value is that fixed delay).
+/// A key that takes one value or a range `(low, high)` (a tuple or list, not a
+/// string): `(value, None)` or `(low, Some(high))`, each read by `read`; a sequence of
+/// another length is a wrong value, an unreadable item a wrong type.
+fn value_or_range<'py, V>(
+    name: &str,
+    value: &Bound<'py, PyAny>,
+    expected: &str,
+    read: impl Fn(&str, &Bound<'py, PyAny>) -> PyResult<V>,
+) -> PyResult<(V, Option<V>)> {
+    let bound =
+        |item: &Bound<'py, PyAny>| read(name, item).map_err(|_| wrong_type(name, value, expected));
+    let range = !value.is_instance_of::<PyString>()
+        && (value.is_instance_of::<PyTuple>() || value.is_instance_of::<pyo3::types::PyList>());
+    if !range {
+        return Ok((bound(value)?, None));
+    }
+    let items: Vec<Bound<'py, PyAny>> = value.try_iter()?.collect::<PyResult<_>>()?;
+    if items.len() != 2 {
+        return Err(wrong_value(name, value, expected));
+    }
+    Ok((bound(&items[0])?, Some(bound(&items[1])?)))
+}
+
 fn action_delay(value: &Bound<'_, PyAny>) -> PyResult<(i64, Option<i64>)> {
     use crate::env::reality::ACTION_DELAY_EXPECTED;
     let name = "action_delay";
-    let single = !value.is_instance_of::<PyString>()
-        && (value.is_instance_of::<PyTuple>() || value.is_instance_of::<pyo3::types::PyList>());
-    let (low, high) = if single {
-        let items: Vec<Bound<'_, PyAny>> = value.try_iter()?.collect::<PyResult<_>>()?;
-        if items.len() != 2 {
-            return Err(wrong_value(name, value, ACTION_DELAY_EXPECTED));
-        }
-        let bound = |item: &Bound<'_, PyAny>| {
-            integer(name, item).map_err(|_| wrong_type(name, value, ACTION_DELAY_EXPECTED))
-        };
-        (bound(&items[0])?, Some(bound(&items[1])?))
-    } else {
-        let fixed =
-            integer(name, value).map_err(|_| wrong_type(name, value, ACTION_DELAY_EXPECTED))?;
-        (fixed, None)
-    };
+    let (low, high) = value_or_range(name, value, ACTION_DELAY_EXPECTED, integer)?;
     if low < 0 || high.is_some_and(|h| h < low) {
         return Err(wrong_value(name, value, ACTION_DELAY_EXPECTED));
     }
@@ -313,20 +321,7 @@ fn action_delay(value: &Bound<'_, PyAny>) -> PyResult<(i64, Option<i64>)> {
 /// `(low, Some(high))`; the core checks the values.
 fn force_rate_limit(value: &Bound<'_, PyAny>) -> PyResult<(f64, Option<f64>)> {
     use crate::env::reality::FORCE_RATE_LIMIT_EXPECTED;
-    let name = "force_rate_limit";
-    let bound = |item: &Bound<'_, PyAny>| {
-        number(name, item).map_err(|_| wrong_type(name, value, FORCE_RATE_LIMIT_EXPECTED))
-    };
-    let sequence = !value.is_instance_of::<PyString>()
-        && (value.is_instance_of::<PyTuple>() || value.is_instance_of::<pyo3::types::PyList>());
-    if !sequence {
-        return Ok((bound(value)?, None));
-    }
-    let items: Vec<Bound<'_, PyAny>> = value.try_iter()?.collect::<PyResult<_>>()?;
-    if items.len() != 2 {
-        return Err(wrong_value(name, value, FORCE_RATE_LIMIT_EXPECTED));
-    }
-    Ok((bound(&items[0])?, Some(bound(&items[1])?)))
+    value_or_range("force_rate_limit", value, FORCE_RATE_LIMIT_EXPECTED, number)
 }
 
 /// A count of at least one, the bound taken from the key table.

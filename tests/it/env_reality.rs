@@ -60,6 +60,20 @@ fn batch<G: LaneScene>(
     EnvBatch::new(Chain::new(nominal(n)), t, num_envs, seed, mode, false).unwrap()
 }
 
+/// The error of building a one-env batch of two spatial links with task `t`, if any.
+fn batch_error(t: TaskConfig) -> Option<String> {
+    EnvBatch::<Spatial>::new(
+        Chain::new(nominal(2)),
+        t,
+        1,
+        0,
+        AutoresetMode::NextStep,
+        false,
+    )
+    .err()
+    .map(|e| e.to_string())
+}
+
 /// Output buffers and a step with them.
 struct Out {
     obs: Vec<f64>,
@@ -451,17 +465,7 @@ fn bad_reality_settings_are_errors_naming_them() {
     let check = |spoil: &dyn Fn(&mut RealityGap), needle: &str| {
         let mut t = task(2);
         spoil(&mut t.reality);
-        let e = EnvBatch::<Spatial>::new(
-            Chain::new(nominal(2)),
-            t,
-            1,
-            0,
-            AutoresetMode::NextStep,
-            false,
-        )
-        .err()
-        .unwrap_or_else(|| panic!("{needle}: accepted"))
-        .to_string();
+        let e = batch_error(t).unwrap_or_else(|| panic!("{needle}: accepted"));
         assert!(e.contains(needle), "{needle}: {e}");
     };
     let dist = |d| {
@@ -758,17 +762,7 @@ fn env_a_delay_range_draws_each_episodes_delay_in_its_range() {
     let mut backwards = task(2);
     backwards.reality.action_delay = 3;
     backwards.reality.action_delay_high = Some(2);
-    let e = EnvBatch::<Spatial>::new(
-        Chain::new(nominal(2)),
-        backwards,
-        1,
-        0,
-        AutoresetMode::NextStep,
-        false,
-    )
-    .err()
-    .expect("a range whose high end is below its low end")
-    .to_string();
+    let e = batch_error(backwards).expect("a range whose high end is below its low end");
     assert!(
         e.contains("action_delay = 2") && e.contains("0 <= low <= high"),
         "{e}"
@@ -823,17 +817,7 @@ fn a_bad_force_rate_limit_range_is_an_error_naming_it() {
         let mut t = task(2);
         t.reality.force_rate_limit = low;
         t.reality.force_rate_limit_high = Some(high);
-        let e = EnvBatch::<Spatial>::new(
-            Chain::new(nominal(2)),
-            t,
-            1,
-            0,
-            AutoresetMode::NextStep,
-            false,
-        )
-        .err()
-        .expect("a bad range")
-        .to_string();
+        let e = batch_error(t).expect("a bad range");
         assert!(
             e.contains("force_rate_limit") && e.contains("0 < low <= high <= inf"),
             "{low} {high}: {e}"

@@ -12,9 +12,9 @@ from stable_baselines3.common.vec_env import VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.curriculum import SEED_OFFSET, PlanStarts, plan_states
+from chaincart_env.tools.compare.curriculum import SEED_OFFSET, PlanStarts
 
-__all__ = ["CURRICULUM_FILE", "PlanStartEnvs", "plan_start_envs", "write_curriculum_log"]
+__all__ = ["CURRICULUM_FILE", "PlanStartEnvs", "write_curriculum_log"]
 
 #: The curriculum's windows over training, in the training directory.
 CURRICULUM_FILE = "curriculum.csv"
@@ -115,11 +115,6 @@ class PlanStartEnvs(VecEnvWrapper):
         self.rng.bit_generator.state = state["rng"]
         for name in self._PROGRESS:
             setattr(self, name, state[name])
-
-
-def plan_start_envs(venv: Any, config: Any, curriculum: PlanStarts, seed: int) -> PlanStartEnvs:
-    """``venv`` (native envs of ``config``) with ``curriculum``'s plan starts, seeded by ``seed``."""
-    return PlanStartEnvs(venv, plan_states(config), curriculum, seed)
 
 
 def write_curriculum_log(envs: Any, path: Any) -> bool:

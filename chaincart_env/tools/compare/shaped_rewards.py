@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnvWrapper
@@ -80,13 +80,14 @@ class PlanProgress(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
         return obs, rewards, dones, infos
 
 
-def shaped_envs(venv: Any, shaping: Shaping, config: Any) -> Any:
-    """``venv`` (chaincart's SB3 envs of ``config``, possibly wrapped) with the terms of
-    ``shaping`` in use: the plan bonus inside, the off-track penalty outside."""
+def shaped_envs(venv: Any, shaping: Shaping, plan: Optional[np.ndarray]) -> Any:
+    """``venv`` (chaincart's SB3 envs, possibly wrapped) with the terms of ``shaping`` in
+    use: the plan bonus (along ``plan``, the planner's states) inside, the off-track
+    penalty outside."""
     if shaping.plan_bonus:
-        from chaincart_env.tools.compare.curriculum import plan_states
-
-        venv = PlanProgress(venv, shaping.plan_bonus, plan_states(config))
+        if plan is None:
+            raise InvalidInputError(f"plan bonus {shaping.plan_bonus} without a plan: expected the planner's states")
+        venv = PlanProgress(venv, shaping.plan_bonus, plan)
     if shaping.off_track_penalty:
         venv = OffTrackPenalty(venv, shaping.off_track_penalty)
     return venv

@@ -18,10 +18,10 @@ from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.sb3 import ChainCartVecEnv
 from chaincart_env.tools.compare.algorithms import algorithm_class
-from chaincart_env.tools.compare.curriculum import PlanStarts
+from chaincart_env.tools.compare.curriculum import PlanStarts, plan_states
 from chaincart_env.tools.compare.imitation import Imitation, imitate
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
-from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, plan_start_envs, write_curriculum_log
+from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, PlanStartEnvs, write_curriculum_log
 from chaincart_env.tools.compare.shaping import Shaping
 from chaincart_env.tools.controllers import label_of
 
@@ -144,8 +144,10 @@ def _new_agent(
 
     keywords = sb3_keywords(kwargs)  # checked before the envs are built
     native: Any = ChainCartVecEnv(num_envs, config, seed=seed)
+    # One plan serves the plan starts and the plan bonus: the planner takes seconds.
+    plan: Any = plan_states(config) if curriculum is not None or (shaping and shaping.plan_bonus) else None
     if curriculum is not None:
-        native = plan_start_envs(native, config, curriculum, seed)
+        native = PlanStartEnvs(native, plan, curriculum, seed)
     if history is not None:
         from chaincart_env.history import VecHistoryObservation
 
@@ -153,7 +155,7 @@ def _new_agent(
     if shaping:
         from chaincart_env.tools.compare.shaped_rewards import shaped_envs
 
-        native = shaped_envs(native, shaping, config)
+        native = shaped_envs(native, shaping, plan)
     # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the rewards trained on, unscaled.
     venv = normalized_envs(VecMonitor(native), normalize)
     try:
