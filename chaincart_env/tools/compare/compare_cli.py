@@ -117,6 +117,10 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="training only: add up to C to each step's reward for a state near the planner's "
                         "swing-up, more the further along it (chaincart_env.tools.compare.shaping); 0 turns it off; "
                         "evaluations keep the scene's reward (default: 0.3 on swingup-2, 0 elsewhere)")
+    parser.add_argument("--action-change-penalty", type=_scale("action_change_penalty"), default=None, metavar="C",
+                        help="training only: subtract C times the mean squared change of the action (in [-1, 1] "
+                        "units) from each step's reward, for a smooth force (chaincart_env.tools.compare.shaping); "
+                        "evaluations keep the scene's reward (default: 0)")
     parser.add_argument("--history", type=_integer(1, "history"), default=None, metavar="K",
                         help="the learned agents observe the last K observations and actions too (oldest first, zeros "
                         "before an episode's start; chaincart_env.history), in training and in every evaluation, for "
@@ -271,7 +275,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     address=args.address, imitation=not args.no_imitation, curriculum=curriculum,
                     training_reward="scene" if args.training_reward is None else args.training_reward,
                     history=args.history,
-                    shaping=dict(off_track_penalty=args.off_track_penalty, plan_bonus=args.plan_bonus),
+                    shaping=dict(off_track_penalty=args.off_track_penalty, plan_bonus=args.plan_bonus,
+                                 action_change_penalty=args.action_change_penalty),
                     warm_start_from=args.warm_start)
     except ChainCartError as error:
         parser.error(str(error))

@@ -1,5 +1,5 @@
-"""Training-only reward shaping: a penalty on the step that leaves the track, and a
-bonus for following the planner's swing-up.
+"""Training-only reward shaping: a penalty on the step that leaves the track, a bonus
+for following the planner's swing-up, and a penalty on sudden changes of the force.
 
 The swing-ups train on the sharp ``exp`` reward, which is almost zero anywhere far from
 the target. Two consequences, and a term for each:
@@ -29,7 +29,7 @@ from typing import Any, Mapping, Optional
 
 from chaincart_env.errors import InvalidInputError
 
-__all__ = ["SCENE_SHAPING", "Shaping", "check_off_track_penalty", "check_plan_bonus", "scene_shaping"]
+__all__ = ["SCENE_SHAPING", "Shaping", "check_action_change_penalty", "check_off_track_penalty", "check_plan_bonus", "scene_shaping"]
 
 
 def _check_scale(value: Any, what: str) -> float:
@@ -48,22 +48,31 @@ def check_plan_bonus(scale: Any) -> float:
     return _check_scale(scale, "plan bonus")
 
 
+def check_action_change_penalty(scale: Any) -> float:
+    """``scale`` as a float, or an InvalidInputError naming it: a finite number >= 0."""
+    return _check_scale(scale, "action-change penalty")
+
+
 @dataclass(frozen=True)
 class Shaping:
     """The training-only shaping of a learned agent's reward (0: none of that term):
-    ``off_track_penalty`` on the step that leaves the track, and ``plan_bonus``, the
+    ``off_track_penalty`` on the step that leaves the track, ``plan_bonus``, the
     most a step earns for following the planner's swing-up
-    (:class:`~chaincart_env.tools.compare.shaped_rewards.PlanProgress`)."""
+    (:class:`~chaincart_env.tools.compare.shaped_rewards.PlanProgress`), and
+    ``action_change_penalty``, the cost of a squared change of the action
+    (:class:`~chaincart_env.tools.compare.shaped_rewards.ActionChangePenalty`)."""
 
     off_track_penalty: float = 0.0
     plan_bonus: float = 0.0
+    action_change_penalty: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "off_track_penalty", check_off_track_penalty(self.off_track_penalty))
         object.__setattr__(self, "plan_bonus", check_plan_bonus(self.plan_bonus))
+        object.__setattr__(self, "action_change_penalty", check_action_change_penalty(self.action_change_penalty))
 
     def __bool__(self) -> bool:
-        return bool(self.off_track_penalty or self.plan_bonus)
+        return any(getattr(self, f.name) for f in fields(self))
 
     def given(self) -> list[str]:
         """The command-line options of the terms in use."""
