@@ -121,7 +121,7 @@ def read_study_curves(study: Path, label: Optional[str] = None) -> list[RecipeCu
 
 def _band(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Mean over seeds (axis 0) and its 95 % bootstrap interval, per evaluation."""
-    from chaincart_env.tools.compare.statistics import aggregate_over_seeds
+    from chaincart_env.tools.compare.uncertainty import aggregate_over_seeds
 
     rows = [aggregate_over_seeds(values[:, j].tolist()) for j in range(values.shape[1])]
     mean = np.array([r.mean for r in rows])
@@ -186,7 +186,7 @@ def _page(recipes: Sequence[RecipeCurves], goal: float, command: str, note: str 
         f"{STEADY_EVALUATIONS} all >= {goal:g}) | final success, mean [95 % CI] | final wall time (s) |",
         "|---|---:|---:|---|---:|---:|",
     ]
-    from chaincart_env.tools.compare.statistics import aggregate_over_seeds
+    from chaincart_env.tools.compare.uncertainty import aggregate_over_seeds
 
     for recipe in recipes:
         mean = recipe.success.mean(axis=0)

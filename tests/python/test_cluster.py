@@ -49,8 +49,8 @@ from ray.rllib.core import (
 
 from chaincart_env.__main__ import main
 from chaincart_env.rllib import make_runner_env, ppo_config, register, start_seeds_of
-from chaincart_env.tools.compare import cells as study_cells, rllib_training
-from chaincart_env.tools.compare.cells import map_cells
+from chaincart_env.tools.compare import cell_runner as study_cells, rllib_training
+from chaincart_env.tools.compare.cell_runner import map_cells
 from chaincart_env.tools.compare.job import OUTPUT_FILES
 from chaincart_env.tools.compare.run_files import settled_directory
 

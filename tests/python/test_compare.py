@@ -29,8 +29,8 @@ from chaincart_env.tools.compare.evaluation import (
 from chaincart_env.tools.compare.filmstrip import DEFAULT_FRAMES, filmstrip_size
 from chaincart_env.tools.compare.job import EVALUATION_FILES, OUTPUT_FILES, SEED_FILES
 from chaincart_env.tools.compare.learning_curve import LEARNING_CURVE_COLUMNS
-from chaincart_env.tools.compare.plots import FIGURE_SIZE_PX
 from chaincart_env.tools.compare.scene_options import parse_value
+from chaincart_env.tools.compare.study_plots import FIGURE_SIZE_PX
 from chaincart_env.tools.compare.training import TRAINING_EPISODE_COLUMNS
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

@@ -157,7 +157,7 @@ def test_compares_local_ray_cluster_is_its_own_beside_a_running_cluster(
 ) -> None:
     import ray
 
-    from chaincart_env.tools.compare.cells import ray_cluster
+    from chaincart_env.tools.compare.cell_runner import ray_cluster
 
     monkeypatch.setenv("RAY_ADDRESS", foreign_ray_cluster)
     assert not ray.is_initialized()

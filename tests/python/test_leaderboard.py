@@ -102,7 +102,7 @@ def test_a_cluster_needs_ray_and_learned_controllers_need_sb3() -> None:
 def test_friction_and_damping_axes_change_the_true_system_not_the_design() -> None:
     from chaincart_env import ChainCartConfig, ChainCartEnv
     from chaincart_env.policies import LQRPolicy
-    from chaincart_env.tools.leaderboard.controllers import DesignSource, fixed_source
+    from chaincart_env.tools.leaderboard.contestants import DesignSource, fixed_source
 
     config = ChainCartConfig(scene="inverted-1")
     source = fixed_source("lqr", config)  # what every cell of the scene runs

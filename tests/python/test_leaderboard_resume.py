@@ -12,7 +12,7 @@ import pytest
 
 from chaincart_env.__main__ import main
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.leaderboard import controllers, run
+from chaincart_env.tools.leaderboard import contestants, run
 from chaincart_env.tools.leaderboard.axes import parse_axes
 from chaincart_env.tools.leaderboard.run import FULL_EPISODES, LeaderboardSettings, run_leaderboard
 
@@ -51,7 +51,7 @@ class _CountingCells:
 
 def _fresh_process(monkeypatch: pytest.MonkeyPatch) -> None:
     """No controller built by an earlier run in this process (as in a new process)."""
-    monkeypatch.setattr(controllers, "_DESIGNS", {})
+    monkeypatch.setattr(contestants, "_DESIGNS", {})
 
 
 def test_an_interrupted_run_resumes_from_its_finished_cells(tmp_path: pathlib.Path, monkeypatch) -> None:
@@ -114,9 +114,9 @@ def test_model_based_rows_repeat_bit_for_bit(tmp_path: pathlib.Path, monkeypatch
         first, second = (tmp_path / d / name for d in ("first", "second"))
         assert _table(first) == _table(second), name
     # What makes them repeat: no wall-clock limit on the planner or on MPC's step.
-    mpc = controllers.DesignSource.of("mpc", run.ChainCartConfig(scene="inverted-1")).build()
+    mpc = contestants.DesignSource.of("mpc", run.ChainCartConfig(scene="inverted-1")).build()
     assert mpc.mpc_options["budget"] == math.inf and mpc.plan_options["max_time"] == math.inf
-    timed = controllers.DesignSource.of("mpc", run.ChainCartConfig(scene="inverted-1"), wall_clock=True).build()
+    timed = contestants.DesignSource.of("mpc", run.ChainCartConfig(scene="inverted-1"), wall_clock=True).build()
     assert timed.mpc_options["budget"] == 0.002 and "max_time" not in timed.plan_options
 
 

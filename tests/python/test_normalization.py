@@ -156,7 +156,7 @@ def test_the_leaderboard_trains_a_normalized_recipe_and_scores_it_normalized(tmp
     import chaincart_env.tools.compare.recipes as recipes
     from chaincart_env.tools.compare.normalization import NormalizedPolicy
     from chaincart_env.tools.compare.policy_sources import PolicySource
-    from chaincart_env.tools.leaderboard.controllers import train_agent
+    from chaincart_env.tools.leaderboard.contestants import train_agent
 
     recipe = TrainingRecipe(2, 128, dict(TINY_PPO), "test recipe", dict(OBS_ONLY))
     patch = pytest.MonkeyPatch()
@@ -176,7 +176,7 @@ def test_the_leaderboard_scores_the_best_evaluated_model_not_the_last(tmp_path: 
 
     import chaincart_env.tools.compare.periodic_eval as periodic_eval
     import chaincart_env.tools.compare.recipes as recipes
-    from chaincart_env.tools.leaderboard.controllers import train_agent
+    from chaincart_env.tools.leaderboard.contestants import train_agent
 
     recipe = TrainingRecipe(2, 256, dict(TINY_PPO), "test recipe", dict(OBS_ONLY))
     patch = pytest.MonkeyPatch()

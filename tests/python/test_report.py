@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from chaincart_env.tools.compare.plots import draw_sweep
+from chaincart_env.tools.compare.study_plots import draw_sweep
 from chaincart_env.tools.compare.styles import LOOKS, policy_style
 from chaincart_env.tools.compare.verdict import Rate, compare_rates, main_starts_rate, verdict_lines
 from chaincart_env.tools.controllers import CONTROLLERS, label_of
@@ -146,7 +146,7 @@ from types import SimpleNamespace  # noqa: E402
 
 from chaincart_env.config import ChainCartConfig  # noqa: E402
 from chaincart_env.tools.compare.filmstrip import filmstrip, frame_steps  # noqa: E402
-from chaincart_env.tools.compare.plots import draw_errors  # noqa: E402
+from chaincart_env.tools.compare.study_plots import draw_errors  # noqa: E402
 from chaincart_env.tools.compare.study_report import seed_lines, sweep_markdown, write_report  # noqa: E402
 from chaincart_env.tools.compare.tables import markdown_table, variant_base  # noqa: E402
 from chaincart_env.tools.compare.verdict import main_setting_values  # noqa: E402

@@ -32,7 +32,7 @@ from chaincart_env.rllib import (
     start_seeds_of,
 )
 from chaincart_env.tools.bench.rllib_sampling import measure_sampling
-from chaincart_env.tools.compare.cells import ray_cluster
+from chaincart_env.tools.compare.cell_runner import ray_cluster
 from chaincart_env.tools.compare.evaluation import METRIC_COLUMNS, evaluate_policies, evaluation_seeds
 from chaincart_env.tools.compare.job import OUTPUT_FILES, lqr_baseline
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS

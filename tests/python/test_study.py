@@ -10,8 +10,8 @@ import pytest
 from chaincart_env import ChainCartConfig, ChainCartError, LQRPolicy
 from chaincart_env.env import ChainCartEnv
 from chaincart_env.roa import success_fractions
-from chaincart_env.tools.compare.statistics import aggregate_over_seeds, wilson_interval
 from chaincart_env.tools.compare.sweeps import parse_sweep, run_sweep
+from chaincart_env.tools.compare.uncertainty import aggregate_over_seeds, wilson_interval
 
 
 def test_wilson_interval_matches_the_closed_form() -> None:

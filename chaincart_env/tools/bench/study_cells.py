@@ -25,7 +25,7 @@ __all__ = ["cells_section", "time_cells"]
 
 def time_cells(cells: list[Any], sources: dict[str, Any], distributed: bool) -> float:
     """Seconds to evaluate ``cells`` (serially here, or as Ray tasks)."""
-    from chaincart_env.tools.compare.cells import map_cells
+    from chaincart_env.tools.compare.cell_runner import map_cells
     from chaincart_env.tools.compare.study import evaluate_cell
 
     start = time.perf_counter()
@@ -57,7 +57,7 @@ def cells_section(ctx: BenchContext) -> None:
     import ray
 
     from chaincart_env.config import ChainCartConfig
-    from chaincart_env.tools.compare.cells import LOCAL, ray_cluster, torch_threads
+    from chaincart_env.tools.compare.cell_runner import LOCAL, ray_cluster, torch_threads
     from chaincart_env.tools.compare.policy_sources import PolicySource
     from chaincart_env.tools.compare.study import EvaluationCell, SweepPoint
     from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES

@@ -28,7 +28,7 @@ from typing import Any, Iterator, Mapping, Optional, Sequence
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.cells import map_cells
+from chaincart_env.tools.compare.cell_runner import map_cells
 from chaincart_env.tools.compare.imitation import scene_imitation
 from chaincart_env.tools.compare.layout import TrainingRun, training_runs
 from chaincart_env.tools.compare.learning_curve import (
@@ -37,7 +37,6 @@ from chaincart_env.tools.compare.learning_curve import (
     read_learning_curve,
     read_training_episodes,
 )  # fmt: skip
-from chaincart_env.tools.compare.plots import plot_learning_curve
 from chaincart_env.tools.compare.policy_sources import load_run
 from chaincart_env.tools.compare.recipes import GENERIC, recipe_for, training_conditions
 from chaincart_env.tools.compare.run_files import CONFIG_FILE, RUN_FILE, folder_contents, save_run, write_folder
@@ -52,6 +51,7 @@ from chaincart_env.tools.compare.study import (
     model_based_sources,
     policy_label,
 )  # fmt: skip
+from chaincart_env.tools.compare.study_plots import plot_learning_curve
 from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
 from chaincart_env.tools.compare.tables import write_csv
 from chaincart_env.tools.controllers import CONTROLLERS, LEARNED, parse_controllers
@@ -332,7 +332,7 @@ def _study(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool
     address = cluster_address(settings)
     if address is None:
         return _train_and_evaluate(config, out, run, resume, distributed=False)
-    from chaincart_env.tools.compare.cells import ray_cluster
+    from chaincart_env.tools.compare.cell_runner import ray_cluster
 
     runners = settings["rllib"]["num_env_runners"] if settings["trainer"] == "rllib" else 1
     with ray_cluster(address, max(1, runners)) as cluster:

@@ -35,7 +35,7 @@ from chaincart_env.tools.compare.run_files import (
     EVALUATIONS_FILE,
     read_evaluations,
 )  # fmt: skip
-from chaincart_env.tools.compare.statistics import wilson_interval
+from chaincart_env.tools.compare.uncertainty import wilson_interval
 
 __all__ = ["PeriodicEvaluation"]
 

@@ -1,6 +1,6 @@
 """Policies as data that can travel to another machine: the trained policies of a study
 and the model-based controllers, loaded where an evaluation cell runs (this process or a
-Ray worker; :mod:`chaincart_env.tools.compare.cells`).
+Ray worker; :mod:`chaincart_env.tools.compare.cell_runner`).
 
 A :class:`PolicySource` holds an SB3 model's file contents, an RLlib RLModule's folder
 packed into a tar archive, a model-based controller's name and the scene

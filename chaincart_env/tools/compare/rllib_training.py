@@ -23,7 +23,7 @@ import numpy as np
 
 from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.tools.compare.cells import ray_cluster
+from chaincart_env.tools.compare.cell_runner import ray_cluster
 from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
 from chaincart_env.tools.compare.run_files import CHECKPOINT_DIR, replace_directory, settled_directory, truncate_csv
 

@@ -14,7 +14,7 @@ from typing import Any, Mapping, Optional, Sequence
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
-from chaincart_env.tools.compare.cells import map_cells
+from chaincart_env.tools.compare.cell_runner import map_cells
 from chaincart_env.tools.compare.evaluation import (
     EPISODE_COLUMNS,
     METRIC_COLUMNS,
@@ -27,10 +27,9 @@ from chaincart_env.tools.compare.evaluation import (
 )
 from chaincart_env.tools.compare.filmstrip import write_filmstrip
 from chaincart_env.tools.compare.layout import TrainingRun, seed_directory
-from chaincart_env.tools.compare.plots import plot_errors, plot_evaluation_curves, plot_sweep
 from chaincart_env.tools.compare.policy_sources import PolicySource
 from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, read_evaluations, read_json_object
-from chaincart_env.tools.compare.statistics import aggregate_over_seeds
+from chaincart_env.tools.compare.study_plots import plot_errors, plot_evaluation_curves, plot_sweep
 from chaincart_env.tools.compare.study_report import SUMMARY_FIGURE, seed_lines, write_report, write_summary_figure
 from chaincart_env.tools.compare.sweeps import (
     SWEEP_AXES,
@@ -40,6 +39,7 @@ from chaincart_env.tools.compare.sweeps import (
     sweep_rows,
 )
 from chaincart_env.tools.compare.tables import write_csv, write_markdown
+from chaincart_env.tools.compare.uncertainty import aggregate_over_seeds
 from chaincart_env.tools.compare.verdict import Standing, main_setting_values, main_starts_rate, study_verdict
 from chaincart_env.tools.controllers import build_model_based, label_of
 
@@ -277,7 +277,7 @@ def evaluate_study_at(address: Optional[str], out: Path, config: ChainCartConfig
     cluster at ``address``."""
     if address is None:
         return evaluate_study(out, config, **options)
-    from chaincart_env.tools.compare.cells import ray_cluster
+    from chaincart_env.tools.compare.cell_runner import ray_cluster
 
     with ray_cluster(address, 1) as cluster:
         print(f"the evaluation cells run as Ray tasks on {cluster}")
@@ -305,7 +305,7 @@ def evaluate_study(
     per model-based controller, then the oracle LQR where the true system can differ
     from the model. Every policy on every scene variant is one :class:`EvaluationCell`;
     ``distributed``: the cells run as Ray tasks on the connected cluster
-    (:func:`~chaincart_env.tools.compare.cells.map_cells`), with the same results."""
+    (:func:`~chaincart_env.tools.compare.cell_runner.map_cells`), with the same results."""
     into = Path(out) if into is None else Path(into)
     into.mkdir(parents=True, exist_ok=True)
     starts = tuple(evaluation_seeds(eval_seed, eval_episodes))

@@ -171,7 +171,7 @@ def write_summary_figure(
     from matplotlib.figure import Figure
     from PIL import Image
 
-    from chaincart_env.tools.compare.plots import draw_errors, draw_evaluation_curves, draw_sweep
+    from chaincart_env.tools.compare.study_plots import draw_errors, draw_evaluation_curves, draw_sweep
 
     panels = (1 if curves else 0) + len(sweeps) + 1
     columns = 2

@@ -22,7 +22,7 @@ import numpy as np
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.evaluation import Policy, rollout, settle_times
-from chaincart_env.tools.compare.statistics import aggregate_over_seeds, wilson_interval
+from chaincart_env.tools.compare.uncertainty import aggregate_over_seeds, wilson_interval
 
 __all__ = [
     "DEFAULT_SWEEPS", "SWEEP_AXES", "SWEEP_COLUMNS", "SWEEP_SUMMARY_COLUMNS", "SweepAxis", "parse_sweep", "run_sweep", "summarize_sweep",

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.tools.compare.statistics import wilson_interval
+from chaincart_env.tools.compare.uncertainty import wilson_interval
 
 __all__ = [
     "Rate", "Standing", "Verdict", "compare_rates", "main_setting_values", "main_starts_rate", "study_verdict",

@@ -3,6 +3,15 @@
 summarised (peak force, settle time, final errors, energy drift). Needs the ``plot``
 extra (matplotlib)."""
 
+from chaincart_env.tools.figures.episodes import (
+    Trajectory,
+    link_directions,
+    link_kinetic_energy,
+    paper_errors,
+    rollout,
+    settle_time,
+    tip_positions,
+)
 from chaincart_env.tools.figures.paper import (
     FIGURES,
     SETTLE_TOLERANCE,
@@ -12,15 +21,6 @@ from chaincart_env.tools.figures.paper import (
     simulate_figure,
     summarize,
     summary_table,
-)
-from chaincart_env.tools.figures.trajectory import (
-    Trajectory,
-    link_directions,
-    link_kinetic_energy,
-    paper_errors,
-    rollout,
-    settle_time,
-    tip_positions,
 )
 
 __all__ = [

@@ -28,7 +28,7 @@ from matplotlib.axes import Axes
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.policies.lqr import LQRPolicy
 from chaincart_env.tools import plots
-from chaincart_env.tools.figures.trajectory import (
+from chaincart_env.tools.figures.episodes import (
     Trajectory,
     link_directions,
     link_kinetic_energy,

@@ -17,7 +17,7 @@ import numpy as np
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.tools.compare.evaluation import rollout
 from chaincart_env.tools.leaderboard.axes import RobustnessAxis
-from chaincart_env.tools.leaderboard.controllers import TimedPolicy
+from chaincart_env.tools.leaderboard.contestants import TimedPolicy
 
 __all__ = ["CELL_COLUMNS", "Cell", "episode_seeds", "run_cell"]
 

@@ -25,9 +25,9 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from chaincart_env.tools.compare.statistics import wilson_interval
 from chaincart_env.tools.compare.styles import band, policy_style
 from chaincart_env.tools.compare.tables import write_csv
+from chaincart_env.tools.compare.uncertainty import wilson_interval
 from chaincart_env.tools.controllers import is_learned
 from chaincart_env.tools.leaderboard.statistics import (
     Estimate,

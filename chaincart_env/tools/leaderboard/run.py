@@ -8,14 +8,14 @@ each cell finishes, so an interrupted run resumes where it stopped; see
 :mod:`~chaincart_env.tools.leaderboard.resume` for when rows are reused).
 
 The model-based controllers run with fixed iteration counts (no wall-clock limit on the
-planner or on MPC's step, :func:`~chaincart_env.tools.leaderboard.controllers.fixed_iteration_options`),
+planner or on MPC's step, :func:`~chaincart_env.tools.leaderboard.contestants.fixed_iteration_options`),
 so that a cell's numbers do not depend on the machine's load: two runs write the same
 ``cells.csv`` and ``scores.csv`` but for the measured compute time per step.
 ``wall_clock=True`` keeps the controllers' default time limits instead.
 
 Its independent pieces, the agents to train (one per scene, learned controller and
 seed) and then the cells, run one after the other in this process or, on a Ray
-cluster (``address``), as Ray tasks (:func:`~chaincart_env.tools.compare.cells.map_cells`),
+cluster (``address``), as Ray tasks (:func:`~chaincart_env.tools.compare.cell_runner.map_cells`),
 with the same rows (but for the measured compute time per step).
 """
 
@@ -30,14 +30,14 @@ from typing import Any, Callable, Mapping, Optional, Sequence
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.cells import map_cells, torch_threads
+from chaincart_env.tools.compare.cell_runner import map_cells, torch_threads
 from chaincart_env.tools.compare.policy_sources import PolicySource
 from chaincart_env.tools.compare.run_files import MODEL_FILE, folder_contents, write_folder
 from chaincart_env.tools.compare.tables import write_csv
 from chaincart_env.tools.controllers import LEARNED, NotApplicable
 from chaincart_env.tools.leaderboard.axes import AXES, RobustnessAxis, axis_values
 from chaincart_env.tools.leaderboard.cells import CELL_COLUMNS, Cell, cells_of, run_cell
-from chaincart_env.tools.leaderboard.controllers import fixed_source, seeds_checked, train_agent
+from chaincart_env.tools.leaderboard.contestants import fixed_source, seeds_checked, train_agent
 from chaincart_env.tools.leaderboard.resume import append_row, cell_key, cell_settings, finished_cells
 
 __all__ = [
@@ -277,7 +277,7 @@ def run_leaderboard(
     with torch_threads(settings.torch_threads):  # as in every task, so that both ways give the same agents
         if address is None:
             return _run(settings, out, report, log, distributed=False, finished=finished)
-        from chaincart_env.tools.compare.cells import ray_cluster
+        from chaincart_env.tools.compare.cell_runner import ray_cluster
 
         with ray_cluster(address, 1) as cluster:
             log(f"leaderboard: the agents and cells run as Ray tasks on {cluster}")
