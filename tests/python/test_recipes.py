@@ -14,10 +14,12 @@ from chaincart_env.registration import scene_env_id
 from chaincart_env.tools.compare.recipes import (
     GENERIC,
     _recipe,
+    conditions_setting,
     hyperparameter_file,
     load_recipes,
     recipe_for,
     sb3_keywords,
+    training_conditions,
 )
 
 
@@ -66,6 +68,9 @@ def test_zoo_values_become_sb3_objects():
         ({"n_timesteps": 10, "learning_rate": "exp_1e-3"}, "learning_rate = 'exp_1e-3'"),
         ({"n_timesteps": 10, "policy_kwargs": "dict(net_arch=__import__('os'))"}, "policy_kwargs"),
         ({"n_timesteps": 10, "policy_kwargs": "dict(activation_fn=nn.Softmax)"}, "policy_kwargs"),
+        ({"n_timesteps": 10, "env_kwargs": {"action_delays": [0, 2]}}, "env_kwargs keys ['action_delays']: expected "
+                                                                      "configuration keys"),
+        ({"n_timesteps": 10, "env_kwargs": [["action_delay", 1]]}, "expected a mapping of configuration keys"),
     ],
 )
 def test_a_bad_recipe_is_refused_with_its_place_and_value(entry, message):
@@ -91,3 +96,17 @@ def test_the_zoo_trains_a_packaged_recipe(env_id: str, tmp_path: pathlib.Path):
     assert saved, sorted(str(p) for p in (tmp_path / "logs").rglob("*"))[:20]
     normalized = list((tmp_path / "logs").rglob("vecnormalize.pkl"))
     assert bool(normalized) == (env_id == "ChainCart-swingup-3-v0"), normalized
+
+
+def test_a_recipes_env_kwargs_are_its_training_conditions_over_the_variants():
+    from chaincart_env.robust_training import ROBUST_CONDITIONS
+
+    recipe = _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_kwargs": {"action_delay": (0, 2), "obs_noise": 0.02}})
+    assert recipe.conditions == {"action_delay": [0, 2], "obs_noise": 0.02}  # as run.json records them
+    assert "action_delay" not in recipe.hyperparameters
+    assert training_conditions("ppo", recipe) == recipe.conditions
+    robust = training_conditions("ppo-robust", recipe)
+    assert robust["action_delay"] == [0, 2] and robust["obs_noise"] == 0.02  # the recipe's over the variant's
+    assert robust["randomize"] == ROBUST_CONDITIONS["randomize"]
+    assert training_conditions("ppo", _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10})) is None
+    assert conditions_setting(None) == {}

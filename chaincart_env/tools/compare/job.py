@@ -486,10 +486,10 @@ def _training_settings(
         raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
 
     def one(algo: str) -> dict[str, Any]:
-        conditions = training_conditions(algo)
+        recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
+        conditions = training_conditions(algo, recipe)
         if conditions is not None and trainer != "sb3":
             raise InvalidInputError(f"{algo} with --trainer {trainer}: expected the sb3 trainer")
-        recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
         keywords = {**recipe.hyperparameters, **hyperparameters, **algo_hyperparameters.get(algo, {})}
         if trainer == "sb3":
             from chaincart_env.tools.compare.training import check_keywords

@@ -16,7 +16,11 @@ controller that trains on a variant of the scene (``ppo-robust``:
 one zoo wrapper a recipe may name is the observation history,
 ``env_wrapper: [{chaincart_env.history.HistoryObservation: {k: 2}}]``, which ``compare``
 builds as :class:`~chaincart_env.history.VecHistoryObservation` around its native envs
-(the same observations).
+(the same observations). A recipe's ``env_kwargs`` (configuration keys, as the zoo
+gives them to ``gym.make``) are the conditions the agent trains under, e.g. a control
+delay drawn per episode, ``env_kwargs: {action_delay: [0, 2]}``: on top of the scene
+(and of a variant's conditions), in training and in the evaluations that choose the
+kept model, never in the study's or the leaderboard's own evaluations.
 Command-line options (``--num-envs``, ``--timesteps``, ``--algo-kwarg``) override a
 recipe's entries one by one. Keywords are kept as the file writes them (so that a run's
 ``run.json`` records them) and turned into SB3's objects by :func:`sb3_keywords` when the
@@ -27,6 +31,7 @@ agent is built. How each recipe was chosen is in the file's comments and in
 from __future__ import annotations
 
 import ast
+import dataclasses
 import functools
 import json
 from dataclasses import dataclass, field
@@ -37,17 +42,18 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.registration import scene_env_id
 
 __all__ = [
-    "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "TrainingRecipe", "history_setting", "hyperparameter_file",
+    "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "TrainingRecipe", "conditions_setting", "history_setting",
+    "hyperparameter_file",
     "load_recipes", "normalize_setting", "recipe_for", "sb3_keywords",
     "training_conditions",
 ]  # fmt: skip
 
 #: Zoo keys a recipe may hold besides the algorithm's keywords.
-ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_wrapper")
+ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_wrapper", "env_kwargs")
 #: ``VecNormalize`` keywords a recipe's ``normalize`` may set.
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward")
 #: Zoo keys that ask for wrappers ``compare`` does not build: refused rather than ignored.
-UNSUPPORTED_ZOO_KEYS = ("vec_env_wrapper", "frame_stack", "callback", "env_kwargs")
+UNSUPPORTED_ZOO_KEYS = ("vec_env_wrapper", "frame_stack", "callback")
 #: The wrapper a recipe's ``env_wrapper`` may name: the observation history.
 HISTORY_WRAPPER = "chaincart_env.history.HistoryObservation"
 
@@ -66,6 +72,9 @@ class TrainingRecipe:
     #: Steps of observation and action history the agent sees (the zoo's ``env_wrapper``
     #: :data:`HISTORY_WRAPPER`), or ``None``: the plain observation.
     history: Optional[int] = None
+    #: Configuration keys the agent trains under on top of the scene (the zoo's
+    #: ``env_kwargs``), as plain JSON values.
+    conditions: dict[str, Any] = field(default_factory=dict)
 
 
 #: SB3's defaults on 8 envs: what a scene without a recipe trains with.
@@ -93,7 +102,28 @@ def _recipe(algo: str, env_id: str, entry: Any) -> TrainingRecipe:
     keywords = {key: value for key, value in entry.items() if key not in ZOO_KEYS}
     sb3_keywords(keywords, where)  # checked now, so a bad file fails before any training
     return TrainingRecipe(num_envs, timesteps, keywords, where, normalize_setting(entry.get("normalize"), where),
-                          history_setting(entry.get("env_wrapper"), where))
+                          history_setting(entry.get("env_wrapper"), where), conditions_setting(entry.get("env_kwargs"), where))
+
+
+def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
+    """A zoo ``env_kwargs`` as training conditions: a mapping of configuration keys
+    (none without one), its values as JSON has them. An unknown key is refused by name;
+    the values are checked when the training env is built."""
+    from chaincart_env.config import ChainCartConfig
+
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise InvalidInputError(f"{where}: env_kwargs = {value!r}: expected a mapping of configuration keys")
+    known = {f.name for f in dataclasses.fields(ChainCartConfig)}
+    unknown = sorted(str(key) for key in value if key not in known)
+    if unknown:
+        raise InvalidInputError(f"{where}: env_kwargs keys {unknown}: expected configuration keys")
+    try:
+        return dict(json.loads(json.dumps(dict(value))))
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{where}: env_kwargs = {value!r}: expected plain values (numbers, text, "
+                                "lists, mappings)") from None
 
 
 def history_setting(value: Any, where: str = "env_wrapper") -> Optional[int]:
@@ -146,20 +176,23 @@ def recipe_for(scene: str, algo: str) -> TrainingRecipe:
     return recipes.get(scene_env_id(scene), GENERIC)
 
 
-def training_conditions(name: str) -> Optional[dict[str, Any]]:
+def training_conditions(name: str, recipe: Optional[TrainingRecipe] = None) -> Optional[dict[str, Any]]:
     """The configuration keys learned controller ``name`` trains with on top of the
-    scene's (``ppo-robust``: :data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`),
-    or ``None``: the scene as it is."""
+    scene's: its variant's (``ppo-robust``:
+    :data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`), then ``recipe``'s own
+    (its ``env_kwargs``) over them; ``None``: the scene as it is."""
     from chaincart_env.robust_training import ROBUST_CONDITIONS, ROBUST_VARIANT
     from chaincart_env.tools.controllers import CONTROLLERS
 
     controller = CONTROLLERS.get(name.lower())
-    if controller is None or controller.variant is None:
-        return None
-    if controller.variant != ROBUST_VARIANT:
-        raise InvalidInputError(f"{name}: variant {controller.variant!r} has no training conditions; expected "
-                                f"{ROBUST_VARIANT!r}")
-    return json.loads(json.dumps(ROBUST_CONDITIONS))  # a plain copy, as run.json records it
+    variant: dict[str, Any] = {}
+    if controller is not None and controller.variant is not None:
+        if controller.variant != ROBUST_VARIANT:
+            raise InvalidInputError(f"{name}: variant {controller.variant!r} has no training conditions; expected "
+                                    f"{ROBUST_VARIANT!r}")
+        variant = json.loads(json.dumps(ROBUST_CONDITIONS))  # a plain copy, as run.json records it
+    conditions = {**variant, **(recipe.conditions if recipe is not None else {})}
+    return conditions or None
 
 
 def _linear_schedule(start: float) -> Callable[[float], float]:
