@@ -10,10 +10,16 @@ numpy, with the agent's :attr:`~PretrainedPolicy.record`. Each agent is two file
   ``obs_var``), all plain arrays: it is read with ``np.load(..., allow_pickle=False)``,
   so loading runs no code and needs no torch;
 * ``<name>.json``: the record: scene, name, algorithm, network (hidden sizes,
-  activation, how the output becomes an action), observation and action spaces, the
+  activation, how the output becomes an action), observation and action spaces (the
+  network's input: with ``history`` k > 0 the env's observation and its last k
+  observations and actions, :mod:`chaincart_env.history`), the
   normalisation's clip and epsilon, the env configuration, how it was trained (command,
   seed, git commit, steps) and the success it was measured at (which seeded starts,
   the outcome of each).
+
+An agent with history keeps each env's last observations and actions itself: it acts
+on the env's plain observations, restarting an env's history where ``episode_start``
+says (SB3's convention), at its first call, and after :meth:`PretrainedPolicy.reset`.
 
 The forward pass is SB3's deterministic one: observations normalised as
 ``VecNormalize.normalize_obs`` does (``clip((obs - mean) / sqrt(var + epsilon))``,
@@ -199,15 +205,49 @@ class PretrainedPolicy:
         self._slope = float(network.get("negative_slope", 0.01))
         hidden = [int(size) for size in network.get("hidden", [])]
         observation, action = _require(record, "observation_space", where), _require(record, "action_space", where)
-        self.observation_shape = tuple(int(n) for n in observation["shape"])
+        #: The network's input: the observation, with its history when ``history`` > 0.
+        self.input_shape = tuple(int(n) for n in observation["shape"])
         self.action_shape = tuple(int(n) for n in action["shape"])
         self.action_low = np.asarray(action["low"], dtype=np.float32).reshape(self.action_shape)
         self.action_high = np.asarray(action["high"], dtype=np.float32).reshape(self.action_shape)
-        sizes = [int(np.prod(self.observation_shape))] + hidden + [int(np.prod(self.action_shape))]
+        #: Steps of observation and action history the network reads (0: none).
+        self.history = self._history_steps(record.get("history", 0), where)
+        #: The env's observation, which ``predict`` takes.
+        self.observation_shape = self._env_observation_shape(where)
+        sizes = [int(np.prod(self.input_shape))] + hidden + [int(np.prod(self.action_shape))]
         names = [f"hidden.{i}" for i in range(len(hidden))] + ["output"]
         self._layers = [self._layer(arrays, key, n_in, n_out, where)
                         for key, n_in, n_out in zip(names, sizes[:-1], sizes[1:])]
         self._normalization = self._statistics(record.get("normalization"), arrays, sizes[0], where)
+        self._with_history = self._history_policy() if self.history else None
+
+    @staticmethod
+    def _history_steps(value: Any, where: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise InvalidInputError(f"{where}: history {value!r}: expected an integer >= 0")
+        return value
+
+    def _env_observation_shape(self, where: str) -> tuple[int, ...]:
+        """The env's observation shape: the input less ``history`` observations and actions."""
+        if not self.history:
+            return self.input_shape
+        k, actions = self.history, int(np.prod(self.action_shape))
+        size, left = divmod(int(np.prod(self.input_shape)) - k * actions, k + 1)
+        if len(self.input_shape) != 1 or left or size < 1:
+            raise InvalidInputError(f"{where}: input of shape {self.input_shape} with history {k}: expected "
+                                    f"obs + {k} * (obs + {actions}) numbers")
+        return (size,)
+
+    def _history_policy(self) -> Any:
+        """The network behind :class:`~chaincart_env.history.HistoryPolicy`, which keeps
+        each env's history."""
+        from gymnasium import spaces
+
+        from chaincart_env.history import HistoryPolicy
+
+        observation = spaces.Box(-np.inf, np.inf, self.observation_shape, np.float32)
+        action = spaces.Box(self.action_low, self.action_high, dtype=np.float32)
+        return HistoryPolicy(_Network(self), self.history, observation, action)
 
     @staticmethod
     def _layer(arrays: Mapping[str, np.ndarray], key: str, n_in: int, n_out: int, where: str) -> _Layer:
@@ -312,11 +352,30 @@ class PretrainedPolicy:
                 f"{self.label}: observation of shape {obs.shape}: expected {self.observation_shape} or a batch "
                 f"(n, {', '.join(map(str, self.observation_shape))})"
             )
+        if self._with_history is not None:
+            return self._with_history.predict(obs, state=state, episode_start=episode_start)  # type: ignore[no-any-return]
         batch = obs.reshape(1 if single else obs.shape[0], -1)
         actions = self.forward(batch).reshape((-1, *self.action_shape))
         return (actions[0] if single else actions), state
 
+    def reset(self) -> None:
+        """Forgets every env's history (an agent with history begins new episodes at its
+        next call); nothing for an agent without."""
+        if self._with_history is not None:
+            self._with_history.reset()
+
     def __repr__(self) -> str:
         hidden = [layer.weight.shape[0] for layer in self._layers[:-1]]
         return (f"PretrainedPolicy({self.label}, {self.record.get('algorithm')}, hidden {hidden}, {self.activation}, "
-                f"normalised={self._normalization is not None})")
+                f"normalised={self._normalization is not None}, history={self.history})")
+
+
+class _Network:
+    """A policy's network as a ``predict`` on its whole input (history included)."""
+
+    def __init__(self, policy: PretrainedPolicy) -> None:
+        self._policy = policy
+
+    def predict(self, observation: np.ndarray, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, Any]:
+        return self._policy.forward(observation), state

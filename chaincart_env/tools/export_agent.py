@@ -251,12 +251,14 @@ def _check_against_sb3(policy: PretrainedPolicy, model: Any, statistics: Any, re
     """The largest difference between the numpy actions and SB3's deterministic ones
     (on ``statistics``-normalised observations); an error above :data:`TOLERANCE`."""
     rng = np.random.default_rng(seed)
+    # The network's inputs: a start observation has an empty (zero) history.
+    real = np.concatenate([real, np.zeros((real.shape[0], policy.input_shape[0] - real.shape[1]))], axis=1)
     scale = np.maximum(np.abs(real).max(axis=0), 1.0)
     observations = np.concatenate([real, rng.uniform(-2, 2, (CHECK_OBSERVATIONS, real.shape[1])) * scale])
     observations = observations.astype(model.observation_space.dtype)
     normalized = observations if statistics is None else statistics.normalize_obs(observations)
     expected, _ = model.predict(normalized, deterministic=True)
-    actual, _ = policy.predict(observations)
+    actual = policy.forward(observations)
     difference = float(np.max(np.abs(actual - expected)))
     if not difference <= TOLERANCE:
         raise InvalidInputError(
@@ -284,11 +286,13 @@ def measure_success(policy: Any, config: ChainCartConfig, seeds: Sequence[int]) 
 
 
 def agent_record(
-    model: Any, statistics: Any, config: ChainCartConfig, name: str, training: Optional[dict[str, Any]] = None
+    model: Any, statistics: Any, config: ChainCartConfig, name: str, training: Optional[dict[str, Any]] = None,
+    history: int = 0,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The record (without its measured success) and arrays of the SB3 ``model``
-    (normalising with the ``VecNormalize`` ``statistics``, or ``None``) as the agent
-    ``name`` of ``config``'s scene: what :class:`PretrainedPolicy` loads."""
+    (normalising with the ``VecNormalize`` ``statistics``, or ``None``; observing
+    ``history`` steps of history) as the agent ``name`` of ``config``'s scene: what
+    :class:`PretrainedPolicy` loads."""
     arrays, network = actor_arrays(model)
     statistic_arrays, normalization = normalization_arrays(statistics)
     arrays.update(statistic_arrays)
@@ -298,7 +302,7 @@ def agent_record(
         observation_space=dict(shape=list(model.observation_space.shape), dtype=str(model.observation_space.dtype)),
         action_space=dict(shape=list(model.action_space.shape), low=model.action_space.low.tolist(),
                           high=model.action_space.high.tolist()),
-        normalization=normalization, config=config.to_dict(), training=training or {},
+        history=history, normalization=normalization, config=config.to_dict(), training=training or {},
     )
     return record, arrays
 
@@ -327,6 +331,22 @@ def _training_record(info: dict[str, Any], model: Any, command: Optional[str], g
         timesteps=int(model.num_timesteps), hyperparameters=info.get("hyperparameters"),
         num_envs=info.get("num_envs"), normalize=info.get("normalize"),
     )
+
+
+def _history_steps(model: Any, config: ChainCartConfig, model_path: Path) -> int:
+    """The steps of history ``model`` observes on ``config``'s env (0: its plain
+    observation), or an error naming both spaces."""
+    from chaincart_env.env import action_space, observation_space
+    from chaincart_env.history import history_of
+
+    expected = f"({config.obs_dim},) and ({config.force_dim},), the spaces of scene {config.scene!r}"
+    if tuple(model.action_space.shape) != (config.force_dim,):
+        raise InvalidInputError(f"{model_path} acts with {model.action_space.shape}: expected {expected}")
+    try:
+        return history_of(model, observation_space(config), action_space(config))
+    except InvalidInputError:
+        raise InvalidInputError(f"{model_path} observes {model.observation_space.shape}: expected {expected}, "
+                                "or those with k steps of history (--history k)") from None
 
 
 def export_agent(
@@ -374,13 +394,10 @@ def export_agent(
         raise InvalidInputError(f"--vecnormalize {statistics_path}: the file does not exist")
     statistics = read_statistics(statistics_path.read_bytes()) if statistics_path.is_file() else None
     model, algo_name = _load_model(model_path, algo or info.get("algo"))
-    if tuple(model.observation_space.shape) != (config.obs_dim,) or tuple(model.action_space.shape) != (config.force_dim,):
-        raise InvalidInputError(
-            f"{model_path} observes {model.observation_space.shape} and acts with {model.action_space.shape}: expected "
-            f"({config.obs_dim},) and ({config.force_dim},), the spaces of scene {scene!r}"
-        )
+    history = _history_steps(model, config, model_path)
     record, arrays = agent_record(model, statistics, config, name,
-                                  training=_training_record(info, model, command, git_commit, config, algo_name))
+                                  training=_training_record(info, model, command, git_commit, config, algo_name),
+                                  history=history)
     record["exported"] = dict(date=datetime.date.today().isoformat(), from_file=model_path.name,
                               statistics_file=statistics_path.name if statistics is not None else None,
                               stable_baselines3=stable_baselines3.__version__)

@@ -49,9 +49,9 @@ def read_csv(path: pathlib.Path) -> list[dict[str, str]]:
 # -- the forward pass against SB3 ---------------------------------------------------------
 
 
-def _sb3_model(algorithm: str, policy_kwargs: dict[str, Any]) -> Any:
-    """An SB3 model on inverted-2 whose weights are redrawn (SB3's initial output layer
-    is nearly zero, which would make any forward pass look right)."""
+def _sb3_model(algorithm: str, policy_kwargs: dict[str, Any], env: Any = None) -> Any:
+    """An SB3 model on inverted-2 (or on ``env``) whose weights are redrawn (SB3's
+    initial output layer is nearly zero, which would make any forward pass look right)."""
     import gymnasium
     import torch
 
@@ -61,8 +61,8 @@ def _sb3_model(algorithm: str, policy_kwargs: dict[str, Any]) -> Any:
     else:
         algorithm_class = getattr(sb3, algorithm)
     options = {} if algorithm in ("PPO", "A2C") else {"buffer_size": 100, "learning_starts": 0}
-    model = algorithm_class("MlpPolicy", gymnasium.make("ChainCart-inverted-2-v0"), policy_kwargs=policy_kwargs,
-                            seed=0, device="cpu", **options)
+    env = gymnasium.make("ChainCart-inverted-2-v0") if env is None else env
+    model = algorithm_class("MlpPolicy", env, policy_kwargs=policy_kwargs, seed=0, device="cpu", **options)
     generator = torch.Generator().manual_seed(1)
     with torch.no_grad():
         for parameter in model.policy.parameters():
@@ -317,6 +317,60 @@ def test_export_checks_its_input(saved_run: pathlib.Path, tmp_path: pathlib.Path
         with pytest.raises(SystemExit):
             main(["export-agent", *args, "--out-dir", str(tmp_path), "--episodes", "1"])
         assert re.search(message, capsys.readouterr().err), message
+
+
+def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrappers_do(tmp_path: pathlib.Path) -> None:
+    import gymnasium
+
+    from chaincart_env.history import HistoryObservation, HistoryPolicy
+
+    k, folder = 2, tmp_path / "history-run"
+    folder.mkdir()
+    config = ChainCartConfig(scene="inverted-2", max_episode_steps=12)
+    env = HistoryObservation(gymnasium.make("ChainCart-inverted-2-v0", max_episode_steps=12), k)
+    model = _sb3_model("PPO", dict(net_arch=[16, 16]), env)
+    model.save(folder / "model.zip")
+    (folder / "config.json").write_text(json.dumps(config.to_dict()))
+    assert main(["export-agent", str(folder), "--name", "hist", "--out-dir", str(tmp_path / "agents"),
+                 "--episodes", "2"]) == 0  # fmt: skip
+    agent = load_agent(tmp_path / "agents" / "inverted-2" / "hist.npz", tmp_path / "agents" / "inverted-2" / "hist.json")
+    assert agent.history == k and agent.record["history"] == k
+    assert agent.observation_shape == (8,) and agent.input_shape == (8 + k * 9,)
+    agent.check_config(config)  # acts on the scene's plain observations
+    # Two envs over an episode end, against SB3's model behind the history wrapper of the package.
+    reference = HistoryPolicy(model, k, env.unwrapped.observation_space, env.action_space)
+    batch = config.replace(start_noise=0.5).make_batch(2, "same_step")  # starts far enough to push
+    obs = batch.reset([0, 1], None)
+    starts, moved = np.ones(2, dtype=bool), False
+    for _ in range(20):
+        expected, _ = reference.predict(obs, episode_start=starts, deterministic=True)
+        actual, _ = agent.predict(obs, episode_start=starts)
+        np.testing.assert_allclose(actual, expected, rtol=0, atol=TOLERANCE)
+        moved |= bool(np.abs(actual).max() > 0.1)
+        obs, _, _, _, n_ended = batch.step(np.asarray(actual, dtype=np.float32))
+        starts = batch.episode_arrays()[0].astype(bool) if n_ended else np.zeros(2, dtype=bool)
+    assert moved  # actions worth comparing, not all near zero
+    # reset() starts every history afresh: the same first action as a new agent's.
+    agent.reset()
+    fresh = load_agent(tmp_path / "agents" / "inverted-2" / "hist.npz", tmp_path / "agents" / "inverted-2" / "hist.json")
+    np.testing.assert_array_equal(agent.predict(obs[0])[0], fresh.predict(obs[0])[0])
+    assert measure_success(agent, config, [0, 1]) == agent.success["outcomes"]
+
+
+def test_a_record_with_a_bad_history_is_refused() -> None:
+    model = _sb3_model("PPO", dict(net_arch=[8]))
+    record, arrays = _record_and_arrays(model)
+    for bad, message in ((-1, "history -1: expected an integer >= 0"), (True, "history True"),
+                         (5, r"input of shape \(8,\) with history 5: expected obs \+ 5 \* \(obs \+ 1\)")):
+        with pytest.raises(InvalidInputError, match=message):
+            PretrainedPolicy({**record, "history": bad}, arrays)
+
+
+def _record_and_arrays(model: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    from chaincart_env.tools.export_agent import agent_record
+
+    record, arrays = agent_record(model, None, ChainCartConfig(scene="inverted-2"), "test")
+    return json.loads(json.dumps(record)), arrays
 
 
 # -- the slots of the commands --------------------------------------------------------------------
