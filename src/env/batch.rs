@@ -154,8 +154,41 @@ fn seed_env(data: &mut EnvData, k: usize, seed: u64) {
     }
 }
 
+/// A task checked against one chain: every check a batch makes (the task's fields and
+/// precision, the reality gap, the start state), done once. Only [`CheckedTask::new`]
+/// makes one, so [`EnvBatch::from_checked`] builds envs from it without checking again.
+#[derive(Debug, Clone)]
+pub struct CheckedTask<G: LaneScene> {
+    chain: Chain<G>,
+    true_chain: Chain<G>,
+    task: TaskConfig,
+    base: Vec<f64>,
+}
+
+impl<G: LaneScene> CheckedTask<G> {
+    /// `task` on `chain`, checked; the error names the first bad value.
+    pub fn new(chain: Chain<G>, task: TaskConfig) -> Result<Self> {
+        let (true_chain, base) = check_task(&chain, &task)?;
+        Ok(Self {
+            chain,
+            true_chain,
+            task,
+            base,
+        })
+    }
+    /// The nominal model.
+    pub fn chain(&self) -> &Chain<G> {
+        &self.chain
+    }
+    /// The task.
+    pub fn task(&self) -> &TaskConfig {
+        &self.task
+    }
+}
+
 impl<G: LaneScene> EnvBatch<G> {
-    /// `num_envs` envs, env i seeded with `seed + i` (wrapping) and reset once.
+    /// `num_envs` envs, env i seeded with `seed + i` (wrapping) and reset once: `task`
+    /// checked on `chain` ([`CheckedTask::new`]), then [`EnvBatch::from_checked`].
     pub fn new(
         chain: Chain<G>,
         task: TaskConfig,
@@ -164,7 +197,30 @@ impl<G: LaneScene> EnvBatch<G> {
         mode: AutoresetMode,
         diagnostics: bool,
     ) -> Result<Self> {
-        let (true_chain, base) = check_task(&chain, &task)?;
+        Self::from_checked(
+            CheckedTask::new(chain, task)?,
+            num_envs,
+            seed,
+            mode,
+            diagnostics,
+        )
+    }
+
+    /// `num_envs` envs of a checked task, env i seeded with `seed + i` (wrapping) and
+    /// reset once.
+    pub fn from_checked(
+        checked: CheckedTask<G>,
+        num_envs: usize,
+        seed: u64,
+        mode: AutoresetMode,
+        diagnostics: bool,
+    ) -> Result<Self> {
+        let CheckedTask {
+            chain,
+            true_chain,
+            task,
+            base,
+        } = checked;
         let d = chain.state_dim();
         let widths = Widths::new(&chain, &task);
         let reward = RewardSpec::of(&task, chain.n_links());
@@ -646,10 +702,7 @@ fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
 /// Checks `task` against `chain` without building a batch (every check of the task a
 /// batch makes: the task's fields and precision, the reality gap, the start state) and
 /// returns the true system the envs step and the state episodes start from before noise.
-pub fn check_task<G: LaneScene>(
-    chain: &Chain<G>,
-    task: &TaskConfig,
-) -> Result<(Chain<G>, Vec<f64>)> {
+fn check_task<G: LaneScene>(chain: &Chain<G>, task: &TaskConfig) -> Result<(Chain<G>, Vec<f64>)> {
     task.validate(chain.n_links())?;
     task.reality.validate(chain.n_links(), chain.state_dim())?;
     let true_chain =

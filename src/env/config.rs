@@ -3,7 +3,7 @@
 
 use super::goals::Transitions;
 use super::keys::{
-    DEFAULT_MAX_ACCELERATION, DEFAULT_MAX_EPISODE_STEPS, DEFAULT_MAX_VOLTAGE,
+    DEFAULT_MAX_ACCELERATION, DEFAULT_MAX_EPISODE_STEPS, DEFAULT_MAX_FORCE, DEFAULT_MAX_VOLTAGE,
     DEFAULT_REWARD_WEIGHTS, DEFAULT_START_NOISE, DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT,
     REWARD_NAMES, START_NAMES, TARGET_NAMES,
 };
@@ -352,10 +352,9 @@ pub struct TaskConfig {
 }
 
 impl TaskConfig {
-    /// A task with the configuration's default start noise, track, episode length,
-    /// reward and tolerances ([`super::keys::CONFIG_KEYS`]), starting at the target,
-    /// pushing with 10 N (the single-link scenes' force; the default scene pushes with
-    /// 20 N, and Rust callers set their own).
+    /// A task with the configuration's defaults ([`super::keys::CONFIG_KEYS`]: start
+    /// noise, force, track, episode length, reward and tolerances), starting at the
+    /// target.
     pub fn new(target: Vec<f64>, dt: f64, step_options: StepOptions) -> Self {
         Self {
             target,
@@ -363,7 +362,7 @@ impl TaskConfig {
             start_noise: DEFAULT_START_NOISE,
             dt,
             step_options,
-            max_force: 10.0,
+            max_force: DEFAULT_MAX_FORCE,
             track_limit: DEFAULT_TRACK_LIMIT,
             max_episode_steps: DEFAULT_MAX_EPISODE_STEPS as u64,
             reward: RewardWeights::default(),

@@ -127,6 +127,8 @@ pub const DEFAULT_START_NOISE: f64 = 0.05;
 pub const DEFAULT_TRACK_LIMIT: f64 = 2.4;
 /// Default episode length, steps (also [`super::TaskConfig::new`]'s).
 pub const DEFAULT_MAX_EPISODE_STEPS: i64 = 500;
+/// Default force of a unit action, N (also [`super::TaskConfig::new`]'s).
+pub const DEFAULT_MAX_FORCE: f64 = 20.0;
 
 /// Default reward weights `[q, w, x, v, u]` (see `RewardWeights`): a tilt of 0.3 rad
 /// costs 9% of the reward, a hanging link (|q - s e3|^2 = 4) leaves 2%, and the cart,
@@ -246,7 +248,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
     ConfigKey {
         name: "max_force",
         kind: KeyKind::Number,
-        default: KeyValue::Float(20.0),
+        default: KeyValue::Float(DEFAULT_MAX_FORCE),
         expected: "a finite number >= 0",
         help: "N per unit action (0: uncontrolled)",
     },
@@ -786,6 +788,27 @@ mod expected_text {
         assert!(expected("force_noise").ends_with(crate::env::ForceNoise::EXPECTED));
         for name in crate::env::ForceNoise::NAMES {
             assert!(expected("force_noise").contains(name), "{name}");
+        }
+    }
+
+    #[test]
+    fn a_rust_task_starts_from_the_key_tables_defaults() {
+        let task = TaskConfig::new(vec![-1.0; 2], 0.02, StepOptions::default());
+        let float = |name: &str| match config_key(name).unwrap().default {
+            KeyValue::Float(x) => x,
+            KeyValue::Int(i) => i as f64,
+            other => panic!("{name}: {other:?}"),
+        };
+        let fields = [
+            ("start_noise", task.start_noise),
+            ("max_force", task.max_force),
+            ("track_limit", task.track_limit),
+            ("max_episode_steps", task.max_episode_steps as f64),
+            ("max_acceleration", task.max_acceleration),
+            ("max_voltage", task.max_voltage),
+        ];
+        for (name, value) in fields {
+            assert_eq!(value, float(name), "{name}");
         }
     }
 }

@@ -50,7 +50,7 @@ pub mod sensors;
 pub mod start;
 mod step;
 
-pub use batch::{check_task, EnvBatch, Snapshot, RNG_BYTES};
+pub use batch::{CheckedTask, EnvBatch, Snapshot, RNG_BYTES};
 pub use config::{
     target_signs, AutoresetMode, PaperFigure, RewardKind, RewardWeights, Start, SuccessTolerances,
     TaskConfig,

@@ -185,6 +185,7 @@ fn results_do_not_depend_on_the_thread_count() {
 fn reward_is_one_at_the_target_and_decreases_away_from_it() {
     let mut t = task(2);
     t.start_noise = 0.0;
+    t.max_force = 10.0; // a half action, 5 N, barely moves the chain in one step
     let mut b = EnvBatch::new(
         Chain::<Planar>::new(params(2)),
         t.clone(),
@@ -618,4 +619,33 @@ fn episode_ends_report_the_envs_that_ended_and_nothing_else() {
     );
     assert_eq!(ends.e_q, [0.0, 2.5, 0.0, 6.5, 8.5, 0.0]);
     assert_eq!(ends.e_w, [0.0, 3.5, 0.0, 7.5, 9.5, 0.0]);
+}
+
+#[test]
+fn a_batch_from_a_checked_task_is_the_batch_new_builds_and_a_bad_task_fails_its_check() {
+    use crate::env::CheckedTask;
+    let chain = Chain::<Planar>::new(params(2));
+    let mut t = task(2);
+    t.start_noise = 0.2;
+    let checked = CheckedTask::new(chain.clone(), t.clone()).unwrap();
+    assert_eq!(checked.task(), &t);
+    let run = |mut b: EnvBatch<Planar>| {
+        let mut out = Out::<f64>::new(3, b.state_dim());
+        for k in 0..50 {
+            let a = [0.3 * (k as f64).sin(), -0.7, 1.0];
+            b.step(&a, out.buffers()).unwrap();
+        }
+        (b.states().to_vec(), out.obs.clone(), out.rewards.clone())
+    };
+    let mode = AutoresetMode::NextStep;
+    let new = EnvBatch::new(chain.clone(), t.clone(), 3, 5, mode, false).unwrap();
+    let from_checked = EnvBatch::from_checked(checked, 3, 5, mode, false).unwrap();
+    assert_eq!(run(new), run(from_checked));
+    t.dt = -0.01;
+    let by_new = EnvBatch::new(chain.clone(), t.clone(), 3, 5, mode, false)
+        .err()
+        .unwrap();
+    let by_check = CheckedTask::new(chain, t).err().unwrap();
+    assert_eq!(by_new.to_string(), by_check.to_string());
+    assert!(by_check.to_string().contains("dt"), "{by_check}");
 }

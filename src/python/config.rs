@@ -12,10 +12,11 @@ use crate::analysis::{Linearization, LqrController};
 use crate::any_chain::AnyChain;
 use crate::env::keys::{config_key, ANY, KEY_NAMES};
 use crate::env::{
-    check_task, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Sensors,
+    CheckedTask, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Sensors,
     Start, SuccessTolerances, TaskConfig, Transitions, CONFIG_KEYS, SCENES,
 };
 use crate::error::{quoted, InputError};
+use crate::geometry::{Planar, Spatial};
 use crate::integrate::{Method, StepOptions};
 use crate::lanes::Precision;
 use crate::params::{Actuation, Motor, Rig};
@@ -28,8 +29,8 @@ use pyo3::types::{PyBool, PyDict, PyMapping, PyString, PyTuple};
 pub struct ResolvedConfig {
     /// The model (immutable, shared with whoever asks for it).
     pub model: Py<ChainCart>,
-    /// The task on it.
-    pub task: TaskConfig,
+    /// The task on it, checked once: batches are built from it without checking again.
+    pub checked: SceneTask,
     /// Observations as float64 (else float32).
     pub obs_f64: bool,
     /// Energies and residuals recorded every step.
@@ -38,10 +39,24 @@ pub struct ResolvedConfig {
     pub canonical: Py<PyDict>,
 }
 
+/// A task checked on the planar or the spatial model.
+#[derive(Clone)]
+pub enum SceneTask {
+    /// On the spatial model.
+    Spatial(CheckedTask<Spatial>),
+    /// On the planar model.
+    Planar(CheckedTask<Planar>),
+}
+
 impl ResolvedConfig {
     /// The model's chain.
     pub fn chain(&self) -> &AnyChain {
         &self.model.get().chain
+    }
+
+    /// The task.
+    pub fn task(&self) -> &TaskConfig {
+        dispatch!(SceneTask, &self.checked, c => c.task())
     }
 
     /// A validated sign tuple (or equilibrium name) for this chain.
@@ -77,12 +92,12 @@ impl ResolvedConfig {
     /// The target's signs (for a goal-conditioned task, the first pair's).
     #[getter]
     fn target(&self) -> Vec<f64> {
-        self.task.target.clone()
+        self.task().target.clone()
     }
     /// The (start, target) sign lists a goal-conditioned task draws from, or `None`.
     #[getter]
     fn pairs(&self) -> Option<Vec<(Vec<f64>, Vec<f64>)>> {
-        self.task.transitions.as_ref().map(|t| {
+        self.task().transitions.as_ref().map(|t| {
             (0..t.len())
                 .map(|k| (t.start(k).to_vec(), t.target(k).to_vec()))
                 .collect()
@@ -92,7 +107,7 @@ impl ResolvedConfig {
     /// observes its goal (`goal_observation`).
     #[getter]
     fn obs_dim(&self) -> usize {
-        self.task.obs_dim(self.chain().state_dim())
+        self.task().obs_dim(self.chain().state_dim())
     }
     /// The LQR gain at equilibrium `s` (`2 x (4 + 4n)`, in `z` coordinates) for the
     /// model with this configuration's real-rig effects (joint damping, cart friction,
@@ -110,7 +125,7 @@ impl ResolvedConfig {
         let s = self.equilibrium_signs(s)?;
         let weights = lqr_weights(&s, Q, R)?;
         let params = self.chain().params().clone();
-        let rig = self.task.rig.clone();
+        let rig = self.task().rig.clone();
         let controller = py.detach(|| LqrController::with_rig(&params, &s, &rig, &weights))?;
         Ok(matrix_to_numpy(py, controller.gain()))
     }
@@ -125,7 +140,7 @@ impl ResolvedConfig {
         let s = self.equilibrium_signs(s)?;
         state_space_tuple(
             py,
-            &Linearization::with_rig(self.chain().params(), &s, &self.task.rig)?,
+            &Linearization::with_rig(self.chain().params(), &s, &self.task().rig)?,
         )
     }
     /// Pickled as its canonical values, resolved again when loaded.
@@ -747,13 +762,16 @@ pub fn resolve(config: &Bound<'_, PyDict>) -> PyResult<ResolvedConfig> {
     let values = merged(config)?;
     let model = model(&values)?;
     let task = task(&values, &model.chain)?;
-    dispatch!(AnyChain, &model.chain, c => check_task(c, &task).map(|_| ()))?;
     write_task_keys(py, &task.reality, &values)?;
+    let checked = match &model.chain {
+        AnyChain::Spatial(c) => SceneTask::Spatial(CheckedTask::new(c.clone(), task)?),
+        AnyChain::Planar(c) => SceneTask::Planar(CheckedTask::new(c.clone(), task)?),
+    };
     Ok(ResolvedConfig {
         obs_f64: get(&values, "obs_dtype").extract::<String>()? == "float64",
         diagnostics: get(&values, "diagnostics").extract()?,
         model: Py::new(py, model)?,
-        task,
+        checked,
         canonical: values.unbind(),
     })
 }

@@ -5,17 +5,15 @@
 //! a microsecond) keeps it, since releasing and re-taking it would cost a sizeable
 //! part of the step.
 
-use super::config::{resolve, ResolvedConfig};
+use super::config::{resolve, ResolvedConfig, SceneTask};
 use super::convert::{check_shape, error, shape_text, type_error, ActionSlice, Actions, Floats};
 use super::reality::{param_arrays, params_dict};
-use crate::any_chain::AnyChain;
 use crate::env::EnvParams;
 use crate::env::{
     AutoresetMode, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS, RNG_BYTES,
 };
 use crate::geometry::{Planar, Spatial};
 use crate::lanes::{LaneScene, Precision};
-use crate::model::Chain;
 use numpy::{
     Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyUntypedArrayMethods,
@@ -34,25 +32,6 @@ macro_rules! scene {
     ($batch:expr, $b:ident => $body:expr) => {
         dispatch!(SceneEnvBatch, $batch, $b => $body)
     };
-}
-
-/// `num_envs` envs of `resolved`'s task on `chain` (its model in one scene).
-fn env_batch<G: LaneScene>(
-    chain: &Chain<G>,
-    resolved: &ResolvedConfig,
-    num_envs: usize,
-    seed: u64,
-    mode: AutoresetMode,
-) -> crate::error::Result<EnvBatch<G>> {
-    let task = resolved.task.clone();
-    EnvBatch::new(
-        chain.clone(),
-        task,
-        num_envs,
-        seed,
-        mode,
-        resolved.diagnostics,
-    )
 }
 
 /// The native env batch (Python name `EnvBatch`); its shape and mode never change.
@@ -211,20 +190,30 @@ impl PyEnvBatch {
         };
         let resolved = config.get();
         let mode = AutoresetMode::from_name(autoreset_mode)?;
-        let batch = match resolved.chain() {
-            AnyChain::Spatial(c) => {
-                SceneEnvBatch::Spatial(env_batch(c, resolved, num_envs, seed, mode)?)
-            }
-            AnyChain::Planar(c) => {
-                SceneEnvBatch::Planar(env_batch(c, resolved, num_envs, seed, mode)?)
-            }
+        // Built from the task checked at resolve: nothing is checked again.
+        let diagnostics = resolved.diagnostics;
+        let batch = match &resolved.checked {
+            SceneTask::Spatial(t) => SceneEnvBatch::Spatial(EnvBatch::from_checked(
+                t.clone(),
+                num_envs,
+                seed,
+                mode,
+                diagnostics,
+            )?),
+            SceneTask::Planar(t) => SceneEnvBatch::Planar(EnvBatch::from_checked(
+                t.clone(),
+                num_envs,
+                seed,
+                mode,
+                diagnostics,
+            )?),
         };
         let chain = resolved.chain();
         Ok(Self {
             batch,
             num_envs,
             state_dim: chain.state_dim(),
-            obs_dim: resolved.task.obs_dim(chain.state_dim()),
+            obs_dim: resolved.task().obs_dim(chain.state_dim()),
             force_dim: chain.force_dim(),
             n_links: chain.n_links(),
             planar: chain.is_planar(),
