@@ -11,11 +11,11 @@
 //!   iterations at most) along the swing-up, with the model stepping in between; the
 //!   scene's control period is 20 ms, so the real-time factor is 20 ms / this time.
 
-use chaincart::control::chart::ChartPoint;
-use chaincart::control::dynamics::{ScalarChain, ScalarWorkspace};
-use chaincart::control::jacobian::StepModel;
-use chaincart::control::vector::Vect;
+use chaincart::control::ChartPoint;
+use chaincart::control::StepModel;
+use chaincart::control::Vect;
 use chaincart::control::{MpcOptions, PlanOptions, Planner, ScalarGeometry};
+use chaincart::control::{ScalarChain, ScalarWorkspace};
 use chaincart::geometry::Vector;
 use chaincart::integrate::{Method, StepOptions, Stepper};
 use chaincart::{Chain, ChainParams, Planar, Spatial};

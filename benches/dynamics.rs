@@ -316,7 +316,7 @@ fn batch_kernels(c: &mut Criterion) {
 }
 
 /// One thread's lane stepper over `num_envs` paper systems in lanes of `T`.
-fn bench_lane_precision<T: chaincart::lanes::simd::LaneReal, const L: usize>(
+fn bench_lane_precision<T: chaincart::lanes::LaneReal, const L: usize>(
     group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
     num_envs: usize,

@@ -145,7 +145,7 @@ pub fn local<G: ScalarGeometry, S: Real>(base: &ChartPoint, y: &[S], delta: &mut
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analysis::coordinates::{local_coordinates, state_from_local};
+    use crate::analysis::{local_coordinates, state_from_local};
     use crate::geometry::{Planar, Spatial};
     use crate::model::Chain;
     use crate::params::ChainParams;

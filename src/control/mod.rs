@@ -1,42 +1,45 @@
 //! Large motions: exact derivatives of the control step, a trajectory planner
 //! between any two states and equilibria, and the controllers that follow it.
 //!
-//! * [`dual`]: forward-mode automatic differentiation (the [`dual::Real`] scalars).
-//! * [`vector`]: the scene geometry over any scalar; [`dynamics`]: the O(n) dynamics and
+//! * `dual`: forward-mode automatic differentiation (the `dual::Real` scalars).
+//! * `vector`: the scene geometry over any scalar; `dynamics`: the O(n) dynamics and
 //!   the RK4 control step written once for values and derivatives.
-//! * [`chart`]: increments on the spheres about any state; [`jacobian`]: the control
+//! * `chart`: increments on the spheres about any state; `jacobian`: the control
 //!   step and its exact derivatives in that chart.
-//! * [`cost`]: the planner's cost; [`boxqp`] and [`ilqr`]: control-limited iLQR on the
+//! * `cost`: the planner's cost; `boxqp` and `ilqr`: control-limited iLQR on the
 //!   chart.
-//! * [`planner`]: a [`Plan`] between a state or equilibrium and an equilibrium
-//!   ([`plan`]); [`tvlqr`]: the [`Tracker`] that follows it; [`mpc`]: receding-horizon
-//!   iLQR along it ([`Mpc`]); [`energy`]: energy shaping for one link, then the LQR
+//! * `planner`: a [`Plan`] between a state or equilibrium and an equilibrium
+//!   (`plan`); `tvlqr`: the [`Tracker`] that follows it; `mpc`: receding-horizon
+//!   iLQR along it ([`Mpc`]); `energy`: energy shaping for one link, then the LQR
 //!   catch ([`EnergyController`]).
-//! * [`any`]: all of these with the scene chosen at run time, for front ends.
+//! * `any_control`: all of these with the scene chosen at run time, for front ends.
 //!
 //! The names below are the surface others use; the modules stay public for the
 //! derivatives' tests and benchmarks.
 
-pub mod any_control;
-pub mod boxqp;
-pub mod chart;
-pub mod cost;
-pub mod dual;
-pub mod dynamics;
-pub mod energy;
-pub mod ilqr;
-pub mod jacobian;
-pub mod mpc;
-pub mod plan;
-pub mod planner;
-pub mod tvlqr;
-pub mod vector;
+mod any_control;
+mod boxqp;
+mod chart;
+mod cost;
+mod dual;
+mod dynamics;
+mod energy;
+mod ilqr;
+mod jacobian;
+mod mpc;
+mod plan;
+mod planner;
+mod tvlqr;
+mod vector;
 
 pub use any_control::{AnyEnergy, AnyMpc, AnyPlan, AnyTracker};
+pub use chart::ChartPoint;
 pub use cost::CostWeights;
+pub use dynamics::{ScalarChain, ScalarWorkspace};
 pub use energy::{EnergyController, EnergyOptions};
+pub use jacobian::StepModel;
 pub use mpc::{Mpc, MpcOptions, MpcStats, Reference};
 pub use plan::{Plan, PlanReport};
 pub use planner::{PlanOptions, Planner};
 pub use tvlqr::Tracker;
-pub use vector::ScalarGeometry;
+pub use vector::{ScalarGeometry, Vect};

@@ -134,8 +134,8 @@ impl<S: Real, const D: usize> Vect<S> for V<S, D> {
     }
 }
 
-/// A scene whose operations are also written for any [`Real`] scalar, with the
-/// tangent bases of the planner's chart (see [`super::chart`]).
+/// A scene whose operations are also written for any `Real` scalar, with the
+/// tangent bases of the planner's chart (see `super::chart`).
 pub trait ScalarGeometry: Geometry {
     /// Components of the cart position and force (2 spatial, 1 planar).
     const CART: usize;

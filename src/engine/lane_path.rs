@@ -5,12 +5,12 @@
 //! every step, so env batches step chunk by chunk on rows instead (see [`super::Engine`]).
 
 use crate::integrate::StepStatus;
-use crate::lanes::resident_groups::{load_groups, store_groups};
-use crate::lanes::simd::{LaneReal, Lanes};
+use crate::lanes::{load_groups, store_groups};
 use crate::lanes::{
     Kernel, LaneGeometry, LaneParams, LaneScene, LaneStates, LaneStepper, Precision, StepPlan,
     LANES, LANES_F32,
 };
+use crate::lanes::{LaneReal, Lanes};
 use crate::model::Chain;
 use rayon::prelude::*;
 

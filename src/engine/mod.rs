@@ -1,7 +1,7 @@
 //! The batch engine: N envs of one chain stepped together, in parallel, on the lane
 //! kernel or env by env, bit-identical whatever the thread count.
 //!
-//! * [`engine`]: [`Engine`], the one engine every batch steps with: settings, the lane
+//! * `stepping`: [`Engine`], the one engine every batch steps with: settings, the lane
 //!   kernel or the per-env path and the rules of choosing, one worker per chunk of
 //!   envs, the parallel pass over the chunks.
 //! * `resident`: the physics-only batch's lane path, states kept in lane groups.
@@ -11,7 +11,7 @@
 
 mod chains;
 mod lane_path;
-pub mod stepping;
+mod stepping;
 
 pub use chains::ChainBatch;
 pub use lane_path::LANE_CHUNK;

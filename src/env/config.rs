@@ -9,7 +9,7 @@ use super::keys::{
 };
 use super::reality::RealityGap;
 use super::sensors::Sensors;
-use crate::analysis::equilibria::{check_signs, named_signs};
+use crate::analysis::{check_signs, named_signs};
 use crate::engine::check_precision;
 use crate::error::{check_finite, check_positive, ChainError, InputError, Result};
 use crate::integrate::Method;
@@ -233,7 +233,7 @@ pub enum RewardKind {
     #[default]
     Exp,
     /// A bounded reward in [0, 1] for large motions, the same scale in every scene:
-    /// `(upright + near) / 2 * centred * gentle` (see [`super::measure::tolerance_reward`]).
+    /// `(upright + near) / 2 * centred * gentle` (see `super::measure::tolerance_reward`).
     Tolerance,
 }
 
@@ -304,7 +304,7 @@ pub struct TaskConfig {
     /// Where episodes start, before the noise.
     pub start: Start,
     /// Half-width of the uniform start noise in every local coordinate (see
-    /// [`crate::env::start`]); 0 starts every episode exactly at the base state.
+    /// `crate::env::start`); 0 starts every episode exactly at the base state.
     pub start_noise: f64,
     /// Control period (seconds): one env step.
     pub dt: f64,

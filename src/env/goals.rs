@@ -2,7 +2,7 @@
 //! drawn from. Each reset of such a task draws one pair uniformly from its env's start
 //! stream, starts near the pair's start equilibrium and scores against its target.
 
-use crate::analysis::equilibria::check_signs;
+use crate::analysis::check_signs;
 use crate::error::{InputError, Result};
 
 /// Most links a task may draw its equilibria from (`2^n (2^n - 1)` pairs, indexed by a

@@ -11,10 +11,10 @@
 
 use super::config::{RewardKind, RewardWeights, TaskConfig};
 use crate::geometry::{Geometry, Layout, Vector};
-use crate::lanes::exp::exp;
-use crate::lanes::lane_vectors::{LaneGeometry, LaneVector};
-use crate::lanes::simd::{LaneReal, Lanes};
+use crate::lanes::exp;
 use crate::lanes::{room, AfterStep, LANES};
+use crate::lanes::{LaneGeometry, LaneVector};
+use crate::lanes::{LaneReal, Lanes};
 
 /// The quantities of one state the task's reward, termination and success read.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -33,7 +33,7 @@ pub struct StateMeasure {
     pub v2: f64,
     /// The largest `|x_k|` over the cart's axes.
     pub x_max: f64,
-    /// The reward of a step that reached this state ([`step_reward`]).
+    /// The reward of a step that reached this state (`step_reward`).
     pub reward: f64,
 }
 

@@ -3,11 +3,11 @@
 //! on top of the batch engine ([`crate::engine::Engine`]). The Python envs
 //! (`chaincart_env`) are thin front ends over [`EnvBatch`].
 //!
-//! * [`keys`], [`scenes`]: the one table of configuration keys and the named scenes.
-//! * [`config`], [`reality`], [`sensors`], [`start`]: the task's types, the reality gap,
+//! * `keys`, `scenes`: the one table of configuration keys and the named scenes.
+//! * `config`, `reality`, `sensors`, `start`: the task's types, the reality gap,
 //!   the encoders, start states.
 //! * [`measure`]: what the task reads of a state (reward, errors), also in the lanes.
-//! * [`batch`], `step`, [`outputs`]: the env batch, one step of a chunk of envs, what a
+//! * `batch`, `step`, `outputs`: the env batch, one step of a chunk of envs, what a
 //!   step hands back.
 //!
 //! **Action.** Normalised force `a` (2 numbers spatial, 1 planar), clipped to
@@ -16,7 +16,7 @@
 //! any env moves.
 //!
 //! **Observation.** The state in the scene's layout (spatial `4 + 6n`, planar
-//! `2 + 3n`), cast to `f32` or `f64`; with encoders ([`sensors`]) the quantised
+//! `2 + 3n`), cast to `f32` or `f64`; with encoders (`sensors`) the quantised
 //! positions and the velocities estimated from them.
 //!
 //! **Reward.** `r = exp(-c)` in `(0, 1]`, with
@@ -36,18 +36,18 @@
 //!
 //! **Start.** A base state ([`Start`]: the target, another equilibrium, a paper figure's
 //! initial condition, or an explicit state) plus uniform noise in every local
-//! coordinate, documented in [`start`].
+//! coordinate, documented in `start`.
 
-pub mod batch;
-pub mod config;
-pub mod goals;
-pub mod keys;
-pub mod measure;
-pub mod outputs;
-pub mod reality;
-pub mod scenes;
-pub mod sensors;
-pub mod start;
+mod batch;
+mod config;
+mod goals;
+mod keys;
+mod measure;
+mod outputs;
+mod reality;
+mod scenes;
+mod sensors;
+mod start;
 mod step;
 
 pub use batch::{CheckedTask, EnvBatch, Snapshot, RNG_BYTES};
@@ -56,14 +56,18 @@ pub use config::{
     TaskConfig,
 };
 pub use goals::{Ends, Transitions, MAX_DRAWN_LINKS};
-pub use keys::{config_key, ConfigKey, KeyKind, KeyValue, CONFIG_KEYS};
+pub use keys::{
+    config_key, ConfigKey, KeyKind, KeyValue, ANY, CONFIG_KEYS, DEFAULT_MOTOR, KEY_NAMES,
+    START_NAMES, TARGET_NAMES,
+};
+pub use measure::{measure, MeasureInto, RewardSpec, StateMeasure};
 pub use outputs::{event, EpisodeEnds, Real, StepOutputs, DIAGNOSTICS};
 pub use reality::{
     Distribution, EnvParams, ForceNoise, Param, ParamRandomization, ParamValues, Randomization,
-    RealityGap,
+    RealityGap, ACTION_DELAY_EXPECTED, FORCE_RATE_LIMIT_EXPECTED,
 };
 pub use scenes::{Scene, DEFAULT_SCENE, SCENES};
-pub use sensors::Sensors;
+pub use sensors::{Sensors, ANGLE_COUNTS_EXPECTED};
 pub use start::{base_state, paper_initial_condition, perturb};
 
 #[cfg(test)]

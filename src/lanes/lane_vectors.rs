@@ -15,7 +15,7 @@ use std::ops::{Add, Mul, Sub};
 #[derive(Clone, Copy, Debug)]
 pub struct LaneVec<const D: usize, const L: usize, T: LaneReal = f64>(pub [Lanes<L, T>; D]);
 
-/// What the kernel needs of a lane vector (implemented by every [`LaneVec`]).
+/// What the kernel needs of a lane vector (implemented by every `LaneVec`).
 pub trait LaneVector<const L: usize, T: LaneReal = f64>:
     Copy
     + std::fmt::Debug

@@ -1,42 +1,45 @@
 //! One env per SIMD lane: the guarded rk4 control step of many independent chains
 //! at once, with the state laid out component-major across lanes.
 //!
-//! * [`simd`]: `L` numbers per value, plain arrays that LLVM vectorises.
-//! * [`vector`]: lane vectors and the spatial/planar scene operations on them.
-//! * [`params`]: chain parameters per lane (a shared chain is a broadcast).
-//! * [`exp`]: `exp` written once for scalar and lane code (the task's reward).
+//! * `simd`: `L` numbers per value, plain arrays that LLVM vectorises.
+//! * `lane_vectors`: lane vectors and the spatial/planar scene operations on them.
+//! * `params`: chain parameters per lane (a shared chain is a broadcast).
+//! * `exp`: `exp` written once for scalar and lane code (the task's reward).
 //! * `hook`: [`AfterStep`], work a layer above does on each group right after its step
 //!   (how the task measures states in the lanes without the lanes knowing the task).
-//! * [`rk4`]: the kernel, a transcription of the scalar path operation for operation.
-//! * [`dispatch`]: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
-//! * [`stepper`]: stepping envs in lane groups, from env-major rows or in place.
-//! * [`resident`]: states kept in lane groups between steps (no transposes).
+//! * `guarded_rk4`: the kernel, a transcription of the scalar path operation for operation.
+//! * `dispatch`: the kernel compiled for baseline, AVX2 and AVX-512, chosen at run time.
+//! * `stepper`: stepping envs in lane groups, from env-major rows or in place.
+//! * `resident_groups`: states kept in lane groups between steps (no transposes).
 //! * `transpose`: moving env rows into lanes and back (8 x 8 blocks on AVX-512).
-//! * [`chunk`]: the lane path of one chunk of envs behind a trait object (the batch engine).
+//! * `chunk`: the lane path of one chunk of envs behind a trait object (the batch engine).
 //!
 //! Each lane computes exactly what the scalar code computes for its env (no fused
 //! multiply-adds, same operation order), so results do not depend on the lane width,
 //! the kernel chosen or which envs share a group. See `docs/simd.md`.
 
-pub mod chunk;
-pub mod dispatch;
-pub mod exp;
-pub mod guarded_rk4;
+mod chunk;
+mod dispatch;
+mod exp;
+mod guarded_rk4;
 mod hook;
-pub mod lane_vectors;
-pub mod params;
-pub mod resident_groups;
-pub mod simd;
-pub mod stepper;
+mod lane_vectors;
+mod params;
+mod resident_groups;
+mod simd;
+mod stepper;
 mod transpose;
 
 pub use chunk::{chunk_lanes, ChunkLanes, ChunkSpec, LaneChunk};
 pub use dispatch::Kernel;
+pub use exp::exp;
 pub use hook::{room, AfterStep, LaneHook, NoHook};
 pub use lane_vectors::LaneGeometry;
+pub use lane_vectors::LaneVector;
 pub use params::LaneParams;
 pub use resident_groups::LaneStates;
-pub use simd::{LaneReal, Precision};
+pub use resident_groups::{load_groups, store_groups};
+pub use simd::{LaneReal, Lanes, Precision};
 pub use stepper::{LaneStepper, StepPlan};
 
 /// Lanes per group in f64: one AVX-512 register, two AVX2 registers, four SSE2 ones.

@@ -10,7 +10,7 @@ use super::model::{lqr_weights, matrix_to_numpy, state_space_tuple, ChainCart};
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::analysis::{Linearization, LqrController};
 use crate::any_chain::AnyChain;
-use crate::env::keys::{config_key, ANY, KEY_NAMES};
+use crate::env::{config_key, ANY, KEY_NAMES};
 use crate::env::{
     CheckedTask, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Sensors,
     Start, SuccessTolerances, TaskConfig, Transitions, CONFIG_KEYS, SCENES,
@@ -323,7 +323,7 @@ fn value_or_range<'py, V>(
 }
 
 fn action_delay(value: &Bound<'_, PyAny>) -> PyResult<(i64, Option<i64>)> {
-    use crate::env::reality::ACTION_DELAY_EXPECTED;
+    use crate::env::ACTION_DELAY_EXPECTED;
     let name = "action_delay";
     let (low, high) = value_or_range(name, value, ACTION_DELAY_EXPECTED, integer)?;
     if low < 0 || high.is_some_and(|h| h < low) {
@@ -335,7 +335,7 @@ fn action_delay(value: &Bound<'_, PyAny>) -> PyResult<(i64, Option<i64>)> {
 /// `force_rate_limit`: a number (N/s) or a range (low, high) drawn per episode, as
 /// `(low, Some(high))`; the core checks the values.
 fn force_rate_limit(value: &Bound<'_, PyAny>) -> PyResult<(f64, Option<f64>)> {
-    use crate::env::reality::FORCE_RATE_LIMIT_EXPECTED;
+    use crate::env::FORCE_RATE_LIMIT_EXPECTED;
     value_or_range("force_rate_limit", value, FORCE_RATE_LIMIT_EXPECTED, number)
 }
 
@@ -712,7 +712,7 @@ fn sensors(values: &Bound<'_, PyDict>) -> PyResult<Sensors> {
                 u32::try_from(counts).map_err(|_| InputError::InvalidParameter {
                     name: "angle_encoder_counts",
                     value: counts as f64,
-                    expected: crate::env::sensors::ANGLE_COUNTS_EXPECTED,
+                    expected: crate::env::ANGLE_COUNTS_EXPECTED,
                 })?,
             )
         }

@@ -4,10 +4,10 @@
 
 use super::convert::{contiguous, error, signs, Floats};
 use crate::any_chain::AnyChain;
-use crate::control::any_control::{AnyMpc, AnyPlan, AnyTracker};
-use crate::control::cost::CostWeights;
-use crate::control::mpc::MpcOptions;
-use crate::control::planner::PlanOptions;
+use crate::control::CostWeights;
+use crate::control::MpcOptions;
+use crate::control::PlanOptions;
+use crate::control::{AnyMpc, AnyPlan, AnyTracker};
 use crate::error::InputError;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;

@@ -145,7 +145,7 @@ pub fn signs(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
     obj.extract::<Vec<f64>>().map_err(|_| {
         type_error(format!(
             "equilibrium {obj}: expected a name ({}) or a sequence of {n} signs +1/-1",
-            crate::error::quoted(&crate::env::keys::TARGET_NAMES)
+            crate::error::quoted(&crate::env::TARGET_NAMES)
         ))
     })
 }

@@ -3,8 +3,8 @@
 
 use super::convert::{contiguous, Floats};
 use super::model::ChainCart;
-use crate::control::any_control::AnyEnergy;
-use crate::control::energy::EnergyOptions;
+use crate::control::AnyEnergy;
+use crate::control::EnergyOptions;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 

@@ -92,14 +92,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SCENES", config::scenes_table(py)?)?;
     m.add("SCENE_SUMMARIES", config::scene_summaries(py)?)?;
     m.add("DEFAULT_SCENE", crate::env::DEFAULT_SCENE)?;
-    m.add(
-        "TARGET_NAMES",
-        PyTuple::new(py, crate::env::keys::TARGET_NAMES)?,
-    )?;
-    m.add(
-        "START_NAMES",
-        PyTuple::new(py, crate::env::keys::START_NAMES)?,
-    )?;
+    m.add("TARGET_NAMES", PyTuple::new(py, crate::env::TARGET_NAMES)?)?;
+    m.add("START_NAMES", PyTuple::new(py, crate::env::START_NAMES)?)?;
     m.add(
         "REWARD_WEIGHTS",
         config::named_defaults(py, "reward_weights")?,

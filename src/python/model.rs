@@ -408,8 +408,8 @@ impl ChainCart {
         guesses: usize,
         weights: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<super::control::Plan> {
-        let defaults = crate::control::planner::PlanOptions::default();
-        let options = crate::control::planner::PlanOptions {
+        let defaults = crate::control::PlanOptions::default();
+        let options = crate::control::PlanOptions {
             max_force,
             track_limit,
             duration: duration.unwrap_or(1.0 + self.chain.n_links() as f64),
@@ -435,7 +435,7 @@ impl ChainCart {
     /// All 2^n equilibria as sign tuples, hanging (all +1) first, in binary order
     /// (bit i-1 of the index set means link i is upright). Refused for n > 20.
     fn equilibria(&self) -> PyResult<Vec<Vec<i64>>> {
-        let all = crate::analysis::equilibria::all_signs(self.chain.n_links())?;
+        let all = crate::analysis::all_signs(self.chain.n_links())?;
         Ok(all
             .into_iter()
             .map(|s| s.into_iter().map(|v| v as i64).collect())

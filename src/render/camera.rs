@@ -190,7 +190,7 @@ impl Projection {
     }
 
     /// Camera coordinates `(right, up, depth)` of a point.
-    pub fn to_camera(&self, p: [f64; 3]) -> [f64; 3] {
+    pub fn to_camera(self, p: [f64; 3]) -> [f64; 3] {
         let d = sub(p, self.eye);
         [dot(d, self.right), dot(d, self.up), dot(d, self.forward)]
     }

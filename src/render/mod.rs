@@ -1,12 +1,12 @@
 //! Software rendering of chain states into RGB frames (no windowing, no GPU, no
-//! Python): a lit perspective 3-D view ([`scene3d`], drawn by [`raster`] through the
-//! [`camera`]) and the flat side and top views ([`scene`], drawn on a [`Canvas`]).
+//! Python): a lit perspective 3-D view (`scene3d`, drawn by `raster` through the
+//! `camera`) and the flat side and top views (`scene`, drawn on a [`Canvas`]).
 
-pub mod camera;
-pub mod canvas;
-pub mod raster;
-pub mod scene;
-pub mod scene3d;
+mod camera;
+mod canvas;
+mod raster;
+mod scene;
+mod scene3d;
 
 pub use camera::Camera;
 pub use canvas::Canvas;

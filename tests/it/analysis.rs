@@ -1,14 +1,14 @@
 //! The paper's analysis against the nonlinear model: Prop. 2 versus finite differences,
 //! the eigenstructure of the 2^n equilibria, Prop. 3, the Riccati solver and the LQR gains.
 
-use chaincart::analysis::controllability::{pbh_margin, CONTROLLABILITY_THRESHOLD};
-use chaincart::analysis::coordinates::{local_coordinates, local_rates, state_from_local};
-use chaincart::analysis::equilibria::{lowest, named_signs, signs_of_index};
-use chaincart::analysis::riccati::spectral_abscissa;
+use chaincart::analysis::spectral_abscissa;
 use chaincart::analysis::{
     all_signs, controllability, equilibria, solve_care, Linearization, LocalLayout, LqrController,
     LqrWeights,
 };
+use chaincart::analysis::{local_coordinates, local_rates, state_from_local};
+use chaincart::analysis::{lowest, named_signs, signs_of_index};
+use chaincart::analysis::{pbh_margin, CONTROLLABILITY_THRESHOLD};
 use chaincart::params::{Actuation, Motor, Rig};
 use chaincart::{ChainError, ChainParams, InputError, SpatialChain};
 use nalgebra::{DMatrix, DVector, Vector2};
@@ -113,7 +113,7 @@ fn prop2_matches_finite_differences_of_the_nonlinear_model() {
 /// cart friction (viscous and Coulomb), a DC motor on a rough cart, a servo axis.
 fn test_rigs(n: usize) -> Vec<Rig> {
     let damping: Vec<f64> = (0..n).map(|i| 0.02 + 0.01 * i as f64).collect();
-    let motor = Motor::from_array(chaincart::env::keys::DEFAULT_MOTOR);
+    let motor = Motor::from_array(chaincart::env::DEFAULT_MOTOR);
     vec![
         Rig {
             joint_damping: damping.clone(),

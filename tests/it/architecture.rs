@@ -614,3 +614,26 @@ fn test_items_are_left_out_and_the_code_after_them_read() {
     );
     assert!(code.contains("#[inline]") && !code.contains("const N"));
 }
+
+#[test]
+fn the_files_of_a_layer_are_private_and_its_mod_rs_is_its_surface() {
+    // Only lib.rs declares public modules (the layers); inside a layer every file is a
+    // private module whose public items the layer's mod.rs re-exports.
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut public = Vec::new();
+    for file in rust_files(&src) {
+        if file.ends_with("lib.rs") {
+            continue;
+        }
+        let code = without_comments(&fs::read_to_string(&file).unwrap());
+        for line in code.lines().map(str::trim) {
+            // `pub mod name;` declares a file; an inline `pub mod name { .. }` is an item.
+            if line.starts_with("pub mod ") && line.ends_with(';') {
+                public.push(format!("{}: {line}", file.display()));
+            }
+        }
+    }
+    assert!(public.is_empty(), "public files inside layers: {public:#?}");
+    let lib = without_comments(&fs::read_to_string(src.join("lib.rs")).unwrap());
+    assert!(lib.contains("pub mod env;") && lib.contains("pub mod analysis;"));
+}

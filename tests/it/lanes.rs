@@ -648,8 +648,8 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
     kind: chaincart::env::RewardKind,
     per_env_targets: bool,
 ) {
-    use chaincart::env::measure::{measure, MeasureInto, RewardSpec};
     use chaincart::env::RewardWeights;
+    use chaincart::env::{measure, MeasureInto, RewardSpec};
     use chaincart::lanes::{chunk_lanes, room, ChunkSpec};
     let num_envs = 29;
     let mut rng = rng(40 + n as u64);
@@ -729,7 +729,7 @@ fn lane_measures_match<G: chaincart::lanes::LaneScene + RandomState>(
             assert!((0.0..=1.0).contains(&scalar.reward), "{}", scalar.reward);
         }
         let lane = out.get(k);
-        let fields = |m: &chaincart::env::measure::StateMeasure| {
+        let fields = |m: &chaincart::env::StateMeasure| {
             bits(&[m.q2, m.w2, m.e_q, m.e_w, m.x2, m.v2, m.reward])
         };
         assert_eq!(fields(&lane), fields(&scalar), "env {k}, {what}");

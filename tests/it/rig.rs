@@ -24,7 +24,7 @@ fn damped(damping: Vec<f64>) -> Rig {
 }
 
 fn motor() -> Motor {
-    Motor::from_array(chaincart::env::keys::DEFAULT_MOTOR)
+    Motor::from_array(chaincart::env::DEFAULT_MOTOR)
 }
 
 /// Every effect at once (force or voltage actuation), for `n` links.
