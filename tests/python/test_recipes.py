@@ -110,3 +110,15 @@ def test_a_recipes_env_kwargs_are_its_training_conditions_over_the_variants():
     assert robust["randomize"] == ROBUST_CONDITIONS["randomize"]
     assert training_conditions("ppo", _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10})) is None
     assert conditions_setting(None) == {}
+
+
+def test_a_recipes_conditions_leave_what_the_study_sets_itself():
+    from chaincart_env import ChainCartConfig
+
+    recipe = _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_kwargs": {"action_delay": [0, 1], "obs_noise": 0.02}})
+    plain = ChainCartConfig(scene="swingup-2")
+    assert training_conditions("ppo", recipe, plain) == recipe.conditions
+    delayed = ChainCartConfig(scene="swingup-2", action_delay=(0, 2))  # the user's own delay stays
+    assert training_conditions("ppo", recipe, delayed) == {"obs_noise": 0.02}
+    both = ChainCartConfig(scene="swingup-2", action_delay=2, obs_noise=0.01)
+    assert training_conditions("ppo", recipe, both) is None

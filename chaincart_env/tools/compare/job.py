@@ -487,7 +487,7 @@ def _training_settings(
 
     def one(algo: str) -> dict[str, Any]:
         recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
-        conditions = training_conditions(algo, recipe)
+        conditions = training_conditions(algo, recipe, config)
         if conditions is not None and trainer != "sb3":
             raise InvalidInputError(f"{algo} with --trainer {trainer}: expected the sb3 trainer")
         keywords = {**recipe.hyperparameters, **hyperparameters, **algo_hyperparameters.get(algo, {})}

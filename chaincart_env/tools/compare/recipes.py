@@ -20,7 +20,8 @@ builds as :class:`~chaincart_env.history.VecHistoryObservation` around its nativ
 gives them to ``gym.make``) are the conditions the agent trains under, e.g. a control
 delay drawn per episode, ``env_kwargs: {action_delay: [0, 2]}``: on top of the scene
 (and of a variant's conditions), in training and in the evaluations that choose the
-kept model, never in the study's or the leaderboard's own evaluations.
+kept model, never in the study's or the leaderboard's own evaluations; a key the
+study's configuration sets itself (``compare --action-delay 2``) keeps that value.
 Command-line options (``--num-envs``, ``--timesteps``, ``--algo-kwarg``) override a
 recipe's entries one by one. Keywords are kept as the file writes them (so that a run's
 ``run.json`` records them) and turned into SB3's objects by :func:`sb3_keywords` when the
@@ -176,11 +177,15 @@ def recipe_for(scene: str, algo: str) -> TrainingRecipe:
     return recipes.get(scene_env_id(scene), GENERIC)
 
 
-def training_conditions(name: str, recipe: Optional[TrainingRecipe] = None) -> Optional[dict[str, Any]]:
+def training_conditions(
+    name: str, recipe: Optional[TrainingRecipe] = None, config: Any = None
+) -> Optional[dict[str, Any]]:
     """The configuration keys learned controller ``name`` trains with on top of the
     scene's: its variant's (``ppo-robust``:
     :data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`), then ``recipe``'s own
-    (its ``env_kwargs``) over them; ``None``: the scene as it is."""
+    (its ``env_kwargs``) over them; ``None``: the scene as it is. With ``config`` (the
+    configuration the study runs on), a recipe's key that ``config`` sets to other than
+    its scene's value is left out: what the user chose is not overridden."""
     from chaincart_env.robust_training import ROBUST_CONDITIONS, ROBUST_VARIANT
     from chaincart_env.tools.controllers import CONTROLLERS
 
@@ -191,7 +196,11 @@ def training_conditions(name: str, recipe: Optional[TrainingRecipe] = None) -> O
             raise InvalidInputError(f"{name}: variant {controller.variant!r} has no training conditions; expected "
                                     f"{ROBUST_VARIANT!r}")
         variant = json.loads(json.dumps(ROBUST_CONDITIONS))  # a plain copy, as run.json records it
-    conditions = {**variant, **(recipe.conditions if recipe is not None else {})}
+    own = dict(recipe.conditions) if recipe is not None else {}
+    if config is not None and own:
+        scene = type(config)(scene=config.scene)
+        own = {key: value for key, value in own.items() if getattr(config, key) == getattr(scene, key)}
+    conditions = {**variant, **own}
     return conditions or None
 
 

@@ -87,7 +87,7 @@ def train_agent(
         imitation=None if tiny or recipe.history else scene_imitation(config.scene, name),
         curriculum=None if tiny else scene_curriculum(config.scene),
         training_reward=scene_training_reward(config.scene), history=recipe.history,
-        conditions=training_conditions(name, recipe), shaping=None if tiny else scene_shaping(config.scene),
+        conditions=training_conditions(name, recipe, config), shaping=None if tiny else scene_shaping(config.scene),
         warm_start_from=warm_start_from,
     )
     copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)
