@@ -10,7 +10,8 @@ use super::convert::{check_shape, error, shape_text, type_error, ActionSlice, Ac
 use super::reality::{param_arrays, params_dict};
 use crate::env::EnvParams;
 use crate::env::{
-    AutoresetMode, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS, RNG_BYTES,
+    AutoresetMode, CheckedTask, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS,
+    RNG_BYTES,
 };
 use crate::geometry::{Planar, Spatial};
 use crate::lanes::{LaneScene, Precision};
@@ -32,6 +33,17 @@ macro_rules! scene {
     ($batch:expr, $b:ident => $body:expr) => {
         dispatch!(SceneEnvBatch, $batch, $b => $body)
     };
+}
+
+/// `(num_envs, seed, mode, diagnostics)` of a new batch.
+type BatchShape = (usize, u64, AutoresetMode, bool);
+
+/// A batch of `task`'s envs, built without checking the task again.
+fn env_batch<G: LaneScene>(
+    task: &CheckedTask<G>,
+    (num_envs, seed, mode, diagnostics): BatchShape,
+) -> crate::error::Result<EnvBatch<G>> {
+    EnvBatch::from_checked(task.clone(), num_envs, seed, mode, diagnostics)
 }
 
 /// The native env batch (Python name `EnvBatch`); its shape and mode never change.
@@ -191,22 +203,10 @@ impl PyEnvBatch {
         let resolved = config.get();
         let mode = AutoresetMode::from_name(autoreset_mode)?;
         // Built from the task checked at resolve: nothing is checked again.
-        let diagnostics = resolved.diagnostics;
+        let build = (num_envs, seed, mode, resolved.diagnostics);
         let batch = match &resolved.checked {
-            SceneTask::Spatial(t) => SceneEnvBatch::Spatial(EnvBatch::from_checked(
-                t.clone(),
-                num_envs,
-                seed,
-                mode,
-                diagnostics,
-            )?),
-            SceneTask::Planar(t) => SceneEnvBatch::Planar(EnvBatch::from_checked(
-                t.clone(),
-                num_envs,
-                seed,
-                mode,
-                diagnostics,
-            )?),
+            SceneTask::Spatial(t) => SceneEnvBatch::Spatial(env_batch(t, build)?),
+            SceneTask::Planar(t) => SceneEnvBatch::Planar(env_batch(t, build)?),
         };
         let chain = resolved.chain();
         Ok(Self {
