@@ -10,10 +10,10 @@ use super::model::{lqr_weights, matrix_to_numpy, state_space_tuple, ChainCart};
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::analysis::{Linearization, LqrController};
 use crate::any_chain::AnyChain;
-use crate::env::{config_key, ANY, KEY_NAMES};
 use crate::env::{
-    CheckedTask, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene, Sensors,
-    Start, SuccessTolerances, TaskConfig, Transitions, CONFIG_KEYS, SCENES,
+    config_key, CheckedTask, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene,
+    Sensors, Start, SuccessTolerances, TaskConfig, Transitions, ANY, CONFIG_KEYS, KEY_NAMES,
+    SCENES,
 };
 use crate::error::{quoted, InputError};
 use crate::geometry::{Planar, Spatial};
