@@ -71,6 +71,7 @@ def test_zoo_values_become_sb3_objects():
         ({"n_timesteps": 10, "env_kwargs": {"action_delays": [0, 2]}}, "env_kwargs keys ['action_delays']: expected "
                                                                       "configuration keys"),
         ({"n_timesteps": 10, "env_kwargs": [["action_delay", 1]]}, "expected a mapping of configuration keys"),
+        ({"n_timesteps": 10, "env_kwargs": {"_resolved": 1}}, "env_kwargs keys ['_resolved']: expected configuration"),
     ],
 )
 def test_a_bad_recipe_is_refused_with_its_place_and_value(entry, message):

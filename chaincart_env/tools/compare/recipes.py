@@ -32,7 +32,6 @@ agent is built. How each recipe was chosen is in the file's comments and in
 from __future__ import annotations
 
 import ast
-import dataclasses
 import functools
 import json
 from dataclasses import dataclass, field
@@ -110,13 +109,13 @@ def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
     """A zoo ``env_kwargs`` as training conditions: a mapping of configuration keys
     (none without one), its values as JSON has them. An unknown key is refused by name;
     the values are checked when the training env is built."""
-    from chaincart_env.config import ChainCartConfig
+    from chaincart_env.config import CONFIG_KEYS
 
     if value is None:
         return {}
     if not isinstance(value, Mapping):
         raise InvalidInputError(f"{where}: env_kwargs = {value!r}: expected a mapping of configuration keys")
-    known = {f.name for f in dataclasses.fields(ChainCartConfig)}
+    known = {name for name, *_ in CONFIG_KEYS}  # the core's key table, as ChainCartConfig checks it
     unknown = sorted(str(key) for key in value if key not in known)
     if unknown:
         raise InvalidInputError(f"{where}: env_kwargs keys {unknown}: expected configuration keys")
