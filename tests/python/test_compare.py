@@ -360,14 +360,21 @@ def _interrupt_after_first_checkpoint(out: pathlib.Path, signal_number: int) -> 
     return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
 
 
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    """The resumable run, uninterrupted: what every interrupted one must resume to."""
+    whole = tmp_path_factory.mktemp("uninterrupted") / "whole"
+    assert main(["compare", *RESUMABLE, "--out", str(whole)]) == 0
+    return whole
+
+
 @pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
 def test_an_interrupted_run_keeps_its_files_and_resumes_to_the_uninterrupted_result(
-    signal_name: str, tmp_path: pathlib.Path
+    signal_name: str, tmp_path: pathlib.Path, uninterrupted: pathlib.Path
 ) -> None:
     import signal
 
-    whole, broken = tmp_path / "whole", tmp_path / "broken"
-    assert main(["compare", *RESUMABLE, "--out", str(whole)]) == 0
+    whole, broken = uninterrupted, tmp_path / "broken"
     finished = _interrupt_after_first_checkpoint(broken, getattr(signal, signal_name))
     assert finished.returncode != 0
     run = json.loads((broken / "run.json").read_text())

@@ -133,7 +133,20 @@ def test_fig3_lqr_stabilises_the_partially_folded_equilibrium_within_12_s(fig3: 
     assert summary.is_success
 
 
-def test_figures_command_writes_every_panel(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_figures_command_writes_every_panel(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    fig1: Trajectory,
+    fig2: Trajectory,
+    fig3: Trajectory,
+) -> None:
+    # The command draws the episodes the fixtures above simulated with the same function
+    # (simulating them again would double the module's time).
+    from chaincart_env.tools.figures import paper
+
+    episodes = {1: fig1, 2: fig2, 3: fig3}
+    monkeypatch.setattr(paper, "simulate_figure", episodes.__getitem__)
     assert main(["figures", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     panels = {

@@ -15,7 +15,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 def test_stub_matches_the_native_module() -> None:
     out = subprocess.run(
-        [sys.executable, "-m", "mypy.stubtest", "--mypy-config-file", str(ROOT / "pyproject.toml"),
+        [sys.executable, "-m", "mypy.stubtest", "--mypy-config-file", str(ROOT / "tests/python/stubtest.ini"),
          "chaincart_env._core"],
         capture_output=True, text=True, cwd=ROOT,
     )  # fmt: skip
