@@ -109,6 +109,13 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "folder: its best model; or a model file), e.g. a nominal agent fine-tuned by ppo-robust; same "
                         "algorithm and observation/action spaces (the same --history). The file is loaded with SB3's "
                         "loader: trusted code only")
+    parser.add_argument("--polish", type=_integer(1, "polish"), default=None, metavar="STEPS",
+                        help="a second stage: each nominal learned agent trains STEPS more from its best model at a tenth "
+                        "of its learning rate (--polish-learning-rate sets it), with its other settings; the kept model "
+                        "is the best of that stage, whose first evaluation is the first stage's best (sb3 trainer; "
+                        "default: none)")
+    parser.add_argument("--polish-learning-rate", type=float, default=None, metavar="LR",
+                        help="with --polish: the second stage's learning rate (default: a tenth of the run's)")
     parser.add_argument("--off-track-penalty", type=_scale("off_track_penalty"), default=None, metavar="P",
                         help="training only: subtract P from the reward of the step that leaves the track, so that "
                         "running off costs something while the reward is still near zero (chaincart_env.tools.compare."
@@ -132,6 +139,15 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     add_scene_options(parser)
     # Errors are reported by this (sub)parser, whatever parser dispatched.
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_compare_command(args, parser))
+
+
+def _polish(args: argparse.Namespace, parser: argparse.ArgumentParser) -> Optional[dict[str, Any]]:
+    """``--polish`` and its learning rate as run_compare takes them."""
+    if args.polish is None:
+        if args.polish_learning_rate is not None:
+            parser.error(f"--polish-learning-rate {args.polish_learning_rate}: expected --polish STEPS with it")
+        return None
+    return {"timesteps": args.polish, "learning_rate": args.polish_learning_rate}
 
 
 def _scale(term: str) -> Callable[[str], float]:
@@ -277,7 +293,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     history=args.history,
                     shaping=dict(off_track_penalty=args.off_track_penalty, plan_bonus=args.plan_bonus,
                                  action_change_penalty=args.action_change_penalty),
-                    warm_start_from=args.warm_start)
+                    warm_start_from=args.warm_start, polish=_polish(args, parser))
     except ChainCartError as error:
         parser.error(str(error))
     return 0

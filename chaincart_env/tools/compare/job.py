@@ -185,13 +185,16 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
         warm_start_from = training.get("warm_start")
         stage = training.get("first_stage")
         if stage is not None:
-            from chaincart_env.tools.compare.stages import first_stage
+            from chaincart_env.tools.compare.stages import FIRST_STAGE_DIR, first_stage
 
             base = TrainingRun(stage["algo"], seed, run.shared)
-            reusable = base.directory(out) if stage["algo"] in settings.learned() else None
+            # The study's own agent of the base algorithm is the first stage (not so for a polish).
+            reusable = base.directory(out) if stage["algo"] != algo and stage["algo"] in settings.learned() else None
             warm_start_from = str(first_stage(
-                directory, lambda folder: _train_sb3(config, folder, stage["algo"], seed, stage, settings, resume),
-                existing=reusable,
+                directory,
+                lambda folder: _train_sb3(config, folder, stage["algo"], seed, stage, settings, resume,
+                                          stage.get("warm_start")),
+                existing=reusable, name=stage.get("folder", FIRST_STAGE_DIR),
             ))
         result, trained = _train_sb3(config, directory, algo, seed, training, settings, resume, warm_start_from)
     print(f"{policy_label(algo)} seed {seed}: trained in {result.wall_time_s:.1f} s ({result.episodes} training episodes)")
@@ -443,13 +446,15 @@ def _training_settings(
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
     imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
     history: Optional[int] = None, shaping: Optional[Mapping[str, Optional[float]]] = None,
-    warm_start_from: Optional[Path] = None,
+    warm_start_from: Optional[Path] = None, polish: Optional[Mapping[str, Any]] = None,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
     algorithm, then those given for it alone; with ``imitation``, the scene's imitation
     of the planner first (SB3 only; ``None`` where the scene has none); ``curriculum``: see
-    :func:`_chosen_curriculum`."""
+    :func:`_chosen_curriculum`; ``polish`` (``timesteps`` and an optional
+    ``learning_rate``): a second stage of each nominal algorithm
+    (:func:`~chaincart_env.tools.compare.stages.polish_stage`)."""
     unknown = sorted(set(algo_hyperparameters) - set(learned))
     if unknown:
         raise InvalidInputError(
@@ -484,6 +489,8 @@ def _training_settings(
         warm_start_from = agent_file(Path(warm_start_from)).resolve()  # a missing agent fails before training
     if history is not None and trainer != "sb3" and learned:
         raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
+    if polish is not None and trainer != "sb3" and learned:
+        raise InvalidInputError(f"--polish with --trainer {trainer}: expected the sb3 trainer")
 
     def one(algo: str) -> dict[str, Any]:
         recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
@@ -511,6 +518,10 @@ def _training_settings(
         base = CONTROLLERS[algo].recipe_algorithm
         if base != algo and warm_start_from is None:  # a variant: its algorithm's nominal agent first
             out[algo]["first_stage"] = {**one(base), "algo": base}
+        elif polish is not None and base == algo:  # a variant is a fine-tuning already
+            from chaincart_env.tools.compare.stages import polish_stage
+
+            out[algo] = polish_stage(algo, out[algo], polish["timesteps"], polish.get("learning_rate"))
     return out
 
 
@@ -542,6 +553,7 @@ def run_compare(
     history: Optional[int] = None,
     shaping: Optional[Mapping[str, Optional[float]]] = None,
     warm_start_from: Optional[Path] = None,
+    polish: Optional[Mapping[str, Any]] = None,
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -573,7 +585,10 @@ def run_compare(
     ``{"off_track_penalty": 10.0, "plan_bonus": 0.3}``) on top of the scene's
     (:data:`~chaincart_env.tools.compare.shaping.SCENE_SHAPING`); a term given ``None`` keeps the scene's.
     ``warm_start_from``: every learned agent starts from the weights of the agent saved
-    there (a model file or a training run's folder; same algorithm and spaces). Every
+    there (a model file or a training run's folder; same algorithm and spaces).
+    ``polish``: ``{"timesteps": steps}`` (and optionally ``"learning_rate"``): each
+    nominal learned agent then trains ``steps`` more from its best model at a tenth of
+    its learning rate (:func:`~chaincart_env.tools.compare.stages.polish_stage`). Every
     evaluation keeps the scene."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
@@ -588,7 +603,7 @@ def run_compare(
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
                                     dict(algo_hyperparameters or {}), imitation, curriculum, training_reward,
-                                    history, shaping, warm_start_from),
+                                    history, shaping, warm_start_from, polish),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve
