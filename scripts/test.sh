@@ -51,7 +51,8 @@ echo "== mypy ($(date -u +%T))"
 
 echo "== pytest ($(date -u +%T))"
 pytest_status=0
-.venv/bin/python -m pytest tests/python "$@" || pytest_status=$?
+# The 20 slowest tests are listed at the end: the suite's time goes to few of them.
+.venv/bin/python -m pytest tests/python --durations=20 "$@" || pytest_status=$?
 
 echo "== cargo test ($(date -u +%T); its output, from $log)"
 cargo_status=0
