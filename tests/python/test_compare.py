@@ -228,6 +228,11 @@ def test_cli_values_parse_to_config_values() -> None:
     assert parse_value("false") is False and parse_value("True") is True
     assert parse_value("-1,1") == (-1, 1) and parse_value("[0.5, 0.4]") == (0.5, 0.4)
     assert parse_value("inverted") == "inverted" and parse_value('{"q": 2}') == {"q": 2}
+    # Infinity as Python writes it, alone, in a list, after a comma or signed; not in names or strings.
+    assert parse_value("inf") == math.inf and parse_value("[200, inf]") == (200, math.inf)
+    assert parse_value("200,Inf") == (200, math.inf) and parse_value("-infinity") == -math.inf
+    assert parse_value("[200, Infinity]") == (200, math.inf)
+    assert parse_value("info") == "info" and parse_value('{"view": "inf"}') == {"view": "inf"}
 
 
 @pytest.mark.parametrize(

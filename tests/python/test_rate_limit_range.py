@@ -119,3 +119,15 @@ def test_a_snapshot_keeps_the_episode_limit() -> None:
     batch.restore(snap)
     again = [batch.step(a)[0].copy() for a in actions]
     assert all(a.tobytes() == b.tobytes() for a, b in zip(ahead, again, strict=True))
+
+
+def test_the_command_line_takes_an_open_range_written_with_inf() -> None:
+    import argparse
+
+    from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options
+
+    parser = argparse.ArgumentParser()
+    add_scene_options(parser)
+    for text in ("[200,inf]", "200,inf", "[200, Infinity]"):
+        config = config_from_options(parser.parse_args(["--scene", "swingup-2", "--force-rate-limit", text]))
+        assert config.force_rate_limit == (200.0, math.inf), text

@@ -4,7 +4,8 @@ turned into a validated config.
 
 Values are read as JSON when they parse as JSON (numbers, ``true``/``false``, lists,
 ``{"q": 1}`` objects), as a tuple when they hold commas (``0.5,0.4``), and as a name
-otherwise; ``True``/``False`` are accepted too. Write negative leading values with
+otherwise; ``True``/``False`` are accepted too, and ``inf`` for JSON's ``Infinity``
+(``--force-rate-limit [200,inf]``). Write negative leading values with
 ``=`` (``--target=-1,1``) so argparse does not take them for options.
 """
 
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from typing import Any, Optional, Sequence
 
 from chaincart_env import _core
@@ -25,13 +27,17 @@ __all__ = ["CONFIG_KEYS", "add_scene_options", "config_from_options", "parse_val
 CONFIG_KEYS: tuple[str, ...] = tuple(name for name, *_ in _core.CONFIG_KEYS)
 
 
+#: A bare ``inf`` or ``infinity`` (any case, signed or not), not inside a name or a string.
+_INFINITY = re.compile(r'(?<![\w".])(-?)inf(?:inity)?(?![\w"])', re.IGNORECASE)
+
+
 def parse_value(text: str) -> Any:
     """A command-line value as a Python value (see the module docstring)."""
     lowered = text.strip().lower()
     if lowered in ("true", "false"):
         return lowered == "true"
     try:
-        value = json.loads(text)
+        value = json.loads(_INFINITY.sub(r"\1Infinity", text))
     except json.JSONDecodeError:
         if "," in text:
             return tuple(parse_value(part) for part in text.split(",") if part.strip())
