@@ -58,6 +58,8 @@ def test_the_polish_rate_is_a_tenth_of_the_runs_or_of_sb3s_default():
     assert stage["imitation"] is None and stage["first_stage"]["imitation"] == {"rounds": 3}
     assert stage["first_stage"]["timesteps"] == 100 and stage["first_stage"]["algo"] == "ppo"
     assert polish_stage("sac", main_stage, 50, learning_rate=0.5)["hyperparameters"]["learning_rate"] == 0.5
+    decaying = {"hyperparameters": {"learning_rate": "lin_1e-3"}}  # the zoo's linear decay from 1e-3
+    assert polish_stage("ppo", decaying, 50)["hyperparameters"]["learning_rate"] == pytest.approx(1e-4)
 
 
 @pytest.mark.parametrize(
@@ -65,7 +67,7 @@ def test_the_polish_rate_is_a_tenth_of_the_runs_or_of_sb3s_default():
     [
         (0, None, {}, r"polish = 0: expected a whole number of steps >= 1"),
         (1.5, None, {}, r"polish = 1.5: expected a whole number"),
-        (10, None, {"learning_rate": "lin_1e-3"}, r"learning_rate = 'lin_1e-3': expected a constant rate"),
+        (10, None, {"learning_rate": "lin_fast"}, r"learning_rate = 'lin_fast': expected a constant rate"),
         (10, -1e-4, {}, r"polish learning rate = -0.0001: expected a finite number > 0"),
         (10, math.inf, {}, r"polish learning rate = inf: expected a finite number > 0"),
     ],

@@ -61,15 +61,21 @@ def polish_stage(
 ) -> dict[str, Any]:
     """The training settings of a run polished for ``steps``: ``main`` (the settings of
     ``algo``'s run) as its first stage, then ``steps`` more from its best model at
-    ``learning_rate`` (default: :data:`POLISH_RATE_FACTOR` times the run's constant rate)
+    ``learning_rate`` (default: :data:`POLISH_RATE_FACTOR` times the run's constant rate,
+    or the start of a zoo ``lin_`` schedule)
     with everything else kept, but the imitation, which the first stage did."""
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise InvalidInputError(f"polish = {steps!r}: expected a whole number of steps >= 1")
     if learning_rate is None:
         rate = main["hyperparameters"].get("learning_rate", _default_learning_rate(algo))
+        if isinstance(rate, str) and rate.startswith("lin_"):  # the zoo's linear decay: its start
+            try:
+                rate = float(rate[len("lin_"):])
+            except ValueError:
+                pass  # refused below
         if isinstance(rate, bool) or not isinstance(rate, (int, float)):
-            raise InvalidInputError(f"polish of {algo} with learning_rate = {rate!r}: expected a constant rate to take "
-                                    "a tenth of, or --polish-learning-rate")
+            raise InvalidInputError(f"polish of {algo} with learning_rate = {rate!r}: expected a constant rate or "
+                                    "lin_<rate> to take a tenth of, or --polish-learning-rate")
         learning_rate = POLISH_RATE_FACTOR * float(rate)
     if isinstance(learning_rate, bool) or not isinstance(learning_rate, (int, float)) or not 0 < learning_rate < math.inf:
         raise InvalidInputError(f"polish learning rate = {learning_rate!r}: expected a finite number > 0")
