@@ -91,3 +91,29 @@ def test_a_polish_rate_without_a_polish_is_an_error(capsys: pytest.CaptureFixtur
     with pytest.raises(SystemExit):
         main(["compare", *TINY, "--polish-learning-rate", "1e-4", "--out", str(tmp_path)])
     assert "--polish-learning-rate 0.0001: expected --polish STEPS with it" in capsys.readouterr().err
+
+
+def test_the_spatial_swing_up_is_polished_by_default_and_polish_0_turns_it_off():
+    from chaincart_env.tools.compare.curriculum import scene_curriculum, scene_training_reward
+    from chaincart_env.tools.compare.recipes import recipe_for
+    from chaincart_env.tools.compare.shaping import scene_shaping
+    from chaincart_env.tools.compare.stages import SCENE_POLISH
+
+    spatial, planar = ChainCartConfig(scene="spatial-swingup-2"), ChainCartConfig(scene="swingup-2")
+    recipe = recipe_for("spatial-swingup-2", "ppo")
+    assert (recipe.num_envs, recipe.timesteps) == (64, 4_000_000) and recipe.hyperparameters["learning_rate"] == 1e-3
+    # The planar swing-up's plan starts, exp reward and plan bonus.
+    assert scene_curriculum("spatial-swingup-2") == scene_curriculum("swingup-2")
+    assert scene_training_reward("spatial-swingup-2") == "exp"
+    assert scene_shaping("spatial-swingup-2") == scene_shaping("swingup-2")
+
+    training = _training_settings(spatial, ["ppo"], "sb3", None, None, {}, {}, polish="scene")["ppo"]
+    steps = SCENE_POLISH["spatial-swingup-2"]
+    assert training["polish"] == {"timesteps": steps, "learning_rate": pytest.approx(1e-4)}
+    assert training["timesteps"] == steps and training["first_stage"]["timesteps"] == 4_000_000
+    assert training["first_stage"]["curriculum"] == training["curriculum"] is not None
+    for off in (None, {"timesteps": 0}):
+        assert "polish" not in _training_settings(spatial, ["ppo"], "sb3", None, None, {}, {}, polish=off)["ppo"]
+    # Elsewhere no polish unless asked; the scene's default never stops RLlib.
+    assert "polish" not in _training_settings(planar, ["ppo"], "sb3", None, None, {}, {}, polish="scene")["ppo"]
+    assert "polish" not in _training_settings(spatial, ["ppo"], "rllib", None, None, {}, {}, polish="scene")["ppo"]

@@ -109,11 +109,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "folder: its best model; or a model file), e.g. a nominal agent fine-tuned by ppo-robust; same "
                         "algorithm and observation/action spaces (the same --history). The file is loaded with SB3's "
                         "loader: trusted code only")
-    parser.add_argument("--polish", type=_integer(1, "polish"), default=None, metavar="STEPS",
+    parser.add_argument("--polish", type=_integer(0, "polish"), default=None, metavar="STEPS",
                         help="a second stage: each nominal learned agent trains STEPS more from its best model at a tenth "
                         "of its learning rate (--polish-learning-rate sets it), with its other settings; the kept model "
-                        "is the best of that stage, whose first evaluation is the first stage's best (sb3 trainer; "
-                        "default: none)")
+                        "is the best of that stage, whose first evaluation is the first stage's best; 0: none (sb3 "
+                        f"trainer; default: the scene's, {_scene_polish_text()}, none elsewhere)")
     parser.add_argument("--polish-learning-rate", type=float, default=None, metavar="LR",
                         help="with --polish: the second stage's learning rate (default: a tenth of the run's)")
     parser.add_argument("--off-track-penalty", type=_scale("off_track_penalty"), default=None, metavar="P",
@@ -141,12 +141,19 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(handler=lambda args, _dispatcher=None: _run_compare_command(args, parser))
 
 
-def _polish(args: argparse.Namespace, parser: argparse.ArgumentParser) -> Optional[dict[str, Any]]:
-    """``--polish`` and its learning rate as run_compare takes them."""
-    if args.polish is None:
+def _scene_polish_text() -> str:
+    from chaincart_env.tools.compare.stages import SCENE_POLISH
+
+    return ", ".join(f"{steps} on {scene}" for scene, steps in SCENE_POLISH.items())
+
+
+def _polish(args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:
+    """``--polish`` and its learning rate as run_compare takes them (``"scene"`` when
+    not given)."""
+    if args.polish is None or args.polish == 0:
         if args.polish_learning_rate is not None:
             parser.error(f"--polish-learning-rate {args.polish_learning_rate}: expected --polish STEPS with it")
-        return None
+        return "scene" if args.polish is None else None
     return {"timesteps": args.polish, "learning_rate": args.polish_learning_rate}
 
 

@@ -96,13 +96,13 @@ class PlanStarts:
 #: the double swing-up, where half the episodes starting along the plan (with the exp
 #: training reward) took PPO from hanging to 96 % success at 1.25M steps in one seed of
 #: three, and with the plan bonus of :mod:`~chaincart_env.tools.compare.shaping` in every
-#: seed (docs/main-job.md, "Training recipes").
-SCENE_CURRICULA: dict[str, PlanStarts] = {"swingup-2": PlanStarts(0.5)}
+#: seed (docs/main-job.md, "Training recipes"); the spatial double swing-up likewise.
+SCENE_CURRICULA: dict[str, PlanStarts] = {"swingup-2": PlanStarts(0.5), "spatial-swingup-2": PlanStarts(0.5)}
 #: The reward the learned agents of a scene train on, where it is not the scene's own
 #: (``--training-reward`` overrides it): the double swing-up trains on the sharp ``exp``
 #: reward, which pays almost nothing away from the top, where the bounded ``tolerance``
 #: reward's gentle slope left PPO unable to learn the hold (the same runs).
-SCENE_TRAINING_REWARDS: dict[str, str] = {"swingup-2": "exp"}
+SCENE_TRAINING_REWARDS: dict[str, str] = {"swingup-2": "exp", "spatial-swingup-2": "exp"}
 
 
 def scene_curriculum(scene: Optional[str]) -> Optional[PlanStarts]:

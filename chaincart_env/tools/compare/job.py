@@ -446,15 +446,15 @@ def _training_settings(
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
     imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
     history: Optional[int] = None, shaping: Optional[Mapping[str, Optional[float]]] = None,
-    warm_start_from: Optional[Path] = None, polish: Optional[Mapping[str, Any]] = None,
+    warm_start_from: Optional[Path] = None, polish: Any = None,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
     algorithm, then those given for it alone; with ``imitation``, the scene's imitation
     of the planner first (SB3 only; ``None`` where the scene has none); ``curriculum``: see
     :func:`_chosen_curriculum`; ``polish`` (``timesteps`` and an optional
-    ``learning_rate``): a second stage of each nominal algorithm
-    (:func:`~chaincart_env.tools.compare.stages.polish_stage`)."""
+    ``learning_rate``, or ``"scene"``): a second stage of each nominal algorithm
+    (:func:`~chaincart_env.tools.compare.stages.chosen_polish`, ``polish_stage``)."""
     unknown = sorted(set(algo_hyperparameters) - set(learned))
     if unknown:
         raise InvalidInputError(
@@ -489,8 +489,13 @@ def _training_settings(
         warm_start_from = agent_file(Path(warm_start_from)).resolve()  # a missing agent fails before training
     if history is not None and trainer != "sb3" and learned:
         raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
+    from chaincart_env.tools.compare.stages import chosen_polish
+
+    scene_default, polish = polish == "scene", chosen_polish(config.scene, polish)
     if polish is not None and trainer != "sb3" and learned:
-        raise InvalidInputError(f"--polish with --trainer {trainer}: expected the sb3 trainer")
+        if not scene_default:
+            raise InvalidInputError(f"--polish with --trainer {trainer}: expected the sb3 trainer")
+        polish = None  # a scene's polish is a setting of SB3 training
 
     def one(algo: str) -> dict[str, Any]:
         recipe = recipe_for(config.scene, algo) if trainer == "sb3" else GENERIC
@@ -553,7 +558,7 @@ def run_compare(
     history: Optional[int] = None,
     shaping: Optional[Mapping[str, Optional[float]]] = None,
     warm_start_from: Optional[Path] = None,
-    polish: Optional[Mapping[str, Any]] = None,
+    polish: Any = "scene",
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -588,8 +593,10 @@ def run_compare(
     there (a model file or a training run's folder; same algorithm and spaces).
     ``polish``: ``{"timesteps": steps}`` (and optionally ``"learning_rate"``): each
     nominal learned agent then trains ``steps`` more from its best model at a tenth of
-    its learning rate (:func:`~chaincart_env.tools.compare.stages.polish_stage`). Every
-    evaluation keeps the scene."""
+    its learning rate (:func:`~chaincart_env.tools.compare.stages.polish_stage`);
+    ``"scene"`` (the default): the scene's polish
+    (:data:`~chaincart_env.tools.compare.stages.SCENE_POLISH`, none on most scenes);
+    ``None``: none. Every evaluation keeps the scene."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
     names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")

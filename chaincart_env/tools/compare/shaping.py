@@ -96,8 +96,8 @@ class Shaping:
 #: The double swing-up takes the plan bonus: with it PPO swung up from hanging for seeds
 #: where plan starts and the ``exp`` reward alone never did (docs/main-job.md, "Training
 #: recipes"). The off-track penalty is no scene's default: it kept a seed on the track
-#: but did not make it learn the swing-up.
-SCENE_SHAPING: dict[str, Shaping] = {"swingup-2": Shaping(plan_bonus=0.3)}
+#: but did not make it learn the swing-up. The spatial double swing-up takes the same bonus.
+SCENE_SHAPING: dict[str, Shaping] = {"swingup-2": Shaping(plan_bonus=0.3), "spatial-swingup-2": Shaping(plan_bonus=0.3)}
 
 
 def scene_shaping(scene: Optional[str]) -> Shaping:

@@ -26,7 +26,10 @@ from typing import Any, Callable, Mapping, Optional
 
 from chaincart_env.errors import InvalidInputError
 
-__all__ = ["FIRST_STAGE_DIR", "POLISH_FIRST_STAGE_DIR", "POLISH_RATE_FACTOR", "first_stage", "polish_stage"]
+__all__ = [
+    "FIRST_STAGE_DIR", "POLISH_FIRST_STAGE_DIR", "POLISH_RATE_FACTOR", "SCENE_POLISH", "chosen_polish", "first_stage",
+    "polish_stage",
+]  # fmt: skip
 
 #: The first stage's folder inside the training run's folder.
 FIRST_STAGE_DIR = "nominal-stage"
@@ -34,6 +37,9 @@ FIRST_STAGE_DIR = "nominal-stage"
 POLISH_FIRST_STAGE_DIR = "main-stage"
 #: A polish's learning rate, as a share of the run's.
 POLISH_RATE_FACTOR = 0.1
+#: The scenes whose learned agents are polished unless ``--polish 0``, and for how many
+#: steps: the spatial double swing-up, which PPO finds and loses again (docs/main-job.md).
+SCENE_POLISH: dict[str, int] = {"spatial-swingup-2": 1_500_000}
 #: Written into the first stage's folder once it finished.
 _DONE = "stage-finished"
 
@@ -95,3 +101,14 @@ def _default_learning_rate(algo: str) -> Any:
     from chaincart_env.tools.compare.algorithms import algorithm_class
 
     return inspect.signature(algorithm_class(algo)).parameters["learning_rate"].default
+
+
+def chosen_polish(scene: Optional[str], polish: Any) -> Optional[dict[str, Any]]:
+    """The polish a run takes: ``"scene"``, the scene's (:data:`SCENE_POLISH`, else
+    none); ``None`` or ``{"timesteps": 0}``: none; else ``polish`` itself."""
+    if isinstance(polish, str) and polish == "scene":
+        steps = SCENE_POLISH.get(scene or "")
+        return None if steps is None else {"timesteps": steps}
+    if polish is None or polish.get("timesteps") == 0:
+        return None
+    return dict(polish)
