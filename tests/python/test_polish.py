@@ -114,6 +114,10 @@ def test_the_spatial_swing_up_is_polished_by_default_and_polish_0_turns_it_off()
     assert training["first_stage"]["curriculum"] == training["curriculum"] is not None
     for off in (None, {"timesteps": 0}):
         assert "polish" not in _training_settings(spatial, ["ppo"], "sb3", None, None, {}, {}, polish=off)["ppo"]
+    # A budget of the run's own comes without the scene's polish, unless one is asked for.
+    assert "polish" not in _training_settings(spatial, ["ppo"], "sb3", 1000, None, {}, {}, polish="scene")["ppo"]
+    asked = _training_settings(spatial, ["ppo"], "sb3", 1000, None, {}, {}, polish={"timesteps": 10})["ppo"]
+    assert asked["polish"]["timesteps"] == 10 and asked["first_stage"]["timesteps"] == 1000
     # Elsewhere no polish unless asked; the scene's default never stops RLlib.
     assert "polish" not in _training_settings(planar, ["ppo"], "sb3", None, None, {}, {}, polish="scene")["ppo"]
     assert "polish" not in _training_settings(spatial, ["ppo"], "rllib", None, None, {}, {}, polish="scene")["ppo"]

@@ -113,7 +113,8 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="a second stage: each nominal learned agent trains STEPS more from its best model at a tenth "
                         "of its learning rate (--polish-learning-rate sets it), with its other settings; the kept model "
                         "is the best of that stage, whose first evaluation is the first stage's best; 0: none (sb3 "
-                        f"trainer; default: the scene's, {_scene_polish_text()}, none elsewhere)")
+                        f"trainer; default: the scene's with its recipe's budget, {_scene_polish_text()}, none elsewhere "
+                        "or with --timesteps)")
     parser.add_argument("--polish-learning-rate", type=float, default=None, metavar="LR",
                         help="with --polish: the second stage's learning rate (default: a tenth of the run's)")
     parser.add_argument("--off-track-penalty", type=_scale("off_track_penalty"), default=None, metavar="P",

@@ -491,7 +491,9 @@ def _training_settings(
         raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
     from chaincart_env.tools.compare.stages import chosen_polish
 
-    scene_default, polish = polish == "scene", chosen_polish(config.scene, polish)
+    scene_default = polish == "scene"
+    # The scene's polish comes with the recipe's budget: a run of its own length has none.
+    polish = chosen_polish(config.scene, None if scene_default and timesteps is not None else polish)
     if polish is not None and trainer != "sb3" and learned:
         if not scene_default:
             raise InvalidInputError(f"--polish with --trainer {trainer}: expected the sb3 trainer")
@@ -595,7 +597,8 @@ def run_compare(
     nominal learned agent then trains ``steps`` more from its best model at a tenth of
     its learning rate (:func:`~chaincart_env.tools.compare.stages.polish_stage`);
     ``"scene"`` (the default): the scene's polish
-    (:data:`~chaincart_env.tools.compare.stages.SCENE_POLISH`, none on most scenes);
+    (:data:`~chaincart_env.tools.compare.stages.SCENE_POLISH`, none on most scenes) when
+    ``timesteps`` is the recipe's;
     ``None``: none. Every evaluation keeps the scene."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
