@@ -351,8 +351,12 @@ def _interrupt_after_first_checkpoint(out: pathlib.Path, signal_number: int) -> 
     import sys
     import time
 
+    # Ctrl-C raises KeyboardInterrupt in the run even where this process ignores SIGINT
+    # (a test command started in the background), which Python would otherwise inherit.
+    command = ("import runpy, signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+               "sys.argv[0] = 'chaincart_env'; runpy.run_module('chaincart_env', run_name='__main__')")
     process = subprocess.Popen(
-        [sys.executable, "-m", "chaincart_env", "compare", *RESUMABLE, "--out", str(out)],
+        [sys.executable, "-c", command, "compare", *RESUMABLE, "--out", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
     checkpoint = out / "seed-0" / "checkpoints" / "state.json"

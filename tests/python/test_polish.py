@@ -121,3 +121,28 @@ def test_the_spatial_swing_up_is_polished_by_default_and_polish_0_turns_it_off()
     # Elsewhere no polish unless asked; the scene's default never stops RLlib.
     assert "polish" not in _training_settings(planar, ["ppo"], "sb3", None, None, {}, {}, polish="scene")["ppo"]
     assert "polish" not in _training_settings(spatial, ["ppo"], "rllib", None, None, {}, {}, polish="scene")["ppo"]
+
+
+def test_the_leaderboard_polishes_an_agent_where_the_scene_does(tmp_path: pathlib.Path, monkeypatch):
+    from stable_baselines3 import PPO
+
+    import chaincart_env.tools.compare.recipes as recipes
+    from chaincart_env.tools.compare import stages
+    from chaincart_env.tools.compare.recipes import TrainingRecipe
+    from chaincart_env.tools.leaderboard.contestants import train_agent
+
+    config = ChainCartConfig(scene="inverted-1", max_episode_steps=20)
+    recipe = TrainingRecipe(2, 128, {"n_steps": 64, "batch_size": 64, "learning_rate": 0.002}, "test recipe")
+    monkeypatch.setattr(recipes, "recipe_for", lambda scene, algo: recipe)
+    monkeypatch.setitem(stages.SCENE_POLISH, "inverted-1", 192)
+    train_agent("ppo", config, 0, tmp_path / "polished")
+    first = tmp_path / "polished" / POLISH_FIRST_STAGE_DIR
+    assert (first / "model.zip").is_file() and (first / "stage-finished").is_file()
+    assert PPO.load(first / "model.zip", device="cpu").learning_rate == 0.002
+    kept = PPO.load(tmp_path / "polished" / "model.zip", device="cpu")
+    assert kept.learning_rate == pytest.approx(0.0002)
+    assert float(_evaluations(tmp_path / "polished")[-1]["timesteps"]) >= 192
+    # A budget of its own, or a tiny run, is not polished.
+    train_agent("ppo", config, 0, tmp_path / "own", timesteps=128)
+    assert not (tmp_path / "own" / POLISH_FIRST_STAGE_DIR).exists()
+    assert PPO.load(tmp_path / "own" / "model.zip", device="cpu").learning_rate == 0.002
