@@ -44,7 +44,7 @@ from chaincart_env.registration import scene_env_id
 __all__ = [
     "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "TrainingRecipe", "conditions_setting", "history_setting",
     "hyperparameter_file",
-    "load_recipes", "normalize_setting", "recipe_for", "sb3_keywords",
+    "load_recipes", "normalize_setting", "recipe_for", "sb3_keywords", "schedule_start",
     "training_conditions",
 ]  # fmt: skip
 
@@ -208,14 +208,22 @@ def _linear_schedule(start: float) -> Callable[[float], float]:
     return lambda progress: progress * start
 
 
+def schedule_start(value: Any) -> Optional[float]:
+    """The value a zoo schedule ``lin_<x>`` (x > 0) starts from; ``None`` for anything else."""
+    if not isinstance(value, str):
+        return None
+    kind, _, number = value.partition("_")
+    try:
+        start = float(number)
+    except ValueError:
+        return None
+    return start if kind == "lin" and start > 0 else None
+
+
 def _schedule(key: str, value: Any, where: str) -> Any:
     if isinstance(value, str):
-        kind, _, number = value.partition("_")
-        try:
-            start = float(number)
-        except ValueError:
-            start = float("nan")
-        if kind != "lin" or not start > 0:
+        start = schedule_start(value)
+        if start is None:
             raise InvalidInputError(f"{where}: {key} = {value!r}: expected a number or 'lin_<number > 0>'")
         return _linear_schedule(start)
     return value

@@ -73,12 +73,10 @@ def polish_stage(
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise InvalidInputError(f"polish = {steps!r}: expected a whole number of steps >= 1")
     if learning_rate is None:
+        from chaincart_env.tools.compare.recipes import schedule_start
+
         rate = main["hyperparameters"].get("learning_rate", _default_learning_rate(algo))
-        if isinstance(rate, str) and rate.startswith("lin_"):  # the zoo's linear decay: its start
-            try:
-                rate = float(rate[len("lin_"):])
-            except ValueError:
-                pass  # refused below
+        rate = schedule_start(rate) or rate  # the zoo's linear decay: its start
         if isinstance(rate, bool) or not isinstance(rate, (int, float)):
             raise InvalidInputError(f"polish of {algo} with learning_rate = {rate!r}: expected a constant rate or "
                                     "lin_<rate> to take a tenth of, or --polish-learning-rate")
