@@ -492,8 +492,7 @@ def _training_settings(
     from chaincart_env.tools.compare.stages import chosen_polish
 
     scene_default = polish == "scene"
-    # The scene's polish comes with the recipe's budget: a run of its own length has none.
-    polish = chosen_polish(config.scene, None if scene_default and timesteps is not None else polish)
+    polish = chosen_polish(config.scene, polish, timesteps)
     if polish is not None and trainer != "sb3" and learned:
         if not scene_default:
             raise InvalidInputError(f"--polish with --trainer {trainer}: expected the sb3 trainer")

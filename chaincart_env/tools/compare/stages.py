@@ -101,11 +101,13 @@ def _default_learning_rate(algo: str) -> Any:
     return inspect.signature(algorithm_class(algo)).parameters["learning_rate"].default
 
 
-def chosen_polish(scene: Optional[str], polish: Any) -> Optional[dict[str, Any]]:
+def chosen_polish(scene: Optional[str], polish: Any, timesteps: Optional[int] = None) -> Optional[dict[str, Any]]:
     """The polish a run takes: ``"scene"``, the scene's (:data:`SCENE_POLISH`, else
-    none); ``None`` or ``{"timesteps": 0}``: none; else ``polish`` itself."""
+    none), which comes with the recipe's budget only (none where ``timesteps`` gives
+    the run one of its own); ``None`` or ``{"timesteps": 0}``: none; else ``polish``
+    itself."""
     if isinstance(polish, str) and polish == "scene":
-        steps = SCENE_POLISH.get(scene or "")
+        steps = SCENE_POLISH.get(scene or "") if timesteps is None else None
         return None if steps is None else {"timesteps": steps}
     if polish is None or polish.get("timesteps") == 0:
         return None

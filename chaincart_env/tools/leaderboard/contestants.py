@@ -52,9 +52,9 @@ def train_agent(
     statistics beside it if the recipe normalises) the model that scored best on the
     periodic deterministic evaluations: PPO's success on the swing-ups rises and falls
     during training, so the last model can be a bad one, and compare reports the best
-    too. On a scene with a polish (:data:`~chaincart_env.tools.compare.stages.SCENE_POLISH`)
-    and the recipe's budget, that best model then trains on as compare polishes it, and
-    the polish's best is kept. A run that was cut short resumes from its checkpoint. The
+    too. Where compare polishes the scene's agents with the recipe's budget
+    (:func:`~chaincart_env.tools.compare.stages.chosen_polish`), that best model is
+    polished the same way and the polish's best is kept. A run that was cut short resumes from its checkpoint. The
     leaderboard reuses an agent whose ``model.zip`` exists."""
     from chaincart_env.tools.compare.curriculum import scene_curriculum, scene_training_reward
     from chaincart_env.tools.compare.imitation import scene_imitation
@@ -62,7 +62,7 @@ def train_agent(
     from chaincart_env.tools.compare.recipes import recipe_for, training_conditions
     from chaincart_env.tools.compare.run_files import BEST_MODEL_FILE, MODEL_FILE
     from chaincart_env.tools.compare.shaping import scene_shaping
-    from chaincart_env.tools.compare.stages import SCENE_POLISH
+    from chaincart_env.tools.compare.stages import chosen_polish
     from chaincart_env.tools.compare.training import train
     from chaincart_env.tools.controllers import CONTROLLERS
 
@@ -83,15 +83,15 @@ def train_agent(
         num_envs, small = TINY_TRAINING[CONTROLLERS[name].recipe_algorithm]
         hyperparameters.update(small)
     imitation = None if tiny or recipe.history else scene_imitation(config.scene, name)
-    polish = None if tiny or timesteps is not None or base != name else SCENE_POLISH.get(config.scene or "")
+    polish = None if tiny or base != name else chosen_polish(config.scene, "scene", timesteps)
     if polish is not None:  # the recipe's agent first (its own budget given: not polished again)
         from chaincart_env.tools.compare.stages import POLISH_FIRST_STAGE_DIR, first_stage, polish_stage
 
         warm_start_from = first_stage(directory, lambda folder: train_agent(
             name, config, seed, folder, timesteps=recipe.timesteps, progress_bar=progress_bar),
             name=POLISH_FIRST_STAGE_DIR)
-        budget, imitation = polish, None
-        hyperparameters = polish_stage(name, {"hyperparameters": hyperparameters}, polish)["hyperparameters"]
+        budget, imitation = polish["timesteps"], None
+        hyperparameters = polish_stage(name, {"hyperparameters": hyperparameters}, budget)["hyperparameters"]
     train(
         config, algo=name, timesteps=budget, seed=seed, num_envs=num_envs, directory=directory,
         eval_seeds=[EVALUATION_SEED_BASE + seed * 1000 + i for i in range(EVALUATION_STARTS)],
