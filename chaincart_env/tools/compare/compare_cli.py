@@ -91,6 +91,13 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-imitation", action="store_true",
                         help="train PPO from scratch on scenes whose recipe first imitates the planner's controller "
                         "(transitions-2)")
+    parser.add_argument("--critic-warmup", type=int, default=None, metavar="STEPS",
+                        help="after the scene's imitation, train only the value function for the first STEPS env "
+                        "steps (the policy frozen) (default: the scene's, 0 on transitions-2)")
+    parser.add_argument("--imitation-weight", type=float, default=None, metavar="C",
+                        help="after the scene's imitation, keep its fit as a second loss of weight C: after every "
+                        "rollout, as many minibatches of the imitation's data as PPO's update has; 0 turns it off "
+                        "(default: the scene's, 0 on transitions-2)")
     parser.add_argument("--curriculum", choices=("none", "plan", "reverse"), default=None,
                         help="where the training episodes start: plan = a share of them (--plan-fraction) at states "
                         "drawn along the planner's swing-up, the rest at the scene's starts; reverse = the same, drawn "
@@ -296,7 +303,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     torch_threads=args.torch_threads, hyperparameters=hyperparameters,
                     algo_hyperparameters=algo_hyperparameters, trainer=args.trainer,
                     rllib=dict(num_env_runners=args.num_env_runners, envs_per_runner=args.envs_per_runner),
-                    address=args.address, imitation=not args.no_imitation, curriculum=curriculum,
+                    address=args.address, imitation=_imitation(args, parser), curriculum=curriculum,
                     training_reward="scene" if args.training_reward is None else args.training_reward,
                     history=args.history,
                     shaping=dict(off_track_penalty=args.off_track_penalty, plan_bonus=args.plan_bonus,
@@ -305,6 +312,18 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
     except ChainCartError as error:
         parser.error(str(error))
     return 0
+
+
+def _imitation(args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:
+    """``run_compare``'s ``imitation``: off, the scene's, or the scene's with the fields given."""
+    changes = {field: value for field, value in (("critic_warmup", args.critic_warmup),
+                                                 ("anchor_weight", args.imitation_weight)) if value is not None}
+    if args.no_imitation:
+        if changes:
+            parser.error("--critic-warmup and --imitation-weight keep an imitation: expected them without "
+                         "--no-imitation")
+        return False
+    return changes or True
 
 
 def _run_evaluate_command(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

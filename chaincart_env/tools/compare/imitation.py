@@ -15,6 +15,9 @@ solves the task, then train on as usual. The copy is DAgger (Ross, Gordon and Ba
 
 Only the policy's mean is fitted; the value function learns in the training that
 follows, and the policy's exploration noise is set to :attr:`Imitation.action_std`.
+What keeps the copy while reinforcement learning trains on (a critic trained first, the
+fit kept as a second loss) is :mod:`~chaincart_env.tools.compare.anchoring`; its data,
+the imitation's labelled observations, is :data:`IMITATION_DATA_FILE`.
 """
 
 from __future__ import annotations
@@ -30,10 +33,16 @@ import numpy as np
 
 from chaincart_env.errors import InvalidInputError
 
-__all__ = ["IMITATING_ALGOS", "IMITATION_FILE", "SCENE_IMITATIONS", "Imitation", "imitate", "scene_imitation"]
+__all__ = [
+    "IMITATING_ALGOS", "IMITATION_DATA_FILE", "IMITATION_FILE", "SCENE_IMITATIONS", "Imitation", "imitate",
+    "mean_action", "scene_imitation",
+]
 
 #: The per-round log of an imitation, in the training directory.
 IMITATION_FILE = "imitation.csv"
+#: The imitation's labelled observations (raw, as the envs gave them), kept in the
+#: training directory when the training that follows anchors the policy to them.
+IMITATION_DATA_FILE = "imitation_data.npz"
 _COLUMNS = ("round", "drawn_pairs", "samples", "learner_episodes", "learner_success", "fit_loss", "wall_time_s")
 
 
@@ -63,11 +72,17 @@ class Imitation:
     #: misses none.
     focus_rounds: int = 0
     focus_starts: int = 4
+    #: Env steps at the start of the training that follows during which only the value
+    #: function trains (:class:`~chaincart_env.tools.compare.anchoring.CriticWarmup`).
+    critic_warmup: int = 0
+    #: Weight of the imitation's fit as a second loss during that training, 0 for none
+    #: (:class:`~chaincart_env.tools.compare.anchoring.ImitationAnchor`).
+    anchor_weight: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("demonstration_steps", "epochs", "rounds", "round_steps", "round_epochs", "batch_size",
-                     "focus_rounds", "focus_starts"):
-            value, least = getattr(self, name), 0 if name in ("rounds", "focus_rounds") else 1
+                     "focus_rounds", "focus_starts", "critic_warmup"):
+            value, least = getattr(self, name), 0 if name in ("rounds", "focus_rounds", "critic_warmup") else 1
             if isinstance(value, bool) or not isinstance(value, int) or value < least:
                 raise InvalidInputError(f"imitation {name} = {value!r}: expected an integer >= {least}")
         if not self.noise or not all(isinstance(v, (int, float)) and 0.0 <= v < 1.0 for v in self.noise):
@@ -76,6 +91,9 @@ class Imitation:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InvalidInputError(f"imitation {name} = {value!r}: expected a number > 0")
+        weight = self.anchor_weight
+        if isinstance(weight, bool) or not (isinstance(weight, (int, float)) and math.isfinite(weight) and weight >= 0):
+            raise InvalidInputError(f"imitation anchor_weight = {weight!r}: expected a number >= 0")
 
     def record(self) -> dict[str, Any]:
         """The settings as ``run.json`` records them."""
@@ -102,6 +120,13 @@ def scene_imitation(scene: Optional[str], algo: str) -> Optional[Imitation]:
     return SCENE_IMITATIONS.get(scene or "") if algo.lower() in IMITATING_ALGOS else None
 
 
+def mean_action(policy: Any, normalized: Any) -> Any:
+    """The mean action of an SB3 Gaussian actor-critic ``policy`` at ``normalized``
+    observations (a tensor), with gradients."""
+    features = policy.extract_features(normalized, policy.pi_features_extractor)
+    return policy.action_net(policy.mlp_extractor.forward_actor(features))
+
+
 class _Fit:
     """The policy's mean action, fitted to labelled observations with Adam."""
 
@@ -114,14 +139,9 @@ class _Fit:
         self.optimizer = torch.optim.Adam(self.policy.parameters(), lr=imitation.learning_rate)
         self.generator = torch.Generator().manual_seed(seed)
 
-    def mean_action(self, normalized: Any) -> Any:
-        policy = self.policy
-        features = policy.extract_features(normalized, policy.pi_features_extractor)
-        return policy.action_net(policy.mlp_extractor.forward_actor(features))
-
     def act(self, normalized: np.ndarray) -> np.ndarray:
         with self.torch.no_grad():
-            mean = self.mean_action(self.torch.as_tensor(normalized, dtype=self.torch.float32))
+            mean = mean_action(self.policy, self.torch.as_tensor(normalized, dtype=self.torch.float32))
         return np.clip(mean.numpy(), -1.0, 1.0).astype(np.float32)
 
     def run(self, observations: np.ndarray, actions: np.ndarray, epochs: int) -> float:
@@ -134,7 +154,7 @@ class _Fit:
         for _ in range(epochs):
             loss_sum = 0.0
             for chunk in torch.randperm(n, generator=self.generator).split(size):
-                loss = ((self.mean_action(inputs[chunk]) - targets[chunk]) ** 2).mean()
+                loss = ((mean_action(self.policy, inputs[chunk]) - targets[chunk]) ** 2).mean()
                 self.optimizer.zero_grad()
                 loss.backward()
                 self.optimizer.step()
@@ -161,7 +181,8 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     """Fits ``model``'s policy (an SB3 actor-critic with a Gaussian policy, observations
     normalised by its ``VecNormalize``) to the planner's controller on ``config``, with
     ``model.n_envs`` envs seeded from ``seed``; writes :data:`IMITATION_FILE` in
-    ``directory`` and returns the last round's summary."""
+    ``directory`` (and, where ``imitation`` anchors the training that follows,
+    :data:`IMITATION_DATA_FILE`) and returns the last round's summary."""
     from chaincart_env.policies import TrajectoryPolicy
     from chaincart_env.sb3 import ChainCartVecEnv
 
@@ -220,6 +241,9 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
         log.add(_row(round_, len(drawn.pairs or []), raw.shape[0], successes, loss, start))
     with fit.torch.no_grad():  # the exploration of the training that follows
         policy.log_std.fill_(math.log(imitation.action_std))
+    if imitation.anchor_weight > 0:
+        np.savez(Path(directory) / IMITATION_DATA_FILE, observations=np.concatenate(observations).astype(np.float32),
+                 labels=np.concatenate(labels).astype(np.float32))
     return log.last
 
 

@@ -22,14 +22,14 @@ import signal
 import tempfile
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Optional, Sequence
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.cell_runner import map_cells
-from chaincart_env.tools.compare.imitation import scene_imitation
+from chaincart_env.tools.compare.imitation import SCENE_IMITATIONS, scene_imitation
 from chaincart_env.tools.compare.layout import TrainingRun, training_runs
 from chaincart_env.tools.compare.learning_curve import (
     LEARNING_CURVE_COLUMNS,
@@ -444,14 +444,16 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
 def _training_settings(
     config: ChainCartConfig, learned: Sequence[str], trainer: str, timesteps: Optional[int], num_envs: Optional[int],
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
-    imitation: bool = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
+    imitation: Any = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
     history: Optional[int] = None, shaping: Optional[Mapping[str, Optional[float]]] = None,
     warm_start_from: Optional[Path] = None, polish: Any = None,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
     algorithm, then those given for it alone; with ``imitation``, the scene's imitation
-    of the planner first (SB3 only; ``None`` where the scene has none); ``curriculum``: see
+    of the planner first (SB3 only; ``None`` where the scene has none), ``True`` as the
+    scene has it or a mapping of :class:`~chaincart_env.tools.compare.imitation.Imitation`
+    fields changed (e.g. ``{"critic_warmup": 500_000}``); ``curriculum``: see
     :func:`_chosen_curriculum`; ``polish`` (``timesteps`` and an optional
     ``learning_rate``, or ``"scene"``): a second stage of each nominal algorithm
     (:func:`~chaincart_env.tools.compare.stages.chosen_polish`, ``polish_stage``)."""
@@ -511,6 +513,8 @@ def _training_settings(
         seen = recipe.history if history is None else history
         # The imitation's planner data has plain observations: an agent with history starts afresh.
         warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" and not seen else None
+        if warm_start is not None and isinstance(imitation, Mapping):
+            warm_start = replace(warm_start, **imitation)
         return dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                     num_envs=recipe.num_envs if num_envs is None else num_envs,
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
@@ -521,6 +525,13 @@ def _training_settings(
 
     for algo in learned:
         out[algo] = one(algo)
+    if isinstance(imitation, Mapping) and imitation and not any(out[algo]["imitation"] for algo in out):
+        given_options = ", ".join(f"{key} = {value!r}" for key, value in imitation.items())
+        raise InvalidInputError(
+            f"{given_options}: settings of an imitation, expected a PPO agent of a scene whose recipe imitates the "
+            f"planner first ({', '.join(SCENE_IMITATIONS)}) without --history"
+        )
+    for algo in learned:
         base = CONTROLLERS[algo].recipe_algorithm
         if base != algo and warm_start_from is None:  # a variant: its algorithm's nominal agent first
             out[algo]["first_stage"] = {**one(base), "algo": base}
@@ -553,7 +564,7 @@ def run_compare(
     trainer: str = "sb3",
     rllib: Optional[dict[str, Any]] = None,
     address: Optional[str] = None,
-    imitation: bool = True,
+    imitation: Any = True,
     curriculum: Any = "scene",
     training_reward: Optional[str] = "scene",
     history: Optional[int] = None,
@@ -578,7 +589,9 @@ def run_compare(
     evaluation cells) run as Ray tasks, with the same results as without it; RLlib's
     env runners run there too. ``imitation=False`` trains from scratch where the scene's
     PPO recipe starts from an imitation of the planner
-    (:data:`~chaincart_env.tools.compare.imitation.SCENE_IMITATIONS`). ``curriculum``: where
+    (:data:`~chaincart_env.tools.compare.imitation.SCENE_IMITATIONS`); a mapping changes
+    fields of that imitation (``{"critic_warmup": 500_000, "anchor_weight": 1.0}``: how
+    the training keeps it, :mod:`~chaincart_env.tools.compare.anchoring`). ``curriculum``: where
     the SB3 training episodes start: ``"scene"`` (the scene's curriculum,
     :data:`~chaincart_env.tools.compare.curriculum.SCENE_CURRICULA`, none on most scenes),
     ``None`` (the scene's starts only) or a

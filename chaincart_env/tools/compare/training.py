@@ -168,6 +168,20 @@ def _new_agent(
     return model
 
 
+def _anchoring(imitation: Optional[Imitation], directory: Path) -> list[BaseCallback]:
+    """What keeps ``imitation``'s copy while the agent trains on (none without one)."""
+    from chaincart_env.tools.compare.anchoring import CriticWarmup, ImitationAnchor
+
+    if imitation is None:
+        return []
+    kept: list[BaseCallback] = []
+    if imitation.critic_warmup:
+        kept.append(CriticWarmup(imitation.critic_warmup))
+    if imitation.anchor_weight > 0:
+        kept.append(ImitationAnchor(directory, imitation.anchor_weight))
+    return kept
+
+
 def training_config(
     config: ChainCartConfig, reward: Optional[str], conditions: Optional[Mapping[str, Any]] = None
 ) -> ChainCartConfig:
@@ -235,7 +249,9 @@ def train(
     :func:`~chaincart_env.tools.compare.normalization.save_agent`), ``None`` for none; a resumed
     run keeps its checkpoint's. ``imitation``: a new agent first imitates the planner's
     controller (:func:`~chaincart_env.tools.compare.imitation.imitate`, logged in
-    ``imitation.csv``); the first evaluation, at step 0, scores the imitation. ``curriculum``:
+    ``imitation.csv``); the first evaluation, at step 0, scores the imitation; the imitation's
+    ``critic_warmup`` and ``anchor_weight`` keep it as the agent trains on
+    (:mod:`~chaincart_env.tools.compare.anchoring`). ``curriculum``:
     a share of the training episodes starts along the planner's plan
     (:mod:`~chaincart_env.tools.compare.curriculum`; a resumed run keeps its checkpoint's); the
     windows it drew from go to ``curriculum.csv``. ``training_reward``: the training envs
@@ -282,7 +298,8 @@ def train(
     checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
                                keep=(BEST_MODEL_FILE, normalization_file(directory / BEST_MODEL_FILE).name))
     start = time.perf_counter()
-    model.learn(total_timesteps=max(0, planned - resumed_from), callback=[logger, evaluation, checkpoints],
+    callbacks = [logger, evaluation, checkpoints, *_anchoring(imitation, directory)]
+    model.learn(total_timesteps=max(0, planned - resumed_from), callback=callbacks,
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)
     write_curriculum_log(model.get_env(), directory / CURRICULUM_FILE)
     return TrainingResult(model, time.perf_counter() - start, logger.episodes, kwargs, evaluation.summary(),
