@@ -68,3 +68,16 @@ class Mirror:
     def action(self, action: Any) -> np.ndarray:
         """The mirrored action (or batch): the force's ``e1`` component negated."""
         return self._apply(self._action, action, "action")
+
+    def observation_signs(self, history: int = 0) -> np.ndarray:
+        """The mirror of an observation as a sign per component (the mirror only flips
+        signs): for observations carrying ``history`` steps of history
+        (:mod:`chaincart_env.history`: the observation, the ``history`` before it, then
+        the ``history`` actions before it), their signs too."""
+        if isinstance(history, bool) or not isinstance(history, int) or history < 0:
+            raise InvalidInputError(f"history = {history!r}: expected an integer >= 0")
+        return np.concatenate([self._observation] * (history + 1) + [self._action] * history)
+
+    def action_signs(self) -> np.ndarray:
+        """The mirror of an action as a sign per component."""
+        return self._action.copy()

@@ -13,13 +13,9 @@ import pytest
 
 from chaincart_env import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.anchoring import (
-    CriticWarmup,
-    ImitationAnchor,
-    actor_parameters,
-    minibatches_per_update,
-)
+from chaincart_env.tools.compare.anchoring import CriticWarmup, ImitationAnchor
 from chaincart_env.tools.compare.imitation import IMITATION_DATA_FILE, Imitation, mean_action
+from chaincart_env.tools.compare.policy_losses import actor_parameters, minibatches_per_update
 
 TINY = Imitation(demonstration_steps=40, noise=(0.0, 0.05), epochs=3, rounds=1, round_steps=30, round_epochs=2,
                  batch_size=256)

@@ -98,6 +98,10 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="after the scene's imitation, keep its fit as a second loss of weight C: after every "
                         "rollout, as many minibatches of the imitation's data as PPO's update has; 0 turns it off "
                         "(default: the scene's, 0 on transitions-2)")
+    parser.add_argument("--mirror-weight", type=float, default=0.0, metavar="C",
+                        help="training only: a second loss of weight C beside PPO's asking the policy to act "
+                        "mirror-symmetrically (the mirrored observation's action is the mirrored action; "
+                        "chaincart_env.tools.compare.mirror_loss); PPO agents; 0 turns it off (default: 0)")
     parser.add_argument("--curriculum", choices=("none", "plan", "reverse"), default=None,
                         help="where the training episodes start: plan = a share of them (--plan-fraction) at states "
                         "drawn along the planner's swing-up, the rest at the scene's starts; reverse = the same, drawn "
@@ -308,7 +312,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     history=args.history,
                     shaping=dict(off_track_penalty=args.off_track_penalty, plan_bonus=args.plan_bonus,
                                  action_change_penalty=args.action_change_penalty),
-                    warm_start_from=args.warm_start, polish=_polish(args, parser))
+                    warm_start_from=args.warm_start, polish=_polish(args, parser), mirror_weight=args.mirror_weight)
     except ChainCartError as error:
         parser.error(str(error))
     return 0

@@ -228,14 +228,15 @@ def _train_sb3(
                    normalize=training.get("normalize"), imitation=_imitation(training),
                    curriculum=_curriculum(training), training_reward=training.get("training_reward"),
                    history=training.get("history"), conditions=training.get("conditions"),
-                   shaping=_shaping(training),
+                   shaping=_shaping(training), mirror_weight=training.get("mirror_weight", 0.0),
                    warm_start_from=None if warm_start_from is None else Path(warm_start_from))
     trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                    resumed_from=result.resumed_from, evaluations=result.evaluations,
                    normalize=training.get("normalize"), imitation=result.imitation,
                    curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
                    history=training.get("history"), conditions=training.get("conditions"),
-                   shaping=_shaping(training).record(), warm_start_from=warm_start_from)
+                   shaping=_shaping(training).record(), mirror_weight=training.get("mirror_weight", 0.0),
+                   warm_start_from=warm_start_from)
     return result, trained
 
 
@@ -446,7 +447,7 @@ def _training_settings(
     hyperparameters: Mapping[str, Any], algo_hyperparameters: Mapping[str, Mapping[str, Any]],
     imitation: Any = True, curriculum: Any = "scene", training_reward: Optional[str] = "scene",
     history: Optional[int] = None, shaping: Optional[Mapping[str, Optional[float]]] = None,
-    warm_start_from: Optional[Path] = None, polish: Any = None,
+    warm_start_from: Optional[Path] = None, polish: Any = None, mirror_weight: float = 0.0,
 ) -> dict[str, dict[str, Any]]:
     """How each learned algorithm trains: its recipe for the scene (SB3's defaults
     without one, and with RLlib), then the budget, envs and keywords given for every
@@ -456,7 +457,8 @@ def _training_settings(
     fields changed (e.g. ``{"critic_warmup": 500_000}``); ``curriculum``: see
     :func:`_chosen_curriculum`; ``polish`` (``timesteps`` and an optional
     ``learning_rate``, or ``"scene"``): a second stage of each nominal algorithm
-    (:func:`~chaincart_env.tools.compare.stages.chosen_polish`, ``polish_stage``)."""
+    (:func:`~chaincart_env.tools.compare.stages.chosen_polish`, ``polish_stage``);
+    ``mirror_weight``: the mirror loss beside PPO's (SB3 PPO agents only)."""
     unknown = sorted(set(algo_hyperparameters) - set(learned))
     if unknown:
         raise InvalidInputError(
@@ -489,6 +491,14 @@ def _training_settings(
         from chaincart_env.tools.compare.warm_start import agent_file
 
         warm_start_from = agent_file(Path(warm_start_from)).resolve()  # a missing agent fails before training
+    from chaincart_env.tools.compare.mirror_loss import MIRROR_ALGOS, check_mirror_weight
+
+    mirror_weight = check_mirror_weight(mirror_weight)
+    if learned and mirror_weight:
+        refused = [algo for algo in learned if trainer != "sb3" or CONTROLLERS[algo].recipe_algorithm not in MIRROR_ALGOS]
+        if refused:
+            raise InvalidInputError(f"--mirror-weight {mirror_weight} for {', '.join(refused)} with --trainer "
+                                    f"{trainer}: expected agents of {list(MIRROR_ALGOS)} trained with sb3")
     if history is not None and trainer != "sb3" and learned:
         raise InvalidInputError(f"--history {history} with --trainer {trainer}: expected the sb3 trainer")
     from chaincart_env.tools.compare.stages import chosen_polish
@@ -520,7 +530,7 @@ def _training_settings(
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
                     imitation=None if warm_start is None else warm_start.record(), curriculum=chosen_curriculum,
                     training_reward=training_reward, history=seen, conditions=conditions,
-                    shaping=chosen_shaping.record(),
+                    shaping=chosen_shaping.record(), mirror_weight=float(mirror_weight),
                     warm_start=None if warm_start_from is None else str(warm_start_from))
 
     for algo in learned:
@@ -571,6 +581,7 @@ def run_compare(
     shaping: Optional[Mapping[str, Optional[float]]] = None,
     warm_start_from: Optional[Path] = None,
     polish: Any = "scene",
+    mirror_weight: float = 0.0,
 ) -> list[dict[str, Any]]:
     """Trains every learned policy of ``policies`` (names of
     :data:`~chaincart_env.tools.controllers.CONTROLLERS`, e.g. ``["ppo", "sac", "lqr",
@@ -611,7 +622,9 @@ def run_compare(
     ``"scene"`` (the default): the scene's polish
     (:data:`~chaincart_env.tools.compare.stages.SCENE_POLISH`, none on most scenes) when
     ``timesteps`` is the recipe's;
-    ``None``: none. Every evaluation keeps the scene."""
+    ``None``: none. ``mirror_weight``: the weight of a mirror-symmetry loss beside PPO's
+    (:mod:`~chaincart_env.tools.compare.mirror_loss`; SB3 PPO agents), 0 for none.
+    Every evaluation keeps the scene."""
     from chaincart_env.tools.compare.evaluation import evaluation_seeds
 
     names = parse_controllers(",".join(policies) if policies is not None else f"{algo},lqr")
@@ -625,7 +638,7 @@ def run_compare(
         torch_threads=torch_threads, trainer=trainer, rllib=runners, address=given if address is None else address,
         training=_training_settings(config, learned, trainer, timesteps, num_envs, dict(hyperparameters or {}),
                                     dict(algo_hyperparameters or {}), imitation, curriculum, training_reward,
-                                    history, shaping, warm_start_from, polish),
+                                    history, shaping, warm_start_from, polish, mirror_weight),
     )
     evaluation_seeds(eval_seed, eval_episodes)  # bad evaluation settings fail before training
     model_based_sources(config, settings.model_based(), chosen_sweeps)  # so does a controller that cannot serve

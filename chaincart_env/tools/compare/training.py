@@ -182,6 +182,18 @@ def _anchoring(imitation: Optional[Imitation], directory: Path) -> list[BaseCall
     return kept
 
 
+def _mirror_loss(algo: str, config: ChainCartConfig, weight: float, history: Optional[int]) -> list[BaseCallback]:
+    """The mirror loss of weight ``weight`` (none for 0), or an InvalidInputError naming
+    an algorithm it does not serve."""
+    from chaincart_env.tools.compare.mirror_loss import MIRROR_ALGOS, MirrorLoss, check_mirror_weight
+
+    if not check_mirror_weight(weight):
+        return []
+    if algorithm_class(algo) not in {algorithm_class(name) for name in MIRROR_ALGOS}:
+        raise InvalidInputError(f"mirror weight {weight} with {algo}: expected an agent of {list(MIRROR_ALGOS)}")
+    return [MirrorLoss(config, weight, history or 0)]
+
+
 def training_config(
     config: ChainCartConfig, reward: Optional[str], conditions: Optional[Mapping[str, Any]] = None
 ) -> ChainCartConfig:
@@ -237,6 +249,7 @@ def train(
     conditions: Optional[Mapping[str, Any]] = None,
     shaping: Optional[Shaping] = None,
     warm_start_from: Optional[Path] = None,
+    mirror_weight: float = 0.0,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -265,7 +278,9 @@ def train(
     from the weights of the agent saved there (:mod:`~chaincart_env.tools.compare.warm_start`).
     ``history``:
     the agent observes the last ``history`` observations and actions too
-    (:class:`~chaincart_env.history.VecHistoryObservation`; its evaluations add them as it acts)."""
+    (:class:`~chaincart_env.history.VecHistoryObservation`; its evaluations add them as it acts).
+    ``mirror_weight``: the weight of the mirror loss beside PPO's
+    (:mod:`~chaincart_env.tools.compare.mirror_loss`), 0 for none."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
@@ -279,6 +294,7 @@ def train(
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     trained_on = training_config(config, training_reward, conditions)
+    mirror = _mirror_loss(algo, trained_on, mirror_weight, history)
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
                                                                     normalize, curriculum, history, shaping)
     if warm_start_from is not None and not resuming:
@@ -298,7 +314,7 @@ def train(
     checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
                                keep=(BEST_MODEL_FILE, normalization_file(directory / BEST_MODEL_FILE).name))
     start = time.perf_counter()
-    callbacks = [logger, evaluation, checkpoints, *_anchoring(imitation, directory)]
+    callbacks = [logger, evaluation, checkpoints, *_anchoring(imitation, directory), *mirror]
     model.learn(total_timesteps=max(0, planned - resumed_from), callback=callbacks,
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)
     write_curriculum_log(model.get_env(), directory / CURRICULUM_FILE)
