@@ -236,3 +236,29 @@ def test_render_section_reports_every_view_with_the_3d_goal() -> None:
     assert f"| 3d | 480x480 | {fps[('3d', 480, 480)]:.0f} | " in text and f">= {GOAL_3D_FPS}: {verdict} |" in text
     for scene in ("inverted-2", "paper-fig3"):  # the env-level rows
         assert f"| {scene} | env | 480x240 |" in text and f"| {scene} | vector, 4 tiles | 960x480 |" in text
+
+
+def test_learners_section_times_each_installed_learner_and_names_the_missing(monkeypatch) -> None:
+    from chaincart_env.tools.bench import learners
+    from chaincart_env.tools.bench.bench_report import Report
+    from chaincart_env.tools.bench.suite import BenchContext, BenchSettings
+
+    ppo = next(learner for learner in learners.LEARNERS if learner.label == "SB3 PPO")
+    sac = next(learner for learner in learners.LEARNERS if learner.label == "SB3 SAC" and learner.n_envs == 64)
+    absent = learners.Learner("Nowhere PPO", "no_such_learner_library", "PPO", 1, {}, 1.0)
+    small_ppo = learners.Learner(ppo.label, ppo.module, ppo.cls, 4, {**ppo.keywords, "n_steps": 16, "batch_size": 32},
+                                 ppo.gradient_steps_per_env_step)
+    monkeypatch.setattr(learners, "LEARNERS", (small_ppo, sac, absent))
+    ticks = iter(range(100))
+    real = learners.measure_learner
+    # A clock of whole seconds: a timed learn of N env steps takes 1 s, so the rate is N.
+    monkeypatch.setattr(learners, "measure_learner", lambda learner, steps, repeats: real(
+        learner, steps, repeats, clock=lambda: float(next(ticks))))
+    ctx = BenchContext(BenchSettings(quick=True), Report(echo=False))
+    learners.learners_section(ctx)
+    rates = ctx.results["learners"]
+    assert rates == {("SB3 PPO", 4): 16 * 4, ("SB3 SAC", 64): 256 * 8}  # one rollout; 256 x n_envs / 8 steps
+    text = ctx.report.text()
+    assert "| SB3 SAC | 64 | 0.01562 |" in text
+    assert "Not installed, not measured: Nowhere PPO" in text
+    assert sac.gradient_steps_per_env_step == 1 / 64 and ppo.gradient_steps_per_env_step == 10 / 512

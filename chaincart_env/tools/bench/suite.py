@@ -27,7 +27,10 @@ from chaincart_env.tools.bench.context import BenchContext, BenchSettings, mujoc
 __all__ = ["SECTION_ORDER", "HAND_WRITTEN", "parse_sections", "run_suite", "performance_page", "hand_written_sections"]
 
 #: Sections in the order they run (``--sections`` picks a subset).
-SECTION_ORDER = ("throughput", "mujoco", "accuracy", "scaling", "render", "control", "rllib", "cells", "criterion", "targets")
+SECTION_ORDER = (
+    "throughput", "mujoco", "accuracy", "scaling", "render", "control", "rllib", "learners", "cells", "criterion",
+    "targets",
+)
 
 #: The end of a level-2 heading of the performance page whose section is written by hand
 #: (measurements the suite does not take): writing the page again keeps such sections.
@@ -68,6 +71,7 @@ def _sections() -> dict[str, Callable[[BenchContext], None]]:
         control,
         criterion,
         envs,
+        learners,
         mujoco_compare,
         render_fps,
         rllib_sampling,
@@ -84,6 +88,7 @@ def _sections() -> dict[str, Callable[[BenchContext], None]]:
         "render": render_fps.render_section,
         "control": control.control_section,
         "rllib": rllib_sampling.rllib_section,
+        "learners": learners.learners_section,
         "cells": study_cells.cells_section,
         "criterion": criterion.criterion_section,
         "targets": targets.targets_section,
