@@ -4,8 +4,8 @@ in env steps per second of ``model.learn`` (collection and updates), side by sid
 The env steps a CPU second buys bound how fast a recipe reaches its goal, and on this
 package's envs the learner, not the env, spends the time: a ``ChainCartVecEnv`` of 64
 envs steps millions of env-steps/s, PPO trains thousands. Every learner runs the
-``swingup-2`` scene (its observation and action, 300-step episodes) with one torch
-thread:
+``swingup-2`` scene (its observation and action, 300-step episodes) with one thread
+(torch's, and JAX's where this process has not started JAX before):
 
 * stable-baselines3 PPO with ``swingup-2``'s recipe (64 envs, ``n_steps=64``,
   ``batch_size=512``, 10 epochs);
@@ -24,6 +24,7 @@ setting (PPO: ``n_epochs`` passes of minibatches per rollout).
 from __future__ import annotations
 
 import importlib
+import os
 import time
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -105,6 +106,8 @@ def measure_learner(learner: Learner, env_steps: int, repeats: int,
     from chaincart_env import ChainCartConfig
     from chaincart_env.sb3 import ChainCartVecEnv
 
+    # One thread for JAX too (read when JAX starts, so only before SBX is first imported).
+    os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
