@@ -93,7 +93,7 @@ def test_a_polish_rate_without_a_polish_is_an_error(capsys: pytest.CaptureFixtur
     assert "--polish-learning-rate 0.0001: expected --polish STEPS with it" in capsys.readouterr().err
 
 
-def test_the_spatial_swing_up_is_polished_by_default_and_polish_0_turns_it_off():
+def test_the_double_swing_ups_are_polished_by_default_and_polish_0_turns_it_off():
     from chaincart_env.tools.compare.curriculum import scene_curriculum, scene_training_reward
     from chaincart_env.tools.compare.recipes import recipe_for
     from chaincart_env.tools.compare.shaping import scene_shaping
@@ -118,8 +118,13 @@ def test_the_spatial_swing_up_is_polished_by_default_and_polish_0_turns_it_off()
     assert "polish" not in _training_settings(spatial, ["ppo"], "sb3", 1000, None, {}, {}, polish="scene")["ppo"]
     asked = _training_settings(spatial, ["ppo"], "sb3", 1000, None, {}, {}, polish={"timesteps": 10})["ppo"]
     assert asked["polish"]["timesteps"] == 10 and asked["first_stage"]["timesteps"] == 1000
+    # The planar swing-up: a tenth of the start of its recipe's lin_1e-3 schedule.
+    planar_training = _training_settings(planar, ["ppo"], "sb3", None, None, {}, {}, polish="scene")["ppo"]
+    assert planar_training["polish"] == {"timesteps": SCENE_POLISH["swingup-2"], "learning_rate": pytest.approx(1e-4)}
+    assert planar_training["first_stage"]["timesteps"] == recipe_for("swingup-2", "ppo").timesteps
     # Elsewhere no polish unless asked; the scene's default never stops RLlib.
-    assert "polish" not in _training_settings(planar, ["ppo"], "sb3", None, None, {}, {}, polish="scene")["ppo"]
+    inverted = ChainCartConfig(scene="inverted-2")
+    assert "polish" not in _training_settings(inverted, ["ppo"], "sb3", None, None, {}, {}, polish="scene")["ppo"]
     assert "polish" not in _training_settings(spatial, ["ppo"], "rllib", None, None, {}, {}, polish="scene")["ppo"]
 
 

@@ -38,8 +38,9 @@ POLISH_FIRST_STAGE_DIR = "main-stage"
 #: A polish's learning rate, as a share of the run's.
 POLISH_RATE_FACTOR = 0.1
 #: The scenes whose learned agents are polished unless ``--polish 0``, and for how many
-#: steps: the spatial double swing-up, which PPO finds and loses again (docs/main-job.md).
-SCENE_POLISH: dict[str, int] = {"spatial-swingup-2": 1_500_000}
+#: steps: the double swing-ups, which PPO finds and then loses again between evaluations
+#: (docs/main-job.md).
+SCENE_POLISH: dict[str, int] = {"swingup-2": 1_000_000, "spatial-swingup-2": 1_500_000}
 #: Written into the first stage's folder once it finished.
 _DONE = "stage-finished"
 
