@@ -3,7 +3,8 @@
 Each argument is a study written by ``compare`` (``LABEL=DIR``, or ``DIR`` labelled by
 its folder name). Every learned algorithm of a study is one recipe; its training seeds
 are read from ``run.json`` and their periodic deterministic evaluations from each
-seed's ``evaluations.csv``. A folder of ``seed-<s>/`` training runs without a
+seed's ``evaluations.csv`` (a polished run's: its first stage's, then the polish's, one
+curve). A folder of ``seed-<s>/`` training runs without a
 ``run.json`` (a leaderboard's ``agents/<scene>/<controller>/``) is one recipe too. The command writes, into ``--out``:
 
 * ``learning-curves.png``: success and mean return of the deterministic policy against
@@ -72,12 +73,38 @@ def _seed_folders(folder: Path) -> list[tuple[str, int, Path]]:
 
 
 def _evaluations(directory: Path) -> list[dict[str, float]]:
+    """The run's evaluations; for a polished run, its first stage's, then the polish's
+    (steps and wall time counted on from where the first stage ended)."""
     from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, read_evaluations
+    from chaincart_env.tools.compare.stages import POLISH_FIRST_STAGE_DIR
 
     path = directory / EVALUATIONS_FILE
     if not path.is_file():
         raise InvalidInputError(f"{path}: no such file; expected the evaluations of a training run of compare")
-    return read_evaluations(path)
+    rows = read_evaluations(path)
+    first = directory / POLISH_FIRST_STAGE_DIR
+    if not (first / EVALUATIONS_FILE).is_file():
+        return rows
+    before = read_evaluations(first / EVALUATIONS_FILE)
+    steps, wall = _stage_end(first, before)
+    return before + [{**row, "timesteps": row["timesteps"] + steps, "wall_time_s": row["wall_time_s"] + wall}
+                     for row in rows]
+
+
+def _stage_end(stage: Path, evaluations: list[dict[str, float]]) -> tuple[float, float]:
+    """Where a first stage ended, in env steps and wall time: its last record (its last
+    evaluation or its last training episode)."""
+    import csv
+
+    from chaincart_env.tools.compare.learning_curve import EPISODES_FILE
+
+    steps = max((row["timesteps"] for row in evaluations), default=0.0)
+    wall = max((row["wall_time_s"] for row in evaluations), default=0.0)
+    if (stage / EPISODES_FILE).is_file():
+        with (stage / EPISODES_FILE).open(newline="") as file:
+            for row in csv.DictReader(file):
+                steps, wall = max(steps, float(row["timesteps"])), max(wall, float(row["wall_time_s"]))
+    return steps, wall
 
 
 def read_study_curves(study: Path, label: Optional[str] = None) -> list[RecipeCurves]:

@@ -84,3 +84,22 @@ def test_a_leaderboard_agents_folder_is_one_recipe(tmp_path: pathlib.Path):
     (study / "seed-x").mkdir()  # not a seed
     recipe = read_study_curves(study)[0]
     assert recipe.label == "ppo-robust" and recipe.seeds == (0, 2) and recipe.success.tolist() == [[0, 1, 1], [0, 0.5, 1]]
+
+
+def test_a_polished_run_is_one_curve_from_its_first_stage_on(tmp_path: pathlib.Path):
+    study = _study(tmp_path / "polished", {0: [1, 1, 0.95]})  # the polish: step 0 re-scores the first stage's best
+    stage = study / "seed-0" / "main-stage"
+    stage.mkdir()
+    with (stage / "evaluations.csv").open("w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(COLUMNS)
+        for k, success in enumerate([0, 0.5, 1, 1]):
+            writer.writerow((1000 * k, 7.0 * k, 20, success, 0, 1, 100 * success, 1))
+    with (stage / "training_episodes.csv").open("w", newline="") as file:  # the first stage went on past 3000
+        file.write("timesteps,wall_time_s,episode,return,length,is_success,out_of_track,numerical_failure\n"
+                   "2990,20.5,1,1.0,300,1,0,0\n3100,22.0,2,1.0,300,1,0,0\n")
+    recipe = read_study_curves(study)[0]
+    assert recipe.steps.tolist() == [0, 1000, 2000, 3000, 3100, 3200, 3300]
+    assert recipe.success[0].tolist() == [0, 0.5, 1, 1, 1, 1, 0.95]
+    assert recipe.wall_time_s[0].tolist() == [0, 7, 14, 21, 22, 32, 42]
+    assert first_reaching(recipe.steps, recipe.success[0], 0.9) == 2000.0 and steady(recipe.success[0], 0.9)

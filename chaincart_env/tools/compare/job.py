@@ -32,6 +32,7 @@ from chaincart_env.tools.compare.cell_runner import map_cells
 from chaincart_env.tools.compare.imitation import SCENE_IMITATIONS, scene_imitation
 from chaincart_env.tools.compare.layout import TrainingRun, training_runs
 from chaincart_env.tools.compare.learning_curve import (
+    EPISODES_FILE,
     LEARNING_CURVE_COLUMNS,
     learning_curve,
     read_learning_curve,
@@ -204,7 +205,7 @@ def _train_seed(config: ChainCartConfig, out: Path, run: TrainingRun, settings: 
                 training_episodes=result.episodes, **trained)
     save_run(directory, result.model, config, info)
     # Binned over the steps actually trained (SB3 rounds up to whole rollouts).
-    curve = learning_curve(read_training_episodes(directory / "training_episodes.csv"), info["timesteps_trained"])
+    curve = learning_curve(read_training_episodes(directory / EPISODES_FILE), info["timesteps_trained"])
     write_csv(directory / "learning_curve.csv", curve, LEARNING_CURVE_COLUMNS)
     return info
 

@@ -10,10 +10,13 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "learning_curve", "read_learning_curve", "read_training_episodes",
+    "EPISODES_FILE", "LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "learning_curve", "read_learning_curve",
+    "read_training_episodes",
 ]
 
-#: Columns of ``training_episodes.csv`` (written by either trainer).
+#: A training run's log of every training episode (written by either trainer).
+EPISODES_FILE = "training_episodes.csv"
+#: Columns of ``training_episodes.csv``.
 TRAINING_EPISODE_COLUMNS = (
     "timesteps", "wall_time_s", "episode", "return", "length", "is_success", "out_of_track", "numerical_failure"
 )

@@ -24,7 +24,7 @@ import numpy as np
 from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.tools.compare.cell_runner import ray_cluster
-from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.learning_curve import EPISODES_FILE, TRAINING_EPISODE_COLUMNS
 from chaincart_env.tools.compare.run_files import CHECKPOINT_DIR, replace_directory, settled_directory, truncate_csv
 
 __all__ = [
@@ -226,7 +226,6 @@ class TrainingProgress:
 #: The folder of a run (beside its log) that holds its periodic checkpoint.
 RESUME_DIR = "checkpoints"
 _ALGORITHM, _STATE = "algorithm", "state.json"
-EPISODES_FILE = "training_episodes.csv"
 
 
 def save_training(algo: Any, directory: Path, progress: TrainingProgress) -> None:

@@ -20,7 +20,7 @@ from chaincart_env.sb3 import ChainCartVecEnv
 from chaincart_env.tools.compare.algorithms import algorithm_class
 from chaincart_env.tools.compare.curriculum import PlanStarts, plan_states
 from chaincart_env.tools.compare.imitation import Imitation, imitate
-from chaincart_env.tools.compare.learning_curve import TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.learning_curve import EPISODES_FILE, TRAINING_EPISODE_COLUMNS
 from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, PlanStartEnvs, write_curriculum_log
 from chaincart_env.tools.compare.shaping import Shaping
 from chaincart_env.tools.controllers import label_of
@@ -108,8 +108,6 @@ class TrainingResult:
     imitation: Optional[dict[str, Any]] = None
 
 
-#: Files of a training directory.
-EPISODES_FILE = "training_episodes.csv"
 
 
 #: Constructor arguments the trainer sets itself.
