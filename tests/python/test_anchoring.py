@@ -150,6 +150,31 @@ def test_the_anchor_waits_for_the_critic_warmup(tmp_path) -> None:
     assert math.isnan(anchor.last_loss)
 
 
+def test_an_anchored_training_keeps_the_imitations_observation_statistics(tmp_path, monkeypatch) -> None:
+    from chaincart_env.tools.compare import training as module
+
+    seen = {}
+    imitate = module.imitate
+
+    def imitate_and_note(model, *args):
+        out = imitate(model, *args)
+        statistics = model.get_vec_normalize_env().obs_rms
+        seen["after"] = (statistics.mean.copy(), statistics.var.copy(), statistics.count)
+        return out
+
+    monkeypatch.setattr(module, "imitate", imitate_and_note)
+    for weight, kept in ((0.5, True), (0.0, False)):
+        imitation = Imitation(**{**TINY.record(), "noise": TINY.noise, "anchor_weight": weight})
+        result = module.train(CONFIG, timesteps=256, num_envs=4, directory=tmp_path / str(weight),
+                              eval_seeds=[1_000_000], eval_every=10**6, checkpoint_every=10**6, progress_bar=False,
+                              hyperparameters=dict(ROLLOUT), normalize={"norm_obs": True, "norm_reward": False},
+                              imitation=imitation)
+        statistics = result.model.get_vec_normalize_env().obs_rms
+        mean, var, count = seen["after"]
+        assert (np.array_equal(statistics.mean, mean) and np.array_equal(statistics.var, var)
+                and statistics.count == count) is kept
+
+
 def test_an_anchored_training_is_seeded(tmp_path) -> None:
     from chaincart_env.tools.compare.training import train
 

@@ -74,6 +74,8 @@ class Imitation:
     focus_starts: int = 4
     #: Env steps at the start of the training that follows during which only the value
     #: function trains (:class:`~chaincart_env.tools.compare.anchoring.CriticWarmup`).
+    #: With it or an anchor, the observation statistics stay the imitation's
+    #: (:func:`~chaincart_env.tools.compare.anchoring.fix_statistics`).
     critic_warmup: int = 0
     #: Weight of the imitation's fit as a second loss during that training, 0 for none
     #: (:class:`~chaincart_env.tools.compare.anchoring.ImitationAnchor`).

@@ -300,6 +300,10 @@ def train(
 
         warm_start(model, Path(warm_start_from))
     imitated = imitate(model, config, imitation, seed, directory) if imitation is not None and not resuming else None
+    if imitation is not None and (imitation.critic_warmup or imitation.anchor_weight > 0):
+        from chaincart_env.tools.compare.anchoring import fix_statistics
+
+        fix_statistics(model)  # the statistics the imitation fitted the policy under
     resumed_from = int(model.num_timesteps)
     planned, unit = steps_trained(model, timesteps)
     if planned != timesteps and not resuming:  # said before training, so the progress bar's total is no surprise
