@@ -94,6 +94,7 @@ class LearnerRate:
 
     @property
     def gradient_steps_per_s(self) -> float:
+        """Gradient steps per second: the env rate times the setting's gradient steps per env step."""
         return self.env_steps_per_s * self.learner.gradient_steps_per_env_step
 
 

@@ -90,6 +90,7 @@ class ImitationAnchor(AuxiliaryLoss):
             self.labels = data["labels"]
 
     def loss(self, model: Any, size: int) -> Any:
+        """The mean squared error to the planner's labels on ``size`` samples of the data."""
         import torch
 
         chosen = torch.randint(len(self.labels), (size,)).numpy()

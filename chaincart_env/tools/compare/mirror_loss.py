@@ -59,6 +59,7 @@ class MirrorLoss(AuxiliaryLoss):
         return statistics.normalize_obs(statistics.unnormalize_obs(observed) * self.observation_signs)
 
     def loss(self, model: Any, size: int) -> Any:
+        """The mirror loss on ``size`` observations drawn from the last rollout."""
         import torch
 
         stored = model.rollout_buffer.observations
