@@ -130,7 +130,7 @@ def _budget(learner: Learner, quick: bool) -> int:
     if learner.cls == "PPO":  # whole rollouts
         rollouts = 1 if quick else 4
         return rollouts * learner.keywords["n_steps"] * learner.n_envs
-    return (256 if quick else 2048) * max(1, learner.n_envs // 8)
+    return (256 if quick else 512) * max(1, learner.n_envs // 8)  # one env: tens of gradient steps a second
 
 
 def learners_section(ctx: BenchContext) -> None:
