@@ -192,9 +192,11 @@ def test_compare_changes_the_scene_imitation_and_refuses_anchoring_without_one()
     from chaincart_env.tools.compare.job import _training_settings
 
     kept = _training_settings(CONFIG, ["ppo"], "sb3", None, None, {}, {},
-                              imitation={"critic_warmup": 500_000, "anchor_weight": 2.0})
+                              imitation={"critic_warmup": 100_000, "anchor_weight": 2.0})
     record = Imitation.from_record(kept["ppo"]["imitation"])
-    assert (record.critic_warmup, record.anchor_weight, record.focus_rounds) == (500_000, 2.0, 8)
+    assert (record.critic_warmup, record.anchor_weight, record.focus_rounds) == (100_000, 2.0, 8)
+    scene = Imitation.from_record(_training_settings(CONFIG, ["ppo"], "sb3", None, None, {}, {})["ppo"]["imitation"])
+    assert (scene.critic_warmup, scene.anchor_weight, scene.action_std) == (500_000, 10.0, 0.03)
     with pytest.raises(InvalidInputError, match="critic_warmup = 1000.*transitions-2"):
         _training_settings(ChainCartConfig(scene="swingup-2"), ["ppo"], "sb3", None, None, {}, {},
                            imitation={"critic_warmup": 1000})

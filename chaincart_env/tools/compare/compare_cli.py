@@ -93,11 +93,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "(transitions-2)")
     parser.add_argument("--critic-warmup", type=int, default=None, metavar="STEPS",
                         help="after the scene's imitation, train only the value function for the first STEPS env "
-                        "steps (the policy frozen) (default: the scene's, 0 on transitions-2)")
+                        "steps (the policy frozen) (default: the scene's, 500000 on transitions-2)")
     parser.add_argument("--imitation-weight", type=float, default=None, metavar="C",
                         help="after the scene's imitation, keep its fit as a second loss of weight C: after every "
                         "rollout, as many minibatches of the imitation's data as PPO's update has; 0 turns it off "
-                        "(default: the scene's, 0 on transitions-2)")
+                        "(default: the scene's, 10 on transitions-2)")
     parser.add_argument("--mirror-weight", type=float, default=0.0, metavar="C",
                         help="training only: a second loss of weight C beside PPO's asking the policy to act "
                         "mirror-symmetrically (the mirrored observation's action is the mirrored action; "
