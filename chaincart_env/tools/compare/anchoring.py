@@ -1,10 +1,13 @@
 """Keeping what an imitation taught while reinforcement learning trains on.
 
 PPO started from a copy of the planner's controller loses the copy within a few
-hundred thousand steps: its first updates follow the advantages of a value function
-that has not learned yet, and nothing pulls the policy back in the states the copy
-handled and the training rarely visits (Wołczyk et al., 2024). Two remedies, set by the
-scene's :class:`~chaincart_env.tools.compare.imitation.Imitation` (or ``compare
+hundred thousand steps (docs/main-job.md, "Keeping the imitation"): the observation
+statistics it reads drift, its first updates follow the advantages of a value function
+that has not learned yet, an exploration noise wider than the copy's margins steers its
+updates, and nothing pulls the policy back in the states the copy handled and the
+training rarely visits (Wołczyk et al., 2024). Besides a small noise
+(:attr:`~chaincart_env.tools.compare.imitation.Imitation.action_std`), two remedies, set
+by the scene's :class:`~chaincart_env.tools.compare.imitation.Imitation` (or ``compare
 --critic-warmup`` and ``--imitation-weight``):
 
 * :class:`CriticWarmup`: for the first env steps only the value function trains; the
