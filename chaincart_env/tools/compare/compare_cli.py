@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
+from chaincart_env.tools.compare.imitation import SCENE_IMITATIONS
 from chaincart_env.tools.compare.recipes import GENERIC
 from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options, parse_value
 from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES, parse_sweep
@@ -93,11 +94,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "(transitions-2)")
     parser.add_argument("--critic-warmup", type=int, default=None, metavar="STEPS",
                         help="after the scene's imitation, train only the value function for the first STEPS env "
-                        "steps (the policy frozen) (default: the scene's, 500000 on transitions-2)")
+                        f"steps (the policy frozen) (default: the scene's, {_scene_imitations('critic_warmup')})")
     parser.add_argument("--imitation-weight", type=float, default=None, metavar="C",
                         help="after the scene's imitation, keep its fit as a second loss of weight C: after every "
                         "rollout, as many minibatches of the imitation's data as PPO's update has; 0 turns it off "
-                        "(default: the scene's, 10 on transitions-2)")
+                        f"(default: the scene's, {_scene_imitations('anchor_weight')})")
     parser.add_argument("--mirror-weight", type=float, default=0.0, metavar="C",
                         help="training only: a second loss of weight C beside PPO's asking the policy to act "
                         "mirror-symmetrically (the mirrored observation's action is the mirrored action; "
@@ -316,6 +317,11 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
     except ChainCartError as error:
         parser.error(str(error))
     return 0
+
+
+def _scene_imitations(field: str) -> str:
+    """A field of every scene's imitation, in words ("500000 on transitions-2")."""
+    return ", ".join(f"{getattr(imitation, field):g} on {scene}" for scene, imitation in SCENE_IMITATIONS.items())
 
 
 def _imitation(args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:

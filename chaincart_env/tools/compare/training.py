@@ -108,8 +108,6 @@ class TrainingResult:
     imitation: Optional[dict[str, Any]] = None
 
 
-
-
 #: Constructor arguments the trainer sets itself.
 _SET_BY_TRAINER = ("self", "policy", "env", "seed", "device", "verbose", "_init_setup_model")
 
