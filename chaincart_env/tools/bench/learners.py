@@ -107,8 +107,7 @@ def measure_learner(learner: Learner, env_steps: int, repeats: int,
     from chaincart_env import ChainCartConfig
     from chaincart_env.sb3 import ChainCartVecEnv
 
-    # One thread for JAX too (read when JAX starts, so only before SBX is first imported).
-    os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
+    _one_jax_thread()
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
@@ -126,6 +125,12 @@ def measure_learner(learner: Learner, env_steps: int, repeats: int,
     return LearnerRate(learner, best)
 
 
+def _one_jax_thread() -> None:
+    """One thread for JAX too: XLA reads its flags when JAX starts, so this holds only
+    if it runs before SBX is first imported (checking for SBX imports it)."""
+    os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
+
+
 def _budget(learner: Learner, quick: bool) -> int:
     if learner.cls == "PPO":  # whole rollouts
         rollouts = 1 if quick else 4
@@ -138,6 +143,7 @@ def learners_section(ctx: BenchContext) -> None:
     ctx.report.heading("Learners: training rate on the native vector env")
     quick = ctx.settings.quick
     rows, missing, rates = [], [], {}
+    _one_jax_thread()
     for learner in LEARNERS:
         if not learner.available():
             missing.append(learner.label)
