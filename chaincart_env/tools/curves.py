@@ -94,16 +94,14 @@ def _evaluations(directory: Path) -> list[dict[str, float]]:
 def _stage_end(stage: Path, evaluations: list[dict[str, float]]) -> tuple[float, float]:
     """Where a first stage ended, in env steps and wall time: its last record (its last
     evaluation or its last training episode)."""
-    import csv
-
-    from chaincart_env.tools.compare.learning_curve import EPISODES_FILE
+    from chaincart_env.tools.compare.learning_curve import EPISODES_FILE, read_training_episodes
 
     steps = max((row["timesteps"] for row in evaluations), default=0.0)
     wall = max((row["wall_time_s"] for row in evaluations), default=0.0)
     if (stage / EPISODES_FILE).is_file():
-        with (stage / EPISODES_FILE).open(newline="") as file:
-            for row in csv.DictReader(file):
-                steps, wall = max(steps, float(row["timesteps"])), max(wall, float(row["wall_time_s"]))
+        episodes = read_training_episodes(stage / EPISODES_FILE)
+        steps = max(steps, float(episodes["timesteps"].max(initial=0.0)))
+        wall = max(wall, float(episodes["wall_time_s"].max(initial=0.0)))
     return steps, wall
 
 

@@ -32,6 +32,7 @@ from typing import Any, Mapping, Optional
 import numpy as np
 
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.tools.compare.shaping import check_scale
 
 __all__ = [
     "IMITATING_ALGOS", "IMITATION_DATA_FILE", "IMITATION_FILE", "SCENE_IMITATIONS", "Imitation", "imitate",
@@ -93,9 +94,7 @@ class Imitation:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InvalidInputError(f"imitation {name} = {value!r}: expected a number > 0")
-        weight = self.anchor_weight
-        if isinstance(weight, bool) or not (isinstance(weight, (int, float)) and math.isfinite(weight) and weight >= 0):
-            raise InvalidInputError(f"imitation anchor_weight = {weight!r}: expected a number >= 0")
+        check_scale(self.anchor_weight, "imitation anchor_weight")
 
     def record(self) -> dict[str, Any]:
         """The settings as ``run.json`` records them."""

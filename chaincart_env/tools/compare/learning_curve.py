@@ -29,7 +29,7 @@ def read_training_episodes(path: Path) -> dict[str, np.ndarray]:
     """The columns of a ``training_episodes.csv`` as float arrays."""
     with Path(path).open(newline="") as file:
         rows = list(csv.DictReader(file))
-    keys = ("timesteps", "return", "is_success")
+    keys = ("timesteps", "wall_time_s", "return", "is_success")
     return {key: np.array([float(row[key]) for row in rows], dtype=np.float64) for key in keys}
 
 

@@ -17,14 +17,13 @@ observations normalised by ``VecNormalize`` are mirrored raw and normalised agai
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from chaincart_env.config import ChainCartConfig
-from chaincart_env.errors import InvalidInputError
 from chaincart_env.symmetry import Mirror
 from chaincart_env.tools.compare.imitation import mean_action
 from chaincart_env.tools.compare.policy_losses import AuxiliaryLoss
+from chaincart_env.tools.compare.shaping import check_scale
 
 __all__ = ["MIRROR_ALGOS", "MirrorLoss", "check_mirror_weight"]
 
@@ -34,9 +33,7 @@ MIRROR_ALGOS = ("ppo",)
 
 def check_mirror_weight(weight: Any) -> float:
     """``weight`` as a float, or an InvalidInputError naming it (a finite number >= 0)."""
-    if isinstance(weight, bool) or not isinstance(weight, (int, float)) or not math.isfinite(weight) or weight < 0:
-        raise InvalidInputError(f"mirror weight = {weight!r}: expected a finite number >= 0 (0: no mirror loss)")
-    return float(weight)
+    return check_scale(weight, "mirror weight")
 
 
 class MirrorLoss(AuxiliaryLoss):

@@ -29,10 +29,15 @@ from typing import Any, Mapping, Optional
 
 from chaincart_env.errors import InvalidInputError
 
-__all__ = ["SCENE_SHAPING", "Shaping", "check_action_change_penalty", "check_off_track_penalty", "check_plan_bonus", "scene_shaping"]
+__all__ = [
+    "SCENE_SHAPING", "Shaping", "check_action_change_penalty", "check_off_track_penalty", "check_plan_bonus",
+    "check_scale", "scene_shaping",
+]
 
 
-def _check_scale(value: Any, what: str) -> float:
+def check_scale(value: Any, what: str) -> float:
+    """The scale of a training-only term (a shaping term, a second loss's weight) as a
+    float, or an InvalidInputError naming it as ``what``: a finite number >= 0."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
         raise InvalidInputError(f"{what} = {value!r}: expected a finite number >= 0")
     return float(value)
@@ -40,17 +45,17 @@ def _check_scale(value: Any, what: str) -> float:
 
 def check_off_track_penalty(penalty: Any) -> float:
     """``penalty`` as a float, or an InvalidInputError naming it: a finite number >= 0."""
-    return _check_scale(penalty, "off-track penalty")
+    return check_scale(penalty, "off-track penalty")
 
 
 def check_plan_bonus(scale: Any) -> float:
     """``scale`` as a float, or an InvalidInputError naming it: a finite number >= 0."""
-    return _check_scale(scale, "plan bonus")
+    return check_scale(scale, "plan bonus")
 
 
 def check_action_change_penalty(scale: Any) -> float:
     """``scale`` as a float, or an InvalidInputError naming it: a finite number >= 0."""
-    return _check_scale(scale, "action-change penalty")
+    return check_scale(scale, "action-change penalty")
 
 
 @dataclass(frozen=True)
