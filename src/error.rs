@@ -74,6 +74,16 @@ pub enum InputError {
         /// The names accepted.
         expected: &'static [&'static str],
     },
+    /// A configuration key's value of another form than the key takes (e.g. a name
+    /// where a number goes).
+    WrongForm {
+        /// The key.
+        name: &'static str,
+        /// The value given, as the core read it.
+        got: String,
+        /// What was expected.
+        expected: &'static str,
+    },
     /// An input vector contains NaN or infinity.
     NonFinite {
         /// Name of the argument or quantity.
@@ -234,6 +244,11 @@ impl fmt::Display for InputError {
                 }
                 write!(f, ": expected one of {}", quoted(expected))
             }
+            WrongForm {
+                name,
+                got,
+                expected,
+            } => write!(f, "{name} = {got}: expected {expected}"),
             NonFinite { name, index, value } => {
                 write!(f, "{name}[{index}] = {value}: expected a finite number")
             }

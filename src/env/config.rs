@@ -2,11 +2,6 @@
 //! and when they end. Plain data, checked once by [`TaskConfig::validate`].
 
 use super::goals::Transitions;
-use super::keys::{
-    DEFAULT_MAX_ACCELERATION, DEFAULT_MAX_EPISODE_STEPS, DEFAULT_MAX_FORCE, DEFAULT_MAX_VOLTAGE,
-    DEFAULT_REWARD_WEIGHTS, DEFAULT_START_NOISE, DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT,
-    REWARD_NAMES, START_NAMES, TARGET_NAMES,
-};
 use super::reality::RealityGap;
 use super::sensors::Sensors;
 use crate::analysis::{check_signs, named_signs};
@@ -16,6 +11,53 @@ use crate::integrate::Method;
 use crate::integrate::{Guard, StepOptions};
 use crate::lanes::Precision;
 use crate::params::{Actuation, Rig};
+
+/// Names accepted for a target equilibrium (besides a sign tuple).
+pub const TARGET_NAMES: [&str; 7] = [
+    "hanging",
+    "inverted",
+    "folded",
+    "folded_up",
+    "paper-fig1",
+    "paper-fig2",
+    "paper-fig3",
+];
+
+/// Names accepted for a start (besides a sign tuple or a full state): `"target"`
+/// and the target names.
+pub const START_NAMES: [&str; 8] = {
+    let mut names = ["target"; 8];
+    let mut i = 0;
+    while i < TARGET_NAMES.len() {
+        names[i + 1] = TARGET_NAMES[i];
+        i += 1;
+    }
+    names
+};
+
+/// Names of the rewards (`RewardKind`).
+pub const REWARD_NAMES: [&str; 2] = ["exp", "tolerance"];
+
+/// Default half-width of the start noise.
+pub const DEFAULT_START_NOISE: f64 = 0.05;
+/// Default track limit, m.
+pub const DEFAULT_TRACK_LIMIT: f64 = 2.4;
+/// Default episode length, steps.
+pub const DEFAULT_MAX_EPISODE_STEPS: i64 = 500;
+/// Default force of a unit action, N.
+pub const DEFAULT_MAX_FORCE: f64 = 20.0;
+
+/// Default reward weights `[q, w, x, v, u]` (see `RewardWeights`): a tilt of 0.3 rad
+/// costs 9% of the reward, a hanging link (|q - s e3|^2 = 4) leaves 2%, and the cart,
+/// the rates and the force only shape the reward near the target.
+pub const DEFAULT_REWARD_WEIGHTS: [f64; 5] = [1.0, 0.1, 0.1, 0.1, 0.01];
+/// Default success tolerances `[e_q, e_w]`: about 6 degrees of tilt and 0.5 rad/s in total.
+pub const DEFAULT_SUCCESS_TOLERANCES: [f64; 2] = [0.1, 0.5];
+
+/// Default acceleration of a unit action in the `acceleration` actuation, m/s^2.
+pub const DEFAULT_MAX_ACCELERATION: f64 = 10.0;
+/// Default voltage of a unit action in the `voltage` actuation, V.
+pub const DEFAULT_MAX_VOLTAGE: f64 = 12.0;
 
 /// The paper's numerical examples (Sec. V). Figs. 1 and 2 share the initial
 /// condition IC1; Fig. 3 has its own. All three are defined for n = 5 links.

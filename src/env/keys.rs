@@ -1,17 +1,28 @@
 //! The configuration keys of an env: the one definition of every key's name, the
-//! values it accepts, its default and its help text. The Python configuration
-//! (`ChainCartConfig`), its documentation table, the env docstring and the command
-//! line's option help are all read or generated from [`CONFIG_KEYS`]; the scenes
-//! (`scenes`) are named sets of values on top of these defaults. The task's types
-//! (`config`) take their defaults from here.
+//! values it accepts, its default, its help text and where its value goes. The Python
+//! configuration (`ChainCartConfig`), its documentation table, the env docstring and
+//! the command line's option help are all read or generated from [`CONFIG_KEYS`]; the
+//! scenes (`scenes`) are named sets of values on top of these defaults.
+//!
+//! A key of the task carries the closure that sets its field
+//! ([`Destination::Task`]); resolving a configuration applies them all in table order
+//! ([`TaskConfig::apply_keys`]), so adding such a key is its entry here and the field
+//! it sets. The keys read together (the chain's parameters, the task's ends, the
+//! reality gap) say which group they belong to.
 //!
 //! The defaults are the default scene's values (the planar double inverted pendulum):
 //! a scene that sets nothing is the default scene. Ranges are checked where the core
 //! builds the parameters and the task ([`crate::params::ChainParams::new`],
 //! `TaskConfig::validate`, `RealityGap::validate`); each key's
 //! [`ConfigKey::expected`] says in words what those checks accept (a test holds the
-//! two together).
+//! two together), and `TaskConfig::new` holds the table's defaults (a test too).
 
+use super::config::{
+    RewardKind, RewardWeights, SuccessTolerances, TaskConfig, DEFAULT_MAX_ACCELERATION,
+    DEFAULT_MAX_EPISODE_STEPS, DEFAULT_MAX_FORCE, DEFAULT_MAX_VOLTAGE, DEFAULT_REWARD_WEIGHTS,
+    DEFAULT_START_NOISE, DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT, REWARD_NAMES,
+};
+use crate::error::{ChainError, InputError, Result};
 use crate::integrate::Method;
 use crate::lanes::Precision;
 use crate::params::{Actuation, Motor, DEFAULT_COULOMB_VELOCITY, STANDARD_GRAVITY};
@@ -52,9 +63,9 @@ pub enum KeyKind {
     PerLink,
     /// One of these names.
     Choice(&'static [&'static str]),
-    /// An equilibrium: one of [`TARGET_NAMES`] or a sign tuple.
+    /// An equilibrium: one of [`super::TARGET_NAMES`] or a sign tuple.
     Equilibrium,
-    /// A start: one of [`START_NAMES`], a sign tuple or a full state.
+    /// A start: one of [`super::START_NAMES`], a sign tuple or a full state.
     Start,
     /// Named numbers: a mapping with some of these names (the others keep their
     /// defaults) or a sequence of exactly as many numbers.
@@ -68,7 +79,7 @@ pub enum KeyKind {
 }
 
 /// One configuration key.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 pub struct ConfigKey {
     /// The keyword.
     pub name: &'static str,
@@ -80,37 +91,191 @@ pub struct ConfigKey {
     pub expected: &'static str,
     /// What it means (with its unit).
     pub help: &'static str,
+    /// Where its value goes when a configuration is resolved.
+    pub goes_to: Destination,
 }
 
-/// Names accepted for a target equilibrium (besides a sign tuple).
-pub const TARGET_NAMES: [&str; 7] = [
-    "hanging",
-    "inverted",
-    "folded",
-    "folded_up",
-    "paper-fig1",
-    "paper-fig2",
-    "paper-fig3",
-];
+/// Where a key's value goes when a configuration is resolved.
+#[derive(Debug, Clone, Copy)]
+pub enum Destination {
+    /// The chain's parameters, read together when the model is built.
+    Model,
+    /// The task's ends (`target`, `start`, `transitions`), resolved together on the
+    /// chain.
+    Ends,
+    /// The reality gap, whose keys are converted together.
+    RealityGap,
+    /// The env around the task: the scene, the observation's dtype, diagnostics,
+    /// rendering.
+    Env,
+    /// One field of the task, set by this function.
+    Task(SetTask),
+}
 
-/// Names accepted for a start (besides a sign tuple or a full state): `"target"`
-/// and the target names.
-pub const START_NAMES: [&str; 8] = {
-    let mut names = ["target"; 8];
-    let mut i = 0;
-    while i < TARGET_NAMES.len() {
-        names[i + 1] = TARGET_NAMES[i];
-        i += 1;
+/// Sets a field of the task from a key's value. The value's type and form are checked
+/// before; its range is checked once, with the whole task, by `TaskConfig::validate`.
+pub type SetTask = fn(&mut TaskConfig, Setting) -> Result<()>;
+
+/// A key's value in plain form, as the core applies it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value {
+    /// Absent: the feature is off.
+    Off,
+    /// An integer.
+    Integer(i64),
+    /// A number.
+    Number(f64),
+    /// True or false.
+    Flag(bool),
+    /// A name.
+    Name(String),
+    /// Numbers (one per link, or a key's named numbers in order).
+    Numbers(Vec<f64>),
+}
+
+impl Value {
+    /// The table's default as a value (the `Relative` entries of the reality gap have no
+    /// plain form and read as `Off`).
+    pub fn of_default(default: KeyValue) -> Self {
+        match default {
+            KeyValue::Int(i) => Self::Integer(i),
+            KeyValue::Float(x) => Self::Number(x),
+            KeyValue::Bool(b) => Self::Flag(b),
+            KeyValue::Name(s) => Self::Name(s.to_string()),
+            KeyValue::Floats(v) => Self::Numbers(v.to_vec()),
+            KeyValue::None | KeyValue::Relative(_) => Self::Off,
+        }
     }
-    names
-};
+}
+
+/// A key with its value, as a [`SetTask`] receives it.
+#[derive(Debug, Clone)]
+pub struct Setting {
+    /// The key.
+    pub key: &'static ConfigKey,
+    /// Its value.
+    pub value: Value,
+}
+
+impl Setting {
+    /// The key's default.
+    pub fn default_of(key: &'static ConfigKey) -> Self {
+        Self {
+            key,
+            value: Value::of_default(key.default),
+        }
+    }
+
+    /// The error of a value of another form than the key's.
+    fn wrong_form(&self, form: &'static str) -> ChainError {
+        InputError::WrongForm {
+            name: self.key.name,
+            got: format!("{:?}", self.value),
+            expected: form,
+        }
+        .into()
+    }
+
+    /// A number.
+    pub fn number(&self) -> Result<f64> {
+        match self.value {
+            Value::Number(x) => Ok(x),
+            Value::Integer(i) => Ok(i as f64),
+            _ => Err(self.wrong_form("a number")),
+        }
+    }
+
+    /// A number, or `None` for off.
+    pub fn optional_number(&self) -> Result<Option<f64>> {
+        match self.value {
+            Value::Off => Ok(None),
+            _ => self.number().map(Some),
+        }
+    }
+
+    /// A count `>= 0`, or `None` for off (a negative count names the key's accepted
+    /// values).
+    pub fn optional_count<T: TryFrom<i64>>(&self) -> Result<Option<T>> {
+        match self.value {
+            Value::Off => Ok(None),
+            Value::Integer(i) => T::try_from(i).map(Some).map_err(|_| {
+                InputError::InvalidParameter {
+                    name: self.key.name,
+                    value: i as f64,
+                    expected: self.key.expected,
+                }
+                .into()
+            }),
+            _ => Err(self.wrong_form("an integer")),
+        }
+    }
+
+    /// A count `>= 0`.
+    pub fn count<T: TryFrom<i64>>(&self) -> Result<T> {
+        self.optional_count()?
+            .ok_or_else(|| self.wrong_form("an integer"))
+    }
+
+    /// True or false.
+    pub fn flag(&self) -> Result<bool> {
+        match self.value {
+            Value::Flag(b) => Ok(b),
+            _ => Err(self.wrong_form("True or False")),
+        }
+    }
+
+    /// A name.
+    pub fn name(&self) -> Result<&str> {
+        match &self.value {
+            Value::Name(s) => Ok(s),
+            _ => Err(self.wrong_form("a name")),
+        }
+    }
+
+    /// One number for every link (a list of one), or one per link.
+    pub fn per_link(&self) -> Result<Vec<f64>> {
+        match &self.value {
+            Value::Number(x) => Ok(vec![*x]),
+            Value::Numbers(v) => Ok(v.clone()),
+            _ => Err(self.wrong_form("a number or one per link")),
+        }
+    }
+
+    /// Exactly `N` numbers.
+    pub fn numbers<const N: usize>(&self) -> Result<[f64; N]> {
+        match &self.value {
+            Value::Numbers(v) => v
+                .as_slice()
+                .try_into()
+                .map_err(|_| self.wrong_form("a fixed number of numbers")),
+            _ => Err(self.wrong_form("a fixed number of numbers")),
+        }
+    }
+}
+
+impl TaskConfig {
+    /// Applies every key that goes to a task field, in table order, taking each value
+    /// from `value_of` (a key's value, or its default when `value_of` gives `None`).
+    pub fn apply_keys(
+        &mut self,
+        mut value_of: impl FnMut(&'static ConfigKey) -> Option<Value>,
+    ) -> Result<()> {
+        for key in CONFIG_KEYS {
+            if let Destination::Task(set) = key.goes_to {
+                let setting = match value_of(key) {
+                    Some(value) => Setting { key, value },
+                    None => Setting::default_of(key),
+                };
+                set(self, setting)?;
+            }
+        }
+        Ok(())
+    }
+}
 
 /// The name, for `target` or `start`, of a draw at every reset among all equilibria
 /// (other than the other end).
 pub const ANY: &str = "any";
-
-/// Names of the rewards (`RewardKind`).
-pub const REWARD_NAMES: [&str; 2] = ["exp", "tolerance"];
 
 /// Names of the observation dtypes.
 pub const OBS_DTYPE_NAMES: [&str; 2] = ["float32", "float64"];
@@ -121,26 +286,6 @@ pub const REWARD_WEIGHT_NAMES: [&str; 5] = ["q", "w", "x", "v", "u"];
 /// Names of the success tolerances.
 pub const SUCCESS_TOLERANCE_NAMES: [&str; 2] = ["e_q", "e_w"];
 
-/// Default half-width of the start noise (also [`super::TaskConfig::new`]'s).
-pub const DEFAULT_START_NOISE: f64 = 0.05;
-/// Default track limit, m (also [`super::TaskConfig::new`]'s).
-pub const DEFAULT_TRACK_LIMIT: f64 = 2.4;
-/// Default episode length, steps (also [`super::TaskConfig::new`]'s).
-pub const DEFAULT_MAX_EPISODE_STEPS: i64 = 500;
-/// Default force of a unit action, N (also [`super::TaskConfig::new`]'s).
-pub const DEFAULT_MAX_FORCE: f64 = 20.0;
-
-/// Default reward weights `[q, w, x, v, u]` (see `RewardWeights`): a tilt of 0.3 rad
-/// costs 9% of the reward, a hanging link (|q - s e3|^2 = 4) leaves 2%, and the cart,
-/// the rates and the force only shape the reward near the target.
-pub const DEFAULT_REWARD_WEIGHTS: [f64; 5] = [1.0, 0.1, 0.1, 0.1, 0.01];
-/// Default success tolerances `[e_q, e_w]`: about 6 degrees of tilt and 0.5 rad/s in total.
-pub const DEFAULT_SUCCESS_TOLERANCES: [f64; 2] = [0.1, 0.5];
-
-/// Default acceleration of a unit action in the `acceleration` actuation, m/s^2.
-pub const DEFAULT_MAX_ACCELERATION: f64 = 10.0;
-/// Default voltage of a unit action in the `voltage` actuation, V.
-pub const DEFAULT_MAX_VOLTAGE: f64 = 12.0;
 /// Default motor `[torque_constant, resistance, gear_ratio, pulley_radius,
 /// current_limit]` of the `voltage` actuation: a small 12 V motor (0.02 N m/A, 2 ohm)
 /// on a 5:1 gear and a 2 cm pulley, limited to 5 A: 25 N at stall (the current limit;
@@ -159,6 +304,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Int(2),
         expected: "an integer >= 1",
         help: "number of links",
+        goes_to: Destination::Model,
     },
     ConfigKey {
         name: "cart_mass",
@@ -166,6 +312,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(1.0),
         expected: "a finite number > 0",
         help: "cart mass, kg",
+        goes_to: Destination::Model,
     },
     ConfigKey {
         name: "link_masses",
@@ -173,6 +320,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(0.1),
         expected: "a finite number > 0, or one per link",
         help: "kg, one number or one per link (a point mass at the link's end)",
+        goes_to: Destination::Model,
     },
     ConfigKey {
         name: "link_lengths",
@@ -180,6 +328,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(0.5),
         expected: "a finite number > 0, or one per link",
         help: "m, one number or one per link",
+        goes_to: Destination::Model,
     },
     ConfigKey {
         name: "gravity",
@@ -187,6 +336,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(STANDARD_GRAVITY),
         expected: "a finite number > 0",
         help: "m/s^2, along e3",
+        goes_to: Destination::Model,
     },
     ConfigKey {
         name: "planar",
@@ -194,6 +344,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Bool(true),
         expected: "True or False",
         help: "planar model (cart on e1, links in the e1-e3 plane); false: spatial",
+        goes_to: Destination::Model,
     },
     ConfigKey {
         name: "target",
@@ -204,6 +355,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "the equilibrium to reach: a name or a sign tuple (+1 hanging, -1 upright \
                link; on the command line --target=-1,1); any: drawn at every reset among all \
                2^n (n <= 8)",
+        goes_to: Destination::Ends,
     },
     ConfigKey {
         name: "start",
@@ -214,6 +366,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "where episodes start: target, an equilibrium name or sign tuple, \
                paper-fig1..3, a full state, or any: drawn at every reset among the \
                equilibria other than the target",
+        goes_to: Destination::Ends,
     },
     ConfigKey {
         name: "start_noise",
@@ -221,6 +374,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(DEFAULT_START_NOISE),
         expected: "a finite number >= 0",
         help: "half-width of the uniform start noise in every local coordinate",
+        goes_to: Destination::Task(|t, s| {
+            t.start_noise = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "dt",
@@ -228,6 +385,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(0.02),
         expected: "a finite number > 0",
         help: "control period, s",
+        goes_to: Destination::Task(|t, s| {
+            t.dt = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "integrator",
@@ -235,6 +396,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Name("rk4"),
         expected: "one of rk4, rkmk4, variational, lie_euler, adaptive",
         help: "integrator: rk4, rkmk4, variational, lie_euler or adaptive",
+        goes_to: Destination::Task(|t, s| {
+            t.step_options.method = Method::from_name(s.name()?)?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "substeps",
@@ -244,6 +409,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "integrator steps per control period (the default's two 10 ms RK4 steps: with \
                single 20 ms steps random pushes whip the links past 25 rad/s and about 7% of \
                random-action episodes end flagged as under-resolved; with two, none)",
+        goes_to: Destination::Task(|t, s| {
+            t.step_options.substeps = s.count()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "max_force",
@@ -251,6 +420,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(DEFAULT_MAX_FORCE),
         expected: "a finite number >= 0",
         help: "N per unit action (0: uncontrolled)",
+        goes_to: Destination::Task(|t, s| {
+            t.max_force = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "track_limit",
@@ -258,6 +431,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(DEFAULT_TRACK_LIMIT),
         expected: "a finite number > 0",
         help: "m; the episode terminates when the cart goes beyond it",
+        goes_to: Destination::Task(|t, s| {
+            t.track_limit = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "max_episode_steps",
@@ -265,6 +442,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Int(DEFAULT_MAX_EPISODE_STEPS),
         expected: "an integer >= 1",
         help: "episode length in steps (truncation)",
+        goes_to: Destination::Task(|t, s| {
+            t.max_episode_steps = s.count()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "reward_weights",
@@ -273,6 +454,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         expected: "a RewardWeights, a mapping with some of q, w, x, v, u, or five numbers, \
                    each a finite number >= 0",
         help: "reward weights q, w, x, v, u (a mapping such as {\"q\": 2}, or five numbers)",
+        goes_to: Destination::Task(|t, s| {
+            t.reward = RewardWeights::from_array(s.numbers()?);
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "scene",
@@ -280,6 +465,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Name(DEFAULT_SCENE),
         expected: "a scene name",
         help: "named scene whose values fill every keyword not given",
+        goes_to: Destination::Env,
     },
     ConfigKey {
         name: "obs_dtype",
@@ -287,6 +473,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Name("float32"),
         expected: "'float32' or 'float64'",
         help: "dtype of the observations",
+        goes_to: Destination::Env,
     },
     ConfigKey {
         name: "success_tolerances",
@@ -294,6 +481,11 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Floats(&DEFAULT_SUCCESS_TOLERANCES),
         expected: "two numbers (e_q, e_w), each a finite number > 0",
         help: "e_q, e_w bounds of a success at the time limit (is_success)",
+        goes_to: Destination::Task(|t, s| {
+            let [e_q, e_w] = s.numbers()?;
+            t.success = SuccessTolerances { e_q, e_w };
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "reward",
@@ -304,6 +496,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                or tolerance (bounded in [0, 1] for large motions: the mean of the links' \
                alignment with the target and a closeness within the success tolerances, times \
                a centring and a force factor)",
+        goes_to: Destination::Task(|t, s| {
+            t.reward_kind = RewardKind::from_name(s.name()?)?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "success_hold",
@@ -312,6 +508,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         expected: "a finite number >= 0",
         help: "s the errors must have stayed within success_tolerances at the end of an episode \
                for a success (0: the last step alone)",
+        goes_to: Destination::Task(|t, s| {
+            t.success_hold = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "transitions",
@@ -321,6 +521,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "goal-conditioned tasks: the (start, target) equilibria every reset draws one \
                pair from (overrides start and target; none: from start and target, where \
                any draws)",
+        goes_to: Destination::Ends,
     },
     ConfigKey {
         name: "goal_observation",
@@ -328,6 +529,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Bool(false),
         expected: "True or False",
         help: "observations end with the target's n signs (goal-conditioned policies)",
+        goes_to: Destination::Task(|t, s| {
+            t.goal_observation = s.flag()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "diagnostics",
@@ -335,6 +540,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Bool(false),
         expected: "True or False",
         help: "energies and constraint residuals in every step's info (costs time)",
+        goes_to: Destination::Env,
     },
     ConfigKey {
         name: "precision",
@@ -343,6 +549,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         expected: "'f64' or 'f32' (f32 with integrator 'rk4' only)",
         help: "number type of the physics: f64, or f32 on the rk4 SIMD lane kernel (twice the \
                lanes: faster, within 1e-3 m of f64 after 1 s on the paper's scenes)",
+        goes_to: Destination::Task(|t, s| {
+            t.precision = Precision::from_name(s.name()?)?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "randomize",
@@ -356,6 +566,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                \"log_scale\": [low, high], \"range\": [low, high] (absolute), \
                \"log_range\": [low, high] (absolute, log-uniform), and optionally \
                \"per_link\": false to draw one number shared by all links.",
+        goes_to: Destination::RealityGap,
     },
     ConfigKey {
         name: "params",
@@ -366,6 +577,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "The true physical parameters when they differ from the model's: a dict \
                with some of cart_mass, link_masses, link_lengths, gravity (a number, or \
                one number per link), or a ChainCart. The env's model stays nominal.",
+        goes_to: Destination::RealityGap,
     },
     ConfigKey {
         name: "mismatch",
@@ -375,6 +587,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "Scale factors from the nominal (or params) values to the true ones: a \
                dict with some of cart_mass, link_masses, link_lengths, gravity (a factor, \
                or one factor per link).",
+        goes_to: Destination::RealityGap,
     },
     ConfigKey {
         name: "obs_noise",
@@ -383,6 +596,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         expected: "a finite standard deviation >= 0: one number, or one per state component",
         help: "Standard deviation of Gaussian noise added to every observation: one \
                number for all components or one per component (state units).",
+        goes_to: Destination::RealityGap,
     },
     ConfigKey {
         name: "action_delay",
@@ -394,6 +608,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                draws each episode's delay uniformly from low..=high at its reset, from the \
                env's seeded start stream (after the start state), for training that covers \
                several delays.",
+        goes_to: Destination::RealityGap,
     },
     ConfigKey {
         name: "force_rate_limit",
@@ -405,6 +620,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                reset (its inverse uniform between 1/high and 1/low; high may be inf, \
                no limit), from the env's seeded start stream after the delay, for \
                training that covers several limits.",
+        goes_to: Destination::RealityGap,
     },
     ConfigKey {
         name: "force_noise",
@@ -416,6 +632,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                axis: a dict with some of \"multiplicative\": sm (relative) and \"additive\": sa \
                (N); the force f after delay and rate limit becomes f (1 + sm z1) + sa z2, \
                z1, z2 standard normal, not clipped to max_force. None for none.",
+        goes_to: Destination::RealityGap,
     },
     ConfigKey {
         name: "render_view",
@@ -424,6 +641,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         expected: "one of 3d, side, top, side+top, or none for the scene's default",
         help: "picture of rendered frames: 3d (a lit perspective view), side, top or side+top \
                (flat views); none: 3d for spatial chains, side for planar ones",
+        goes_to: Destination::Env,
     },
     ConfigKey {
         name: "joint_damping",
@@ -434,6 +652,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                torque -c_i (w_i - w_{i-1}) on link i, relative to the link above (the first \
                link relative to the cart, which does not rotate); 0: none. On, the envs step \
                one by one (not on the SIMD lanes)",
+        goes_to: Destination::Task(|t, s| {
+            t.rig.joint_damping = s.per_link()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "cart_viscous_friction",
@@ -442,6 +664,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         expected: "a finite number >= 0",
         help: "viscous friction of the cart on each axis, N s/m: the force -b v; 0: none. On, \
                the envs step one by one",
+        goes_to: Destination::Task(|t, s| {
+            t.rig.cart_viscous_friction = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "cart_coulomb_friction",
@@ -450,6 +676,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         expected: "a finite number >= 0",
         help: "Coulomb friction of the cart on each axis, N: the force -F_c tanh(v / \
                coulomb_velocity), a smooth law; 0: none. On, the envs step one by one",
+        goes_to: Destination::Task(|t, s| {
+            t.rig.cart_coulomb_friction = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "coulomb_velocity",
@@ -459,6 +689,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "m/s, the velocity scale of the Coulomb friction's tanh law (76 % of the full \
                friction at this speed, 99.5 % at three times it); smaller is sharper and needs \
                smaller integrator steps",
+        goes_to: Destination::Task(|t, s| {
+            t.rig.coulomb_velocity = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "actuation",
@@ -470,6 +704,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                mass drops out) or voltage (a DC motor, see motor: max_voltage V per unit \
                action). Other than force, the envs step one by one, and force_rate_limit and \
                force_noise act on the command in its own unit",
+        goes_to: Destination::Task(set_actuation),
     },
     ConfigKey {
         name: "max_acceleration",
@@ -477,6 +712,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(DEFAULT_MAX_ACCELERATION),
         expected: "a finite number >= 0",
         help: "m/s^2 per unit action with actuation acceleration",
+        goes_to: Destination::Task(|t, s| {
+            t.max_acceleration = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "max_voltage",
@@ -484,6 +723,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         default: KeyValue::Float(DEFAULT_MAX_VOLTAGE),
         expected: "a finite number >= 0",
         help: "V per unit action with actuation voltage",
+        goes_to: Destination::Task(|t, s| {
+            t.max_voltage = s.number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "motor",
@@ -495,6 +738,7 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                also the back-EMF constant in V s/rad), resistance R (ohm), gear_ratio N, \
                pulley_radius r (m), current_limit (A); force N k i / r with current i = (V - \
                k N v / r) / R clipped to the limit",
+        goes_to: Destination::Task(set_motor),
     },
     ConfigKey {
         name: "angle_encoder_counts",
@@ -506,6 +750,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                each angle reads rounded down to the grid 2 pi / counts, and the link's \
                angular velocity is estimated from the change of the counts over dt (zero on \
                an episode's first observation); none: exact angles and velocities",
+        goes_to: Destination::Task(|t, s| {
+            t.sensors.angle_counts = s.optional_count()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "cart_encoder_counts",
@@ -516,6 +764,10 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                position reads rounded down to the grid 1 / counts, and the cart velocity is \
                estimated from the change of the counts over dt (zero on an episode's first \
                observation); none: exact position and velocity",
+        goes_to: Destination::Task(|t, s| {
+            t.sensors.cart_counts = s.optional_number()?;
+            Ok(())
+        }),
     },
     ConfigKey {
         name: "velocity_filter",
@@ -525,8 +777,34 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         help: "time constant tau (s) of a first-order low-pass filter of the encoders' \
                velocity estimates, v += (1 - exp(-dt / tau)) (raw - v); 0: the raw finite \
                differences",
+        goes_to: Destination::Task(|t, s| {
+            t.sensors.velocity_filter = s.number()?;
+            Ok(())
+        }),
     },
 ];
+
+/// `actuation`: the mode, with the voltage mode's motor as it stands (`motor`, later
+/// in the table, sets it).
+fn set_actuation(t: &mut TaskConfig, s: Setting) -> Result<()> {
+    let motor = match t.rig.actuation {
+        Actuation::Voltage(motor) => motor,
+        _ => Motor::from_array(DEFAULT_MOTOR),
+    };
+    t.rig.actuation = Actuation::from_name(s.name()?, motor)?;
+    Ok(())
+}
+
+/// `motor`: checked even when the actuation does not use it, so that a bad value is
+/// never kept silently.
+fn set_motor(t: &mut TaskConfig, s: Setting) -> Result<()> {
+    let motor = Motor::from_array(s.numbers()?);
+    motor.validate()?;
+    if let Actuation::Voltage(m) = &mut t.rig.actuation {
+        *m = motor;
+    }
+    Ok(())
+}
 
 /// The key with this name.
 pub fn config_key(name: &str) -> Option<&'static ConfigKey> {
@@ -566,6 +844,115 @@ mod tests {
         }
     }
 
+    /// A task with the table's defaults: the default scene's chain, control period and
+    /// integrator.
+    fn default_task() -> TaskConfig {
+        TaskConfig::new(
+            vec![-1.0; 2],
+            0.02,
+            crate::integrate::StepOptions::default(),
+        )
+    }
+
+    /// A value of `key`'s kind other than its default.
+    fn other_value(key: &ConfigKey) -> Value {
+        match (key.kind, Value::of_default(key.default)) {
+            (KeyKind::Integer, Value::Integer(i)) => Value::Integer(i + 1),
+            (KeyKind::Integer, _) => Value::Integer(7),
+            (KeyKind::Number | KeyKind::PerLink, Value::Number(x)) => Value::Number(x + 1.0),
+            (KeyKind::Number, _) => Value::Number(3.0),
+            (KeyKind::Flag, Value::Flag(b)) => Value::Flag(!b),
+            (KeyKind::Choice(names), Value::Name(name)) => Value::Name(
+                names
+                    .iter()
+                    .find(|n| **n != name)
+                    .expect("a second choice")
+                    .to_string(),
+            ),
+            (_, Value::Numbers(v)) => Value::Numbers(v.iter().map(|x| x + 1.0).collect()),
+            (kind, value) => panic!("{}: no other value for {kind:?} {value:?}", key.name),
+        }
+    }
+
+    #[test]
+    fn a_new_task_holds_the_table_defaults() {
+        let mut applied = default_task();
+        applied.apply_keys(|_| None).unwrap();
+        let mut new = default_task();
+        // The integrator's options are an argument of `new`, not a default of it.
+        new.step_options = applied.step_options;
+        // One damping number for every joint, zero, is how the key writes no damping.
+        new.rig.joint_damping = vec![0.0];
+        assert_eq!(applied, new);
+    }
+
+    #[test]
+    fn every_task_key_sets_its_own_part_of_the_task() {
+        let base = default_task();
+        let mut changed = Vec::new();
+        for key in CONFIG_KEYS {
+            let Destination::Task(set) = key.goes_to else {
+                continue;
+            };
+            let mut task = base.clone();
+            let value = other_value(key);
+            set(
+                &mut task,
+                Setting {
+                    key,
+                    value: value.clone(),
+                },
+            )
+            .unwrap();
+            if key.name == "motor" {
+                // The motor lands in the voltage actuation only.
+                task.rig.actuation =
+                    Actuation::from_name("voltage", Motor::from_array(DEFAULT_MOTOR)).unwrap();
+                set(&mut task, Setting { key, value }).unwrap();
+            }
+            assert_ne!(task, base, "{} changed nothing", key.name);
+            assert!(
+                !changed.contains(&format!("{task:?}")),
+                "{} sets what another key sets",
+                key.name
+            );
+            changed.push(format!("{task:?}"));
+        }
+        assert!(changed.len() >= 20, "{} task keys", changed.len());
+    }
+
+    #[test]
+    fn a_value_of_another_form_is_refused_naming_the_key() {
+        let key = config_key("max_force").unwrap();
+        let Destination::Task(set) = key.goes_to else {
+            panic!("max_force goes to the task");
+        };
+        let err = set(
+            &mut default_task(),
+            Setting {
+                key,
+                value: Value::Name("big".into()),
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(err, "max_force = Name(\"big\"): expected a number");
+        let key = config_key("max_episode_steps").unwrap();
+        let Destination::Task(set) = key.goes_to else {
+            panic!("max_episode_steps goes to the task");
+        };
+        let err = set(
+            &mut default_task(),
+            Setting {
+                key,
+                value: Value::Integer(-3),
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("max_episode_steps = -3"), "{err}");
+    }
+
     #[test]
     fn the_render_views_are_the_renderers() {
         let key = config_key("render_view").unwrap();
@@ -581,10 +968,10 @@ mod tests {
 
     #[test]
     fn the_name_lists_agree_with_the_parsers() {
-        for name in TARGET_NAMES {
+        for name in crate::env::TARGET_NAMES {
             assert!(super::super::target_signs(name, 5).is_ok(), "{name}");
         }
-        for name in START_NAMES {
+        for name in crate::env::START_NAMES {
             assert!(super::super::Start::from_name(name, 5).is_ok(), "{name}");
         }
     }

@@ -53,12 +53,12 @@ mod step;
 pub use batch::{CheckedTask, EnvBatch, Snapshot, RNG_BYTES};
 pub use config::{
     target_signs, AutoresetMode, PaperFigure, RewardKind, RewardWeights, Start, SuccessTolerances,
-    TaskConfig,
+    TaskConfig, START_NAMES, TARGET_NAMES,
 };
 pub use goals::{Ends, Transitions, MAX_DRAWN_LINKS};
 pub use keys::{
-    config_key, ConfigKey, KeyKind, KeyValue, ANY, CONFIG_KEYS, DEFAULT_MOTOR, KEY_NAMES,
-    START_NAMES, TARGET_NAMES,
+    config_key, ConfigKey, Destination, KeyKind, KeyValue, SetTask, Setting, Value, ANY,
+    CONFIG_KEYS, DEFAULT_MOTOR, KEY_NAMES,
 };
 pub use measure::{measure, MeasureInto, RewardSpec, StateMeasure};
 pub use outputs::{event, EpisodeEnds, Real, StepOutputs, DIAGNOSTICS};

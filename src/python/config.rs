@@ -11,17 +11,15 @@ use super::reality::{reality_gap, write_task_keys, RealityArgs};
 use crate::analysis::{Linearization, LqrController};
 use crate::any_chain::AnyChain;
 use crate::env::{
-    config_key, CheckedTask, ConfigKey, Ends, KeyKind, KeyValue, RewardKind, RewardWeights, Scene,
-    Sensors, Start, SuccessTolerances, TaskConfig, Transitions, ANY, CONFIG_KEYS, KEY_NAMES,
-    SCENES,
+    config_key, CheckedTask, ConfigKey, Destination, Ends, KeyKind, KeyValue, Scene, Start,
+    TaskConfig, Transitions, Value, ANY, CONFIG_KEYS, KEY_NAMES, SCENES,
 };
 use crate::error::{quoted, InputError};
 use crate::geometry::{Planar, Spatial};
-use crate::integrate::{Method, StepOptions};
-use crate::lanes::Precision;
-use crate::params::{Actuation, Motor, Rig};
+use crate::integrate::StepOptions;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyMapping, PyString, PyTuple};
+use std::collections::HashMap;
 
 /// A configuration resolved, converted and checked once: the model, the task on it and
 /// every key's value in canonical form. Envs build their batches from it.
@@ -339,19 +337,6 @@ fn force_rate_limit(value: &Bound<'_, PyAny>) -> PyResult<(f64, Option<f64>)> {
     value_or_range("force_rate_limit", value, FORCE_RATE_LIMIT_EXPECTED, number)
 }
 
-/// A count of at least one, the bound taken from the key table.
-fn count(key: &ConfigKey, value: &Bound<'_, PyAny>) -> PyResult<u64> {
-    let v = integer(key.name, value)?;
-    u64::try_from(v).map_err(|_| {
-        InputError::InvalidParameter {
-            name: key.name,
-            value: v as f64,
-            expected: key.expected,
-        }
-        .into()
-    })
-}
-
 fn flag(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
     value
         .extract::<bool>()
@@ -649,38 +634,47 @@ fn transitions(
     )?))
 }
 
-/// The task of canonical values on `chain`.
+/// A task field's canonical value as the core's plain [`Value`] (`None`: off).
+fn plain_value(key: &ConfigKey, value: &Bound<'_, PyAny>) -> PyResult<Value> {
+    if value.is_none() {
+        return Ok(Value::Off);
+    }
+    Ok(match key.kind {
+        KeyKind::Integer => Value::Integer(integer(key.name, value)?),
+        KeyKind::Number => Value::Number(number(key.name, value)?),
+        KeyKind::Flag => Value::Flag(flag(key.name, value)?),
+        KeyKind::Choice(_) => Value::Name(value.extract()?),
+        KeyKind::PerLink => match value.extract::<f64>() {
+            Ok(x) => Value::Number(x),
+            Err(_) => Value::Numbers(value.extract()?),
+        },
+        KeyKind::NamedNumbers(_) | KeyKind::Numbers(_) => Value::Numbers(value.extract()?),
+        _ => Value::Name(value.str()?.to_string()),
+    })
+}
+
+/// The task of canonical values on `chain`: the ends and the reality gap resolved
+/// together, every other task key applied by the key table.
 fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
-    let f = |name: &str| get(values, name).extract::<f64>();
     let n = chain.n_links();
-    let method = Method::from_name(&get(values, "integrator").extract::<String>()?)?;
-    let precision = Precision::from_name(&get(values, "precision").extract::<String>()?)?;
-    let substeps = count(key("substeps"), &get(values, "substeps"))?;
     let (target, start_value) = (get(values, "target"), get(values, "start"));
     let transitions = transitions(values, &target, &start_value, chain)?;
-    let mut task = TaskConfig::new(
-        match &transitions {
-            Some(t) => t.target(0).to_vec(),
-            None => signs(&target, n)?,
-        },
-        f("dt")?,
-        StepOptions::new(method, substeps as usize)?,
-    );
+    let target = match &transitions {
+        Some(t) => t.target(0).to_vec(),
+        None => signs(&target, n)?,
+    };
+    let mut task = TaskConfig::new(target, 0.0, StepOptions::default());
     task.start = match &transitions {
         Some(t) => Start::Equilibrium(t.start(0).to_vec()),
         None => start(&start_value, n, chain.state_dim())?,
     };
     task.transitions = transitions;
-    task.start_noise = f("start_noise")?;
-    task.max_force = f("max_force")?;
-    task.track_limit = f("track_limit")?;
-    task.max_episode_steps = count(key("max_episode_steps"), &get(values, "max_episode_steps"))?;
-    task.reward = RewardWeights::from_array(get(values, "reward_weights").extract()?);
-    task.reward_kind = RewardKind::from_name(&get(values, "reward").extract::<String>()?)?;
-    let [e_q, e_w]: [f64; 2] = get(values, "success_tolerances").extract()?;
-    task.success = SuccessTolerances { e_q, e_w };
-    task.success_hold = f("success_hold")?;
-    task.goal_observation = get(values, "goal_observation").extract()?;
+    let plain = CONFIG_KEYS
+        .iter()
+        .filter(|key| matches!(key.goes_to, Destination::Task(_)))
+        .map(|key| Ok((key.name, plain_value(key, &get(values, key.name))?)))
+        .collect::<PyResult<HashMap<_, _>>>()?;
+    task.apply_keys(|key| plain.get(key.name).cloned())?;
     let optional = |name: &str| Some(get(values, name)).filter(|v| !v.is_none());
     task.reality = reality_gap(RealityArgs {
         randomize: optional("randomize").as_ref(),
@@ -693,65 +687,7 @@ fn task(values: &Bound<'_, PyDict>, chain: &AnyChain) -> PyResult<TaskConfig> {
             .transpose()?,
         force_noise: optional("force_noise").as_ref(),
     })?;
-    task.precision = precision;
-    task.rig = rig(values)?;
-    task.max_acceleration = f("max_acceleration")?;
-    task.max_voltage = f("max_voltage")?;
-    task.sensors = sensors(values)?;
     Ok(task)
-}
-
-/// The encoders of canonical values (`None` resolutions: off).
-fn sensors(values: &Bound<'_, PyDict>) -> PyResult<Sensors> {
-    let optional = |name: &str| Some(get(values, name)).filter(|v| !v.is_none());
-    let angle_counts = match optional("angle_encoder_counts") {
-        None => None,
-        Some(v) => {
-            let counts = integer("angle_encoder_counts", &v)?;
-            Some(
-                u32::try_from(counts).map_err(|_| InputError::InvalidParameter {
-                    name: "angle_encoder_counts",
-                    value: counts as f64,
-                    expected: crate::env::ANGLE_COUNTS_EXPECTED,
-                })?,
-            )
-        }
-    };
-    let cart_counts = optional("cart_encoder_counts")
-        .map(|v| number("cart_encoder_counts", &v))
-        .transpose()?;
-    let sensors = Sensors {
-        angle_counts,
-        cart_counts,
-        velocity_filter: number("velocity_filter", &get(values, "velocity_filter"))?,
-    };
-    sensors.validate()?;
-    Ok(sensors)
-}
-
-/// The real-rig effects of canonical values (the motor checked even when the
-/// actuation does not use it, so a bad value is never kept silently).
-fn rig(values: &Bound<'_, PyDict>) -> PyResult<Rig> {
-    let f = |name: &str| get(values, name).extract::<f64>();
-    let damping = get(values, "joint_damping");
-    let joint_damping = match damping.extract::<f64>() {
-        Ok(c) => vec![c],
-        Err(_) => damping.extract::<Vec<f64>>()?,
-    };
-    let motor = Motor::from_array(get(values, "motor").extract()?);
-    motor.validate()?;
-    let actuation = Actuation::from_name(&get(values, "actuation").extract::<String>()?, motor)?;
-    Ok(Rig {
-        joint_damping,
-        cart_viscous_friction: f("cart_viscous_friction")?,
-        cart_coulomb_friction: f("cart_coulomb_friction")?,
-        coulomb_velocity: f("coulomb_velocity")?,
-        actuation,
-    })
-}
-
-fn key(name: &str) -> &'static ConfigKey {
-    config_key(name).expect("a key of the table")
 }
 
 /// Resolves a dict of keys (any subset, `scene` among them) into the model, the task
