@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
-from typing import Any, Optional, Union
+from typing import Any, Optional, TypeVar, Union
 
 import numpy as np
 
@@ -143,13 +143,38 @@ def unknown_keyword_message(name: str) -> str:
     raise AssertionError(f"{name!r} is a configuration keyword")
 
 
+_T = TypeVar("_T")
+
+
+def _fields_of_the_key_table(cls: type[_T]) -> type[_T]:
+    """Makes every key of the core's table a field of ``cls``, in table order, before
+    ``dataclass`` reads its annotations: a key the class body declares keeps its type
+    (for type checkers and editors), a key it does not is a field all the same, typed
+    ``Any``. So a new key of the table is a keyword of the config without a line here;
+    a declared name that is not a key is an error."""
+    declared = dict(cls.__dict__.get("__annotations__", {}))
+    public = [name for name in declared if not name.startswith("_")]
+    strays = [name for name in public if name not in _KEYWORDS]
+    if strays:
+        raise TypeError(f"{cls.__name__} declares {strays}: expected keys of the core's table")
+    annotations: dict[str, Any] = {}
+    for name, *_ in CONFIG_KEYS:
+        annotations[name] = declared.get(name, Any)
+        if name not in cls.__dict__:
+            setattr(cls, name, _UNSET)
+    annotations.update({name: kind for name, kind in declared.items() if name.startswith("_")})
+    cls.__annotations__ = annotations
+    return cls
+
+
 @dataclass(frozen=True)
+@_fields_of_the_key_table
 class ChainCartConfig:
     """Everything that defines a chaincart env. The fields are the core's configuration
     keys (:data:`CONFIG_KEYS`: meaning, accepted values and default of each, also in
-    the :class:`chaincart_env.ChainCartEnv` docstring). Keywords left out take the
-    scene's value; reality-gap values are stored in the canonical form the core
-    returns."""
+    the :class:`chaincart_env.ChainCartEnv` docstring), in the table's order; those
+    declared below carry their types. Keywords left out take the scene's value;
+    reality-gap values are stored in the canonical form the core returns."""
 
     n_links: int = _UNSET
     cart_mass: float = _UNSET

@@ -300,3 +300,29 @@ def test_each_bad_value_raises_the_exception_class_it_always_did(kwargs: dict, e
         ChainCartConfig(**kwargs)
     assert type(caught.value) is error, caught.value
     assert f"{next(iter(kwargs))}" in str(caught.value)
+
+
+def test_every_key_of_the_table_is_a_config_field_declared_or_not() -> None:
+    # Adding a key to the core's table makes it a keyword without a line in config.py:
+    # a class declaring one key gets all of them, in the table's order.
+    from chaincart_env.config import _fields_of_the_key_table
+
+    @dataclasses.dataclass(frozen=True)
+    @_fields_of_the_key_table
+    class OneDeclared:
+        max_force: float = 1.0
+
+    fields = {f.name: f for f in dataclasses.fields(OneDeclared)}
+    assert list(fields) == [name for name, *_ in CONFIG_KEYS]
+    assert fields["max_force"].type == "float" and fields["max_force"].default == 1.0
+    assert fields["n_links"].default is None and OneDeclared().n_links is None
+
+
+def test_a_declared_config_field_that_is_no_key_is_refused() -> None:
+    from chaincart_env.config import _fields_of_the_key_table
+
+    with pytest.raises(TypeError, match=r"declares \['max_forse'\]: expected keys of the core's table"):
+
+        @_fields_of_the_key_table
+        class Misspelt:
+            max_forse: float = 1.0
