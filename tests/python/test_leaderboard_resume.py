@@ -157,3 +157,32 @@ def test_a_fresh_run_interrupted_early_leaves_no_old_cells_to_resume(tmp_path: p
     monkeypatch.setattr(run, "evaluate_cell_job", counting)
     rows = run_leaderboard(_settings(controllers=("lqr",), episodes=3), out, log=quiet)
     assert counting.evaluated == 4 and all(r["episodes"] == 3 for r in rows)
+
+
+def test_a_run_whose_cells_are_all_read_back_trains_no_agent(tmp_path: pathlib.Path, monkeypatch) -> None:
+    # As from a published run's cells.csv and leaderboard.json, without its agents.
+    import shutil
+
+    settings = _settings(controllers=("ppo", "lqr"), axes=parse_axes("delay"))
+    _fresh_process(monkeypatch)
+    out = tmp_path / "run"
+    whole = run_leaderboard(settings, out, log=lambda _: None)
+    shutil.rmtree(out / "agents")
+    lines: list[str] = []
+    _fresh_process(monkeypatch)
+    again = run_leaderboard(settings, out, log=lines.append)
+    assert not [line for line in lines if "training" in line], lines
+    assert not (out / "agents").exists()
+    assert [{k: v for k, v in row.items() if k not in TIMING_COLUMNS} for row in again] == [
+        {k: v for k, v in row.items() if k not in TIMING_COLUMNS} for row in whole]
+    # A cell to evaluate again brings its agent's training back.
+    rows = _table(out / "cells.csv")
+    with (out / "cells.csv").open("w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(rows[0]) + list(TIMING_COLUMNS))
+        writer.writeheader()
+        writer.writerows({**row, "us_per_step": "1.0"} for row in rows if row["controller"] != "ppo" or row["seed"] != "0"
+                         or row["value"] != rows[-1]["value"])
+    lines.clear()
+    _fresh_process(monkeypatch)
+    run_leaderboard(settings, out, log=lines.append)
+    assert [line for line in lines if "training ppo" in line], lines

@@ -192,12 +192,17 @@ class _Plan:
     skipped: dict[tuple[str, str], str] = field(default_factory=dict)
 
     def sources(self) -> dict[str, Any]:
-        """Every policy by key, the agents read from their model files (trained by now)."""
-        agents = {key: PolicySource.sb3(path, name) for key, (name, path) in self.agents.items()}
+        """Every policy by key, the agents read from their model files (trained by now,
+        but for agents whose cells were all read back: those have none, and need none)."""
+        agents = {key: PolicySource.sb3(path, name) for key, (name, path) in self.agents.items() if path.is_file()}
         return {**self.designs, **agents}
 
 
-def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None]) -> _Plan:
+def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None],
+          finished: Mapping[Any, dict[str, Any]]) -> _Plan:
+    """The run's plan; a learned agent is trained only where one of its cells is still to
+    evaluate (a run whose cells are all read back, as from a published run's
+    ``cells.csv``, trains nothing)."""
     plan = _Plan()
     for scene in settings.scenes:
         config = ChainCartConfig(scene=scene, **settings.extra)
@@ -211,15 +216,16 @@ def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None]) 
                     continue
             for seed in settings.seeds:
                 key = f"{scene}/{name}"
+                cells = cells_of(scene, name, settings.axes, settings.values(), seed, settings.episodes_per_cell)
                 if name in LEARNED:
                     directory = agent_directory(out, scene, name, seed)
                     key = f"{key}/seed-{seed}"
                     plan.agents[key] = (name, directory / MODEL_FILE)
-                    if not (directory / MODEL_FILE).is_file():
+                    pending = any(cell_key(cell) not in finished for cell in cells)
+                    if pending and not (directory / MODEL_FILE).is_file():
                         plan.training.append((directory, AgentTraining(
                             config, name, seed, settings.training_timesteps, settings.quick, folder_contents(directory))))
-                plan.jobs += [CellJob(cell, config, key) for cell in cells_of(
-                    scene, name, settings.axes, settings.values(), seed, settings.episodes_per_cell)]
+                plan.jobs += [CellJob(cell, config, key) for cell in cells]
     return plan
 
 
@@ -250,7 +256,7 @@ def _run(
 ) -> list[dict[str, Any]]:
     from chaincart_env.tools.leaderboard.leaderboard_report import write_report
 
-    plan = _plan(settings, out, log)
+    plan = _plan(settings, out, log, finished)
     _train_agents(plan.training, settings, distributed, log)
     rows = _evaluate(plan, finished, settings, out, log, distributed)
     write_csv(out / "cells.csv", rows, CELL_COLUMNS)
