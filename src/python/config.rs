@@ -649,7 +649,12 @@ fn plain_value(key: &ConfigKey, value: &Bound<'_, PyAny>) -> PyResult<Value> {
             Err(_) => Value::Numbers(value.extract()?),
         },
         KeyKind::NamedNumbers(_) | KeyKind::Numbers(_) => Value::Numbers(value.extract()?),
-        _ => Value::Name(value.str()?.to_string()),
+        other => {
+            return Err(error(format!(
+                "{}: a key of kind {other:?} is resolved with its group, not as a task field",
+                key.name
+            )))
+        }
     })
 }
 
