@@ -921,35 +921,22 @@ mod tests {
         assert!(changed.len() >= 20, "{} task keys", changed.len());
     }
 
+    /// The error of setting task key `name` to `value` on the default task.
+    fn refusal(name: &str, value: Value) -> String {
+        let key = config_key(name).unwrap();
+        let Destination::Task(set) = key.goes_to else {
+            panic!("{name} goes to the task");
+        };
+        set(&mut default_task(), Setting { key, value })
+            .unwrap_err()
+            .to_string()
+    }
+
     #[test]
     fn a_value_of_another_form_is_refused_naming_the_key() {
-        let key = config_key("max_force").unwrap();
-        let Destination::Task(set) = key.goes_to else {
-            panic!("max_force goes to the task");
-        };
-        let err = set(
-            &mut default_task(),
-            Setting {
-                key,
-                value: Value::Name("big".into()),
-            },
-        )
-        .unwrap_err()
-        .to_string();
+        let err = refusal("max_force", Value::Name("big".into()));
         assert_eq!(err, "max_force = Name(\"big\"): expected a number");
-        let key = config_key("max_episode_steps").unwrap();
-        let Destination::Task(set) = key.goes_to else {
-            panic!("max_episode_steps goes to the task");
-        };
-        let err = set(
-            &mut default_task(),
-            Setting {
-                key,
-                value: Value::Integer(-3),
-            },
-        )
-        .unwrap_err()
-        .to_string();
+        let err = refusal("max_episode_steps", Value::Integer(-3));
         assert!(err.contains("max_episode_steps = -3"), "{err}");
     }
 
