@@ -114,6 +114,32 @@ impl<G: Geometry> Chain<G> {
         Ok(self)
     }
 
+    /// The chain with the real-rig effects `rig` kept even when they are all off, its
+    /// joint damping one number per link: a chain whose envs draw their own damping and
+    /// friction ([`Chain::set_rig_unchecked`]), which then always steps the rig's path.
+    pub fn with_drawn_rig(mut self, mut rig: Rig) -> Result<Self> {
+        let n = self.n_links();
+        rig.validate(n)?;
+        rig.joint_damping = (0..n).map(|i| rig.damping(i)).collect();
+        self.rig = Some(Box::new(rig));
+        Ok(self)
+    }
+
+    /// Replaces the rig's damping and friction in place without allocating (an env's
+    /// own draws, loaded before its step). The caller guarantees a chain built by
+    /// [`Chain::with_drawn_rig`] and values finite and >= 0, one damping per link.
+    pub(crate) fn set_rig_unchecked(&mut self, joint_damping: &[f64], viscous: f64, coulomb: f64) {
+        debug_assert!(
+            self.rig.is_some(),
+            "set_rig_unchecked on a chain without a rig"
+        );
+        if let Some(rig) = self.rig.as_deref_mut() {
+            rig.joint_damping.copy_from_slice(joint_damping);
+            rig.cart_viscous_friction = viscous;
+            rig.cart_coulomb_friction = coulomb;
+        }
+    }
+
     /// The real-rig effects, or `None` for the ideal model.
     pub fn rig(&self) -> Option<&Rig> {
         self.rig.as_deref()

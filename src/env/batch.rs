@@ -25,7 +25,7 @@ use crate::engine::{Engine, Shared, StateHome, CHUNK};
 use crate::error::{InputError, Result};
 use crate::lanes::{Kernel, LaneScene, Precision};
 use crate::model::Chain;
-use crate::params::ChainParams;
+use crate::params::{ChainParams, Rig};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -246,10 +246,12 @@ impl<G: LaneScene> EnvBatch<G> {
             states: vec![0.0; num_envs * d],
             slots: vec![Slot::default(); num_envs],
             start_rngs: vec![unseeded.clone(); num_envs],
-            params: if per_env {
-                EnvParams::filled(true_params, num_envs)
-            } else {
-                EnvParams::empty(chain.n_links())
+            params: match engine.chain().rig() {
+                Some(rig) if widths.rig_scalars == 1 => {
+                    EnvParams::filled_with_rig(true_params, rig, num_envs)
+                }
+                _ if per_env => EnvParams::filled(true_params, num_envs),
+                _ => EnvParams::empty(chain.n_links()),
             },
             param_rngs: vec![unseeded.clone(); num_envs * widths.param_scalars],
             noise_rngs: vec![unseeded.clone(); num_envs * widths.noise_rng],
@@ -346,6 +348,17 @@ impl<G: LaneScene> EnvBatch<G> {
         } else {
             Ok(self.true_params().clone())
         }
+    }
+    /// Whether each env draws its own joint damping and cart friction at its resets.
+    pub fn draws_rig(&self) -> bool {
+        self.data.params.has_rig()
+    }
+    /// Env `env`'s current rig effects: its own draw where `randomize` draws joint
+    /// damping or cart friction, else the true system's (the ideal rig when it has none).
+    pub fn env_rig(&self, env: usize) -> Result<Rig> {
+        self.check_env(env)?;
+        let base = self.engine.chain().rig().cloned().unwrap_or_default();
+        self.data.params.rig(env, &base)
     }
     /// The per-env parameter arrays (struct of arrays over the envs) when parameters
     /// are per env, `None` when all envs share [`EnvBatch::true_params`].
@@ -625,7 +638,7 @@ impl<G: LaneScene> EnvBatch<G> {
         // Each part of the snapshot against the batch: name, length given, length
         // expected (one line each, which rustfmt would spread over five).
         #[rustfmt::skip]
-        let sizes: [(&'static str, usize, usize); 14] = [
+        let sizes: [(&'static str, usize, usize); 17] = [
             ("snapshot states", snap.states.len(), d.states.len()),
             ("snapshot rng", snap.rng.len(), n),
             ("snapshot steps", snap.steps.len(), n),
@@ -636,6 +649,9 @@ impl<G: LaneScene> EnvBatch<G> {
             ("snapshot param_rng", snap.param_rng.len(), d.param_rngs.len()),
             ("snapshot noise_rng", snap.noise_rng.len(), d.noise_rngs.len()),
             ("snapshot params", snap.params.num_envs(), d.params.num_envs()),
+            ("snapshot joint_damping", snap.params.joint_damping.len(), d.params.joint_damping.len()),
+            ("snapshot cart_viscous_friction", snap.params.cart_viscous_friction.len(), d.params.cart_viscous_friction.len()),
+            ("snapshot cart_coulomb_friction", snap.params.cart_coulomb_friction.len(), d.params.cart_coulomb_friction.len()),
             ("snapshot noisy_obs", snap.noisy_obs.len(), d.noisy_obs.len()),
             ("snapshot action_queue", snap.action_queue.len(), d.queue.len()),
             ("snapshot last_force", snap.last_force.len(), d.last_force.len()),
@@ -656,6 +672,7 @@ impl<G: LaneScene> EnvBatch<G> {
         }
         for k in 0..snap.params.num_envs() {
             snap.params.get(k)?;
+            snap.params.rig(k, &crate::params::Rig::default())?;
         }
         d.states.copy_from_slice(&snap.states);
         for (k, slot) in d.slots.iter_mut().enumerate() {
@@ -705,8 +722,12 @@ fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
 fn check_task<G: LaneScene>(chain: &Chain<G>, task: &TaskConfig) -> Result<(Chain<G>, Vec<f64>)> {
     task.validate(chain.n_links())?;
     task.reality.validate(chain.n_links(), chain.state_dim())?;
-    let true_chain =
-        Chain::new(task.reality.true_params(chain.params())?).with_rig(task.rig.clone())?;
+    let true_params = Chain::new(task.reality.true_params(chain.params())?);
+    let true_chain = if task.reality.randomize.draws_rig() {
+        true_params.with_drawn_rig(task.rig.clone())?
+    } else {
+        true_params.with_rig(task.rig.clone())?
+    };
     let base = match &task.transitions {
         None => base_state(chain, task)?,
         Some(pairs) => {

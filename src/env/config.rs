@@ -488,6 +488,7 @@ impl TaskConfig {
         check_non_negative("max_acceleration", self.max_acceleration)?;
         check_non_negative("max_voltage", self.max_voltage)?;
         self.rig.validate(n)?;
+        self.reality.randomize.validate_rig(&self.rig)?;
         self.sensors.validate()?;
         self.check_rig_stepping()
     }
@@ -495,7 +496,7 @@ impl TaskConfig {
     /// A rig with real effects steps env by env in f64, by an integrator other than
     /// the variational one.
     fn check_rig_stepping(&self) -> Result<()> {
-        if self.rig.is_ideal() {
+        if self.rig.is_ideal() && !self.reality.randomize.draws_rig() {
             return Ok(());
         }
         if self.step_options.method == Method::Variational {

@@ -558,14 +558,16 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         name: "randomize",
         kind: KeyKind::RealityGap,
         default: KeyValue::None,
-        expected: "a dict mapping some of cart_mass, link_masses, link_lengths, gravity to \
-                   a relative half-width or a distribution",
+        expected: "a dict mapping some of cart_mass, link_masses, link_lengths, gravity, \
+                   joint_damping, cart_viscous_friction, cart_coulomb_friction to a relative \
+                   half-width or a distribution",
         help: "Domain randomisation at every reset: a dict mapping cart_mass, link_masses, \
-               link_lengths, gravity to a relative half-width h (value times U[1-h, 1+h], \
+               link_lengths, gravity (and the rig's joint_damping, cart_viscous_friction, \
+               cart_coulomb_friction) to a relative half-width h (value times U[1-h, 1+h], \
                0 <= h < 1) or to a dict with one of \"scale\": h or [low, high], \
-               \"log_scale\": [low, high], \"range\": [low, high] (absolute), \
-               \"log_range\": [low, high] (absolute, log-uniform), and optionally \
-               \"per_link\": false to draw one number shared by all links.",
+               \"log_scale\": [low, high], \"range\": [low, high] (absolute; from 0 for \
+               the rig's), \"log_range\": [low, high] (absolute, log-uniform), and \
+               optionally \"per_link\": false to draw one number shared by all links.",
         goes_to: Destination::RealityGap,
     },
     ConfigKey {

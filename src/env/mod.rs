@@ -64,7 +64,7 @@ pub use measure::{measure, MeasureInto, RewardSpec, StateMeasure};
 pub use outputs::{event, EpisodeEnds, Real, StepOutputs, DIAGNOSTICS};
 pub use reality::{
     Distribution, EnvParams, ForceNoise, Param, ParamRandomization, ParamValues, Randomization,
-    RealityGap, ACTION_DELAY_EXPECTED, FORCE_RATE_LIMIT_EXPECTED,
+    RealityGap, RigParam, ACTION_DELAY_EXPECTED, FORCE_RATE_LIMIT_EXPECTED, RANDOMIZE_NAMES,
 };
 pub use scenes::{Scene, DEFAULT_SCENE, SCENES};
 pub use sensors::{Sensors, ANGLE_COUNTS_EXPECTED};

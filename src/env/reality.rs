@@ -19,12 +19,17 @@
 //!
 //! **Draw order at a reset** (only for the parameters that are randomised): the cart
 //! mass, the link masses (one number per link, or one shared), the link lengths
-//! (likewise), gravity. Each draw is `u` uniform in `[0, 1)` mapped as
+//! (likewise), gravity, then the rig's joint damping (per link or shared), its cart's
+//! viscous and its Coulomb friction. Each draw is `u` uniform in `[0, 1)` mapped as
 //! [`Distribution::sample`] says.
+//!
+//! **Rig effects.** Joint damping and cart friction ([`RigParam`]) are drawn the same
+//! way, around the task's rig values, so that an agent can train on rigs with and
+//! without them; their absolute forms may start at zero (no damping, no friction).
 
 use crate::error::{check_positive, InputError, Result};
 use crate::params::check_positive_links;
-use crate::params::ChainParams;
+use crate::params::{ChainParams, Rig};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
@@ -115,6 +120,70 @@ enum Kind {
     Mismatch,
 }
 
+/// A real-rig effect that can be randomised (never mismatched: the rig's own keys set
+/// its value).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RigParam {
+    /// The joints' viscous damping.
+    JointDamping,
+    /// The cart's viscous friction.
+    CartViscousFriction,
+    /// The cart's Coulomb friction.
+    CartCoulombFriction,
+}
+
+impl RigParam {
+    /// Every rig parameter, in draw order.
+    pub const ALL: [RigParam; 3] = [
+        RigParam::JointDamping,
+        RigParam::CartViscousFriction,
+        RigParam::CartCoulombFriction,
+    ];
+
+    /// The parameter's keyword name (the rig key it draws).
+    pub fn name(self) -> &'static str {
+        match self {
+            RigParam::JointDamping => "joint_damping",
+            RigParam::CartViscousFriction => "cart_viscous_friction",
+            RigParam::CartCoulombFriction => "cart_coulomb_friction",
+        }
+    }
+
+    /// The parameter named `name`, if one is.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// `"randomize.<name>"`, for error messages.
+    fn qualified(self) -> &'static str {
+        match self {
+            RigParam::JointDamping => "randomize.joint_damping",
+            RigParam::CartViscousFriction => "randomize.cart_viscous_friction",
+            RigParam::CartCoulombFriction => "randomize.cart_coulomb_friction",
+        }
+    }
+
+    /// The rig's value that a relative draw scales (joint damping: its largest).
+    fn base(self, rig: &Rig) -> f64 {
+        match self {
+            RigParam::JointDamping => rig.joint_damping.iter().copied().fold(0.0, f64::max),
+            RigParam::CartViscousFriction => rig.cart_viscous_friction,
+            RigParam::CartCoulombFriction => rig.cart_coulomb_friction,
+        }
+    }
+}
+
+/// Every name the `randomize` keyword takes: the physical parameters, then the rig's.
+pub const RANDOMIZE_NAMES: [&str; 7] = [
+    "cart_mass",
+    "link_masses",
+    "link_lengths",
+    "gravity",
+    "joint_damping",
+    "cart_viscous_friction",
+    "cart_coulomb_friction",
+];
+
 /// How one parameter is drawn at a reset; `u` is uniform in `[0, 1)` and `p` the
 /// env's true (pre-randomisation) value.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -182,7 +251,26 @@ impl Distribution {
     }
 
     fn validate(self, name: &'static str) -> Result<()> {
+        self.validate_from(name, false)
+    }
+
+    /// As `validate`, where a uniform absolute range may start at 0 (`zero_allowed`: a
+    /// rig effect, which may be off).
+    fn validate_from(self, name: &'static str, zero_allowed: bool) -> Result<()> {
         let (low, high) = self.bounds();
+        if zero_allowed && matches!(self, Self::Range { .. }) {
+            return if low.is_finite() && high.is_finite() && low >= 0.0 && low <= high {
+                Ok(())
+            } else {
+                Err(InputError::InvalidRange {
+                    name,
+                    low,
+                    high,
+                    expected: "0 <= low <= high, finite",
+                }
+                .into())
+            };
+        }
         let expected = match self {
             Self::Scale { .. } | Self::LogScale { .. } => {
                 "0 < low <= high, finite (a relative half-width must be in [0, 1): \
@@ -228,6 +316,12 @@ pub struct Randomization {
     pub link_lengths: Option<ParamRandomization>,
     /// Gravity's randomisation.
     pub gravity: Option<ParamRandomization>,
+    /// The joint damping's randomisation.
+    pub joint_damping: Option<ParamRandomization>,
+    /// The cart's viscous friction's randomisation.
+    pub cart_viscous_friction: Option<ParamRandomization>,
+    /// The cart's Coulomb friction's randomisation.
+    pub cart_coulomb_friction: Option<ParamRandomization>,
 }
 
 impl Randomization {
@@ -249,15 +343,62 @@ impl Randomization {
             Param::Gravity => self.gravity = value,
         }
     }
+    /// The randomisation of the rig effect `p`.
+    pub fn get_rig(&self, p: RigParam) -> Option<ParamRandomization> {
+        match p {
+            RigParam::JointDamping => self.joint_damping,
+            RigParam::CartViscousFriction => self.cart_viscous_friction,
+            RigParam::CartCoulombFriction => self.cart_coulomb_friction,
+        }
+    }
+    /// Sets the randomisation of the rig effect `p`.
+    pub fn set_rig(&mut self, p: RigParam, value: Option<ParamRandomization>) {
+        match p {
+            RigParam::JointDamping => self.joint_damping = value,
+            RigParam::CartViscousFriction => self.cart_viscous_friction = value,
+            RigParam::CartCoulombFriction => self.cart_coulomb_friction = value,
+        }
+    }
     /// Nothing is randomised.
     pub fn is_off(&self) -> bool {
-        Param::ALL.iter().all(|&p| self.get(p).is_none())
+        Param::ALL.iter().all(|&p| self.get(p).is_none()) && !self.draws_rig()
     }
-    /// Checks every range (finite, non-empty, positive where values must be).
+    /// Some rig effect is drawn at every reset.
+    pub fn draws_rig(&self) -> bool {
+        RigParam::ALL.iter().any(|&p| self.get_rig(p).is_some())
+    }
+    /// Checks every range (finite, non-empty, positive where values must be; a rig
+    /// effect's absolute range may start at 0).
     pub fn validate(&self) -> Result<()> {
         for p in Param::ALL {
             if let Some(r) = self.get(p) {
                 r.distribution.validate(p.qualified(Kind::Randomize))?;
+            }
+        }
+        for p in RigParam::ALL {
+            if let Some(r) = self.get_rig(p) {
+                r.distribution.validate_from(p.qualified(), true)?;
+            }
+        }
+        Ok(())
+    }
+    /// Checks the rig draws against the task's `rig`: a relative draw needs a non-zero
+    /// value to scale.
+    pub fn validate_rig(&self, rig: &Rig) -> Result<()> {
+        for p in RigParam::ALL {
+            let Some(r) = self.get_rig(p) else { continue };
+            let relative = matches!(
+                r.distribution,
+                Distribution::Scale { .. } | Distribution::LogScale { .. }
+            );
+            if relative && p.base(rig) == 0.0 {
+                return Err(InputError::InvalidParameter {
+                    name: p.qualified(),
+                    value: 0.0,
+                    expected: "a relative draw of a non-zero value: the rig's value is 0, so give \
+                               an absolute {\"range\": [low, high]} (low may be 0) or \"log_range\"",
+                }
+                .into());
             }
         }
         Ok(())
@@ -612,11 +753,68 @@ pub struct ParamRow<'a> {
     pub link_lengths: &'a mut [f64],
     /// The env's gravity.
     pub gravity: &'a mut f64,
+    /// The env's rig effects (empty unless drawn).
+    pub rig: RigRow<'a>,
+}
+
+/// One env's rig effects inside [`EnvParams`] (every slice empty when none is drawn).
+pub struct RigRow<'a> {
+    /// Joint damping, one per link.
+    pub joint_damping: &'a mut [f64],
+    /// Cart viscous friction (one number).
+    pub cart_viscous_friction: &'a mut [f64],
+    /// Cart Coulomb friction (one number).
+    pub cart_coulomb_friction: &'a mut [f64],
+}
+
+impl RigRow<'_> {
+    /// Whether the env draws its own rig effects.
+    pub fn is_drawn(&self) -> bool {
+        !self.cart_coulomb_friction.is_empty()
+    }
+
+    /// Draws the rig effects around `rig` (the true chain's, joint damping one per
+    /// link) from `rng`, after the physical parameters.
+    fn sample<R: Rng>(&mut self, r: &Randomization, rig: &Rig, rng: &mut R) {
+        if !self.is_drawn() {
+            return;
+        }
+        for (i, c) in self.joint_damping.iter_mut().enumerate() {
+            *c = rig.damping(i);
+        }
+        if let Some(d) = r.joint_damping {
+            if d.per_link {
+                for c in self.joint_damping.iter_mut() {
+                    *c = d.distribution.sample(*c, rng.random());
+                }
+            } else {
+                let u: f64 = rng.random();
+                for c in self.joint_damping.iter_mut() {
+                    *c = d.distribution.sample(*c, u);
+                }
+            }
+        }
+        let scalar = |d: Option<ParamRandomization>, p: f64, rng: &mut R| match d {
+            Some(d) => d.distribution.sample(p, rng.random()),
+            None => p,
+        };
+        self.cart_viscous_friction[0] =
+            scalar(r.cart_viscous_friction, rig.cart_viscous_friction, rng);
+        self.cart_coulomb_friction[0] =
+            scalar(r.cart_coulomb_friction, rig.cart_coulomb_friction, rng);
+    }
 }
 
 impl ParamRow<'_> {
-    /// Draws new values around `truth` from `rng`, in the documented order.
-    pub fn sample<R: Rng>(&mut self, r: &Randomization, truth: &ChainParams, rng: &mut R) {
+    /// Draws new values around `truth` (and the rig effects around `rig`, where drawn)
+    /// from `rng`, in the documented order.
+    pub fn sample<R: Rng>(
+        &mut self,
+        r: &Randomization,
+        truth: &ChainParams,
+        rig: Option<&Rig>,
+        rng: &mut R,
+    ) {
         *self.cart_mass = match r.cart_mass {
             Some(d) => d.distribution.sample(truth.cart_mass(), rng.random()),
             None => truth.cart_mass(),
@@ -627,6 +825,9 @@ impl ParamRow<'_> {
             Some(d) => d.distribution.sample(truth.gravity(), rng.random()),
             None => truth.gravity(),
         };
+        if let Some(rig) = rig {
+            self.rig.sample(r, rig, rng);
+        }
     }
 }
 
@@ -666,10 +867,16 @@ pub struct EnvParams {
     pub link_lengths: Vec<f64>,
     /// Gravity of each env.
     pub gravity: Vec<f64>,
+    /// Joint damping, `n_links` per env (empty unless rig effects are drawn).
+    pub joint_damping: Vec<f64>,
+    /// Cart viscous friction of each env (empty unless rig effects are drawn).
+    pub cart_viscous_friction: Vec<f64>,
+    /// Cart Coulomb friction of each env (empty unless rig effects are drawn).
+    pub cart_coulomb_friction: Vec<f64>,
 }
 
 impl EnvParams {
-    /// `num_envs` copies of `p`.
+    /// `num_envs` copies of `p`, without rig effects of their own.
     pub fn filled(p: &ChainParams, num_envs: usize) -> Self {
         Self {
             n_links: p.n_links(),
@@ -677,7 +884,26 @@ impl EnvParams {
             link_masses: p.masses().repeat(num_envs),
             link_lengths: p.lengths().repeat(num_envs),
             gravity: vec![p.gravity(); num_envs],
+            joint_damping: Vec::new(),
+            cart_viscous_friction: Vec::new(),
+            cart_coulomb_friction: Vec::new(),
         }
+    }
+    /// `num_envs` copies of `p` and of the rig effects of `rig`, which each env then
+    /// draws its own of.
+    pub fn filled_with_rig(p: &ChainParams, rig: &Rig, num_envs: usize) -> Self {
+        let n = p.n_links();
+        let damping: Vec<f64> = (0..n).map(|i| rig.damping(i)).collect();
+        Self {
+            joint_damping: damping.repeat(num_envs),
+            cart_viscous_friction: vec![rig.cart_viscous_friction; num_envs],
+            cart_coulomb_friction: vec![rig.cart_coulomb_friction; num_envs],
+            ..Self::filled(p, num_envs)
+        }
+    }
+    /// Whether each env has rig effects of its own.
+    pub fn has_rig(&self) -> bool {
+        !self.cart_coulomb_friction.is_empty()
     }
     /// No per-env storage (the batch shares one parameter set).
     pub fn empty(n_links: usize) -> Self {
@@ -687,6 +913,9 @@ impl EnvParams {
             link_masses: Vec::new(),
             link_lengths: Vec::new(),
             gravity: Vec::new(),
+            joint_damping: Vec::new(),
+            cart_viscous_friction: Vec::new(),
+            cart_coulomb_friction: Vec::new(),
         }
     }
     /// Number of links.
@@ -706,6 +935,46 @@ impl EnvParams {
             &self.link_lengths[i * n..(i + 1) * n],
             self.gravity[i],
         )
+    }
+    /// Env `i`'s rig effects over `base` (its actuation and Coulomb velocity), checked;
+    /// `base` itself when the envs have none of their own.
+    pub fn rig(&self, i: usize, base: &Rig) -> Result<Rig> {
+        let mut rig = base.clone();
+        if self.has_rig() {
+            let n = self.n_links;
+            rig.joint_damping = self.joint_damping[i * n..(i + 1) * n].to_vec();
+            rig.cart_viscous_friction = self.cart_viscous_friction[i];
+            rig.cart_coulomb_friction = self.cart_coulomb_friction[i];
+        }
+        rig.validate(self.n_links)?;
+        Ok(rig)
+    }
+    /// Checks the sizes of the rig arrays: all empty, or one row per env.
+    pub fn check_rig_sizes(&self) -> Result<()> {
+        let envs = self.num_envs();
+        let (damping, viscous, coulomb) = (
+            self.joint_damping.len(),
+            self.cart_viscous_friction.len(),
+            self.cart_coulomb_friction.len(),
+        );
+        if damping + viscous + coulomb == 0 {
+            return Ok(());
+        }
+        for (name, got, expected) in [
+            ("joint_damping", damping, envs * self.n_links),
+            ("cart_viscous_friction", viscous, envs),
+            ("cart_coulomb_friction", coulomb, envs),
+        ] {
+            if got != expected {
+                return Err(InputError::LengthMismatch {
+                    name,
+                    got,
+                    expected,
+                }
+                .into());
+            }
+        }
+        Ok(())
     }
 }
 
@@ -821,8 +1090,13 @@ mod tests {
             link_masses: &mut params.link_masses[..],
             link_lengths: &mut params.link_lengths[..],
             gravity: &mut params.gravity[0],
+            rig: RigRow {
+                joint_damping: &mut [],
+                cart_viscous_friction: &mut [],
+                cart_coulomb_friction: &mut [],
+            },
         };
-        row.sample(&r, &truth, &mut rng);
+        row.sample(&r, &truth, None, &mut rng);
         let u0: f64 = expected_rng.random();
         let u1: f64 = expected_rng.random();
         let lerp = |u: f64| 0.2 + (0.6 - 0.2) * u;

@@ -12,7 +12,7 @@
 use super::config::{AutoresetMode, TaskConfig};
 use super::measure::{measure, MeasureInto, RewardSpec, StateMeasure};
 use super::outputs::{event, Real, DIAGNOSTICS};
-use super::reality::{EnvParams, ParamRow, RealityGap};
+use super::reality::{EnvParams, ParamRow, RealityGap, RigRow};
 use super::start::perturb;
 use crate::engine::{ChunkLanePath, EnvRange, Worker};
 use crate::geometry::{Geometry, Layout, Vector};
@@ -53,6 +53,10 @@ pub(super) struct Widths {
     pub param_links: usize,
     /// 1 when each env stores its own scalar parameters and parameter stream.
     pub param_scalars: usize,
+    /// Joint dampings stored per env (links, when rig effects are drawn; else 0).
+    pub rig_links: usize,
+    /// 1 when each env stores its own cart frictions.
+    pub rig_scalars: usize,
     /// Delayed actions per env (the longest delay times `force`).
     pub queue: usize,
     /// Sensed observation per env (`state` when noise or an encoder is on).
@@ -73,6 +77,7 @@ impl Widths {
         let reality = &task.reality;
         let (d, f) = (chain.state_dim(), chain.force_dim());
         let randomized = !reality.randomize.is_off();
+        let rig_drawn = reality.randomize.draws_rig();
         let noise = reality.has_obs_noise();
         let queue = reality.max_action_delay() * f;
         let last_force = if reality.draws_rate_limit() {
@@ -90,6 +95,8 @@ impl Widths {
             force: f,
             param_links: if randomized { chain.n_links() } else { 0 },
             param_scalars: randomized as usize,
+            rig_links: if rig_drawn { chain.n_links() } else { 0 },
+            rig_scalars: rig_drawn as usize,
             queue,
             noisy: if sensed { d } else { 0 },
             last_force,
@@ -135,6 +142,9 @@ impl EnvData {
             link_masses: &mut self.params.link_masses,
             link_lengths: &mut self.params.link_lengths,
             gravity: &mut self.params.gravity,
+            joint_damping: &mut self.params.joint_damping,
+            cart_viscous_friction: &mut self.params.cart_viscous_friction,
+            cart_coulomb_friction: &mut self.params.cart_coulomb_friction,
             param_rngs: &mut self.param_rngs,
             noise_rngs: &mut self.noise_rngs,
             noisy_obs: &mut self.noisy_obs,
@@ -168,6 +178,9 @@ pub(super) struct DataRange<'a> {
     link_masses: &'a mut [f64],
     link_lengths: &'a mut [f64],
     gravity: &'a mut [f64],
+    joint_damping: &'a mut [f64],
+    cart_viscous_friction: &'a mut [f64],
+    cart_coulomb_friction: &'a mut [f64],
     param_rngs: &'a mut [ChaCha8Rng],
     noise_rngs: &'a mut [ChaCha8Rng],
     noisy_obs: &'a mut [f64],
@@ -185,6 +198,9 @@ impl<'a> DataRange<'a> {
         let (link_masses, link_masses2) = cut(self.link_masses, at, w.param_links);
         let (link_lengths, link_lengths2) = cut(self.link_lengths, at, w.param_links);
         let (gravity, gravity2) = cut(self.gravity, at, w.param_scalars);
+        let (joint_damping, joint_damping2) = cut(self.joint_damping, at, w.rig_links);
+        let (viscous, viscous2) = cut(self.cart_viscous_friction, at, w.rig_scalars);
+        let (coulomb, coulomb2) = cut(self.cart_coulomb_friction, at, w.rig_scalars);
         let (param_rngs, param_rngs2) = cut(self.param_rngs, at, w.param_scalars);
         let (noise_rngs, noise_rngs2) = cut(self.noise_rngs, at, w.noise_rng);
         let (noisy_obs, noisy_obs2) = cut(self.noisy_obs, at, w.noisy);
@@ -200,6 +216,9 @@ impl<'a> DataRange<'a> {
                 link_masses,
                 link_lengths,
                 gravity,
+                joint_damping,
+                cart_viscous_friction: viscous,
+                cart_coulomb_friction: coulomb,
                 param_rngs,
                 noise_rngs,
                 noisy_obs,
@@ -215,6 +234,9 @@ impl<'a> DataRange<'a> {
                 link_masses: link_masses2,
                 link_lengths: link_lengths2,
                 gravity: gravity2,
+                joint_damping: joint_damping2,
+                cart_viscous_friction: viscous2,
+                cart_coulomb_friction: coulomb2,
                 param_rngs: param_rngs2,
                 noise_rngs: noise_rngs2,
                 noisy_obs: noisy_obs2,
@@ -252,6 +274,11 @@ impl<'a> DataRange<'a> {
             link_masses: row(self.link_masses, k, w.param_links),
             link_lengths: row(self.link_lengths, k, w.param_links),
             gravity: &mut self.gravity[k],
+            rig: RigRow {
+                joint_damping: row(self.joint_damping, k, w.rig_links),
+                cart_viscous_friction: row(self.cart_viscous_friction, k, w.rig_scalars),
+                cart_coulomb_friction: row(self.cart_coulomb_friction, k, w.rig_scalars),
+            },
         });
         EnvMut {
             y: row(self.states, k, w.state),
@@ -590,6 +617,13 @@ fn env_chain<'c, G: Geometry>(
         None => ctx.chain,
         Some(p) => {
             scratch.set_params_unchecked(*p.cart_mass, p.link_masses, p.link_lengths, *p.gravity);
+            if p.rig.is_drawn() {
+                scratch.set_rig_unchecked(
+                    p.rig.joint_damping,
+                    p.rig.cart_viscous_friction[0],
+                    p.rig.cart_coulomb_friction[0],
+                );
+            }
             scratch
         }
     }
@@ -622,7 +656,7 @@ pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
     e.slot.held = 0;
     e.slot.ended = false;
     if let (Some(p), Some(rng)) = (e.params.as_mut(), e.param_rng.as_deref_mut()) {
-        p.sample(&ctx.task.reality.randomize, ctx.truth, rng);
+        p.sample(&ctx.task.reality.randomize, ctx.truth, ctx.chain.rig(), rng);
     }
     e.queue.fill(0.0);
     e.last_force.fill(0.0);

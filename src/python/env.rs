@@ -284,12 +284,21 @@ impl PyEnvBatch {
         params_dict(py, scene!(&self.batch, b => b.true_params()))
     }
     /// Env `env`'s current true parameters (its own draw when randomised), as a dict.
+    /// With joint damping or cart friction drawn per episode, the env's draws too.
     fn env_params<'py>(&self, py: Python<'py>, env: usize) -> PyResult<Bound<'py, PyDict>> {
-        params_dict(py, &scene!(&self.batch, b => b.env_params(env))?)
+        let d = params_dict(py, &scene!(&self.batch, b => b.env_params(env))?)?;
+        if scene!(&self.batch, b => b.draws_rig()) {
+            let rig = scene!(&self.batch, b => b.env_rig(env))?;
+            d.set_item("joint_damping", rig.joint_damping)?;
+            d.set_item("cart_viscous_friction", rig.cart_viscous_friction)?;
+            d.set_item("cart_coulomb_friction", rig.cart_coulomb_friction)?;
+        }
+        Ok(d)
     }
     /// Every env's current true parameters as a dict of arrays with a leading
     /// `num_envs` axis (`cart_mass`, `gravity`: `(num_envs,)`; `link_masses`,
-    /// `link_lengths`: `(num_envs, n_links)`).
+    /// `link_lengths`: `(num_envs, n_links)`; with rig effects drawn per episode also
+    /// `joint_damping` `(num_envs, n_links)` and the cart frictions `(num_envs,)`).
     fn param_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         match scene!(&self.batch, b => b.per_env_params()) {
             Some(p) => param_arrays(py, p),
@@ -525,6 +534,17 @@ impl PyEnvBatch {
         params.set_item("link_masses", PyArray1::from_slice(py, &p.link_masses))?;
         params.set_item("link_lengths", PyArray1::from_slice(py, &p.link_lengths))?;
         params.set_item("gravity", PyArray1::from_slice(py, &p.gravity))?;
+        if p.has_rig() {
+            params.set_item("joint_damping", PyArray1::from_slice(py, &p.joint_damping))?;
+            params.set_item(
+                "cart_viscous_friction",
+                PyArray1::from_slice(py, &p.cart_viscous_friction),
+            )?;
+            params.set_item(
+                "cart_coulomb_friction",
+                PyArray1::from_slice(py, &p.cart_coulomb_friction),
+            )?;
+        }
         d.set_item("env_params", params)?;
         d.set_item("noisy_obs", PyArray1::from_vec(py, s.noisy_obs))?;
         d.set_item("action_queue", PyArray1::from_vec(py, s.action_queue))?;
@@ -590,6 +610,12 @@ impl PyEnvBatch {
         params.link_masses = param("link_masses")?;
         params.link_lengths = param("link_lengths")?;
         params.gravity = param("gravity")?;
+        // Rig effects drawn per env: present only in a snapshot of such a batch.
+        if env_params.contains("cart_coulomb_friction")? {
+            params.joint_damping = param("joint_damping")?;
+            params.cart_viscous_friction = param("cart_viscous_friction")?;
+            params.cart_coulomb_friction = param("cart_coulomb_friction")?;
+        }
         let snap = Snapshot {
             states: states.as_array().iter().copied().collect(),
             rng: rng_rows(&rng),

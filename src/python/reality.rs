@@ -6,8 +6,9 @@ use super::convert::{error, type_error};
 use super::model::ChainCart;
 use crate::env::{
     Distribution, EnvParams, ForceNoise, Param, ParamRandomization, ParamValues, Randomization,
-    RealityGap,
+    RealityGap, RigParam, RANDOMIZE_NAMES,
 };
+use crate::error::InputError;
 use crate::params::ChainParams;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
@@ -169,11 +170,38 @@ fn param_randomization(name: &str, value: &Bound<'_, PyAny>) -> PyResult<ParamRa
     })
 }
 
+/// `randomize=`: a dict from physical parameters and rig effects to their draws.
 fn randomization(value: Option<&Bound<'_, PyAny>>) -> PyResult<Randomization> {
     let mut out = Randomization::default();
-    for (p, v) in entries("randomize", value)? {
-        let name = format!("randomize[{:?}]", p.name());
-        out.set(p, Some(param_randomization(&name, &v)?));
+    let Some(value) = value.filter(|v| !v.is_none()) else {
+        return Ok(out);
+    };
+    let dict = value.cast::<PyDict>().map_err(|_| {
+        error(format!(
+            "randomize = {value}: expected a dict whose keys are some of {}",
+            crate::error::quoted(&RANDOMIZE_NAMES)
+        ))
+    })?;
+    for (k, v) in dict.iter() {
+        let key: String = k
+            .extract()
+            .map_err(|_| error(format!("randomize has key {k}: expected a parameter name")))?;
+        let name = format!("randomize[{key:?}]");
+        let draw = Some(param_randomization(&name, &v)?);
+        match RigParam::from_name(&key) {
+            Some(rig) => out.set_rig(rig, draw),
+            None => match Param::ALL.into_iter().find(|p| p.name() == key) {
+                Some(p) => out.set(p, draw),
+                None => {
+                    return Err(InputError::UnknownName {
+                        kind: "randomize key",
+                        name: key,
+                        expected: &RANDOMIZE_NAMES,
+                    }
+                    .into())
+                }
+            },
+        }
     }
     Ok(out)
 }
@@ -286,6 +314,11 @@ pub fn write_task_keys(py: Python<'_>, r: &RealityGap, d: &Bound<'_, PyDict>) ->
                 rd.set_item(p.name(), distribution_dict(py, pr)?)?;
             }
         }
+        for p in RigParam::ALL {
+            if let Some(pr) = r.randomize.get_rig(p) {
+                rd.set_item(p.name(), distribution_dict(py, pr)?)?;
+            }
+        }
         Some(rd)
     };
     d.set_item("randomize", randomize)?;
@@ -352,5 +385,19 @@ pub fn param_arrays<'py>(py: Python<'py>, p: &EnvParams) -> PyResult<Bound<'py, 
         PyArray1::from_slice(py, &p.link_lengths).reshape([num_envs, n])?,
     )?;
     d.set_item("gravity", PyArray1::from_slice(py, &p.gravity))?;
+    if p.has_rig() {
+        d.set_item(
+            "joint_damping",
+            PyArray1::from_slice(py, &p.joint_damping).reshape([num_envs, n])?,
+        )?;
+        d.set_item(
+            "cart_viscous_friction",
+            PyArray1::from_slice(py, &p.cart_viscous_friction),
+        )?;
+        d.set_item(
+            "cart_coulomb_friction",
+            PyArray1::from_slice(py, &p.cart_coulomb_friction),
+        )?;
+    }
     Ok(d)
 }

@@ -10,6 +10,7 @@ use chaincart::error::InputError;
 use chaincart::geometry::{Geometry, Vector};
 use chaincart::integrate::{Guard, GuardedStepper, StepStatus};
 use chaincart::lanes::LaneScene;
+use chaincart::params::Rig;
 use chaincart::{Chain, ChainError, ChainParams, Method, Planar, Spatial, StepOptions};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -47,6 +48,7 @@ fn randomization() -> Randomization {
             },
             per_link: false,
         }),
+        ..Default::default()
     }
 }
 
@@ -823,4 +825,165 @@ fn a_bad_force_rate_limit_range_is_an_error_naming_it() {
             "{low} {high}: {e}"
         );
     }
+}
+
+// ---- Rig effects drawn per episode -------------------------------------------------
+
+fn absolute(low: f64, high: f64, per_link: bool) -> Option<ParamRandomization> {
+    Some(ParamRandomization {
+        distribution: Distribution::Range { low, high },
+        per_link,
+    })
+}
+
+/// Joint damping within [0, 0.05] per link, cart friction viscous within [0.1, 1] and
+/// Coulomb within [0, 2], on top of `randomization()`.
+fn rig_drawn(n: usize) -> TaskConfig {
+    let mut t = task(n);
+    t.reality.randomize = Randomization {
+        joint_damping: absolute(0.0, 0.05, true),
+        cart_viscous_friction: absolute(0.1, 1.0, true),
+        cart_coulomb_friction: absolute(0.0, 2.0, true),
+        ..randomization()
+    };
+    t
+}
+
+#[test]
+fn an_env_with_drawn_rig_effects_steps_as_a_chain_with_its_draws() {
+    let t = rig_drawn(2);
+    let mut b = batch::<Spatial>(t.clone(), CHUNK + 2, 8, AutoresetMode::SameStep);
+    let mut out = Out::new(&b);
+    let d = b.state_dim();
+    let (mut checked, mut dampings) = (0, Vec::new());
+    for s in 0..40 {
+        let before = b.states().to_vec();
+        let systems: Vec<(ChainParams, Rig)> = (0..b.num_envs())
+            .map(|k| (b.env_params(k).unwrap(), b.env_rig(k).unwrap()))
+            .collect();
+        let a = actions(s, b.num_envs(), 2, 0);
+        out.step(&mut b, &a);
+        for (k, (p, rig)) in systems.iter().enumerate() {
+            dampings.push(rig.joint_damping.clone());
+            if b.events()[k] != 0 {
+                continue; // ended and reset: the state is a new episode's
+            }
+            let chain = Chain::<Spatial>::new(p.clone())
+                .with_rig(rig.clone())
+                .unwrap();
+            let mut y = before[k * d..(k + 1) * d].to_vec();
+            let force: Vec<f64> = a[2 * k..2 * k + 2]
+                .iter()
+                .map(|x| x.clamp(-1.0, 1.0) * t.max_force)
+                .collect();
+            assert!(!step_chain(&chain, &mut y, &force, &t).is_failure());
+            assert_eq!(&y[..], &b.states()[k * d..(k + 1) * d], "env {k} step {s}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 500, "{checked}");
+    // Each env drew its own damping, one per link, and episodes redraw it.
+    dampings.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    dampings.dedup();
+    assert!(dampings.len() >= 2 * (CHUNK + 2), "{}", dampings.len());
+    assert!(dampings.iter().all(|c| c.len() == 2 && c[0] != c[1]));
+}
+
+#[test]
+fn rig_draws_lie_in_their_ranges_and_shared_draws_are_shared() {
+    let mut t = rig_drawn(3);
+    t.reality.randomize.joint_damping = absolute(0.01, 0.03, false);
+    let mut b = batch::<Planar>(t, 400, 3, AutoresetMode::SameStep);
+    let rigs: Vec<Rig> = (0..400).map(|k| b.env_rig(k).unwrap()).collect();
+    let (mut lowest, mut highest) = (f64::INFINITY, 0.0f64);
+    for rig in &rigs {
+        let c = rig.joint_damping[0];
+        assert!(
+            rig.joint_damping.iter().all(|&x| x == c),
+            "{:?}",
+            rig.joint_damping
+        );
+        assert!((0.01..0.03).contains(&c), "{c}");
+        assert!((0.1..1.0).contains(&rig.cart_viscous_friction));
+        assert!((0.0..2.0).contains(&rig.cart_coulomb_friction));
+        lowest = lowest.min(rig.cart_coulomb_friction);
+        highest = highest.max(rig.cart_coulomb_friction);
+    }
+    // 400 uniform draws on [0, 2) reach within 0.05 of both ends.
+    assert!(lowest < 0.05 && highest > 1.95, "{lowest} {highest}");
+    // A reset draws anew.
+    let mut obs = vec![0.0; 400 * b.state_dim()];
+    b.reset(None, None, &mut obs).unwrap();
+    assert_ne!(b.env_rig(0).unwrap(), rigs[0]);
+}
+
+#[test]
+fn rig_draws_leave_the_start_states_and_the_physical_draws_unchanged() {
+    let mut physical = task(2);
+    physical.reality.randomize = randomization();
+    let mut a = batch::<Spatial>(physical, 9, 11, AutoresetMode::SameStep);
+    let mut b = batch::<Spatial>(rig_drawn(2), 9, 11, AutoresetMode::SameStep);
+    assert_eq!(a.states(), b.states());
+    for k in 0..9 {
+        assert_eq!(a.env_params(k).unwrap(), b.env_params(k).unwrap());
+        assert!(a.env_rig(k).unwrap().is_ideal() && !b.env_rig(k).unwrap().is_ideal());
+    }
+    let mut out = (Out::new(&a), Out::new(&b));
+    out.0.step(&mut a, &actions(0, 9, 2, 0));
+    out.1.step(&mut b, &actions(0, 9, 2, 0));
+    assert_ne!(
+        a.states(),
+        b.states(),
+        "the drawn damping and friction acted"
+    );
+}
+
+#[test]
+fn drawn_rig_effects_reproduce_per_env_and_across_snapshots() {
+    let num_envs = CHUNK + 1;
+    let mut big = batch::<Spatial>(rig_drawn(2), num_envs, 40, AutoresetMode::SameStep);
+    let h = history(&mut big, 60, 0);
+    assert_envs_are_single_envs(&h, || rig_drawn(2), num_envs, 40);
+    let snap = big.snapshot();
+    let rigs: Vec<Rig> = (0..num_envs).map(|k| big.env_rig(k).unwrap()).collect();
+    let after = history(&mut big, 30, 0);
+    big.restore(&snap).unwrap();
+    assert_eq!(
+        (0..num_envs)
+            .map(|k| big.env_rig(k).unwrap())
+            .collect::<Vec<_>>(),
+        rigs
+    );
+    assert_eq!(history(&mut big, 30, 0), after);
+}
+
+#[test]
+fn bad_rig_draws_are_errors_naming_them() {
+    let check = |spoil: &dyn Fn(&mut TaskConfig), needle: &str| {
+        let mut t = task(2);
+        spoil(&mut t);
+        let e = batch_error(t).unwrap_or_else(|| panic!("{needle}: accepted"));
+        assert!(e.contains(needle), "{needle}: {e}");
+    };
+    // A relative draw of a rig without damping would draw nothing but zeros.
+    check(
+        &|t| t.reality.randomize.joint_damping = relative(0.5),
+        "randomize.joint_damping = 0: expected a relative draw of a non-zero value",
+    );
+    check(
+        &|t| t.reality.randomize.cart_coulomb_friction = absolute(-0.1, 1.0, true),
+        "randomize.cart_coulomb_friction range [-0.1, 1]: expected 0 <= low <= high",
+    );
+    check(
+        &|t| {
+            t.reality.randomize.cart_viscous_friction = absolute(0.0, 1.0, true);
+            t.step_options = StepOptions::new(Method::Variational, 1).unwrap();
+        },
+        "variational",
+    );
+    // Scaled around a rig that has damping, a relative draw is accepted.
+    let mut t = task(2);
+    t.rig.joint_damping = vec![0.01];
+    t.reality.randomize.joint_damping = relative(0.5);
+    assert_eq!(batch_error(t), None);
 }

@@ -89,3 +89,39 @@ fn env_steps_and_resets_allocate_nothing() {
         }
     }
 }
+
+#[test]
+fn drawn_rig_effects_allocate_nothing() {
+    let mut task = TaskConfig::new(vec![-1.0; 3], 0.01, StepOptions::default());
+    task.max_episode_steps = 3;
+    task.start_noise = 0.1;
+    let range = |high| {
+        Some(ParamRandomization {
+            distribution: Distribution::Range { low: 0.0, high },
+            per_link: true,
+        })
+    };
+    task.reality.randomize.joint_damping = range(0.05);
+    task.reality.randomize.cart_coulomb_friction = range(1.0);
+    let n = CHUNK + 1;
+    let chain = SpatialChain::new(ChainParams::uniform(3, 1.0, 0.1, 0.3, 9.81).unwrap());
+    let mut batch = EnvBatch::new(chain, task, n, 1, AutoresetMode::SameStep, true).unwrap();
+    let d = batch.state_dim();
+    let (mut obs, mut rewards) = (vec![0.0f32; n * d], vec![0.0; n]);
+    let (mut terminated, mut truncated) = (vec![false; n], vec![false; n]);
+    let actions: Vec<f64> = (0..2 * n).map(|j| (j % 5) as f64 * 0.5 - 1.0).collect();
+    let mut run = |batch: &mut EnvBatch<_>| {
+        for _ in 0..7 {
+            let out = StepOutputs {
+                obs: &mut obs,
+                rewards: &mut rewards,
+                terminated: &mut terminated,
+                truncated: &mut truncated,
+            };
+            batch.step(&actions, out).unwrap();
+        }
+        batch.reset(None, None, &mut obs).unwrap();
+    };
+    run(&mut batch); // warm up the workers' scratch
+    assert_eq!(allocations_of(|| run(&mut batch)), (0, 0));
+}
