@@ -201,20 +201,23 @@ fn env_i_of_a_randomised_batch_is_the_single_env_seeded_seed_plus_i() {
 #[test]
 fn randomised_runs_reproduce_for_any_thread_count() {
     let num_envs = 4 * CHUNK + 1;
-    let go = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            let mut b = batch::<Planar>(everything_on(3), num_envs, 7, AutoresetMode::NextStep);
-            history(&mut b, 70, 0)
-        })
-    };
-    let one = go(1);
-    assert_eq!(one, go(1), "same seed, same run");
-    for threads in [2, 5] {
-        assert!(go(threads) == one, "{threads} threads differ from 1");
+    // Drawn rig effects step env by env, the rest through the lane kernel.
+    for task in [everything_on(3), rig_drawn(3)] {
+        let go = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut b = batch::<Planar>(task.clone(), num_envs, 7, AutoresetMode::NextStep);
+                history(&mut b, 70, 0)
+            })
+        };
+        let one = go(1);
+        assert_eq!(one, go(1), "same seed, same run");
+        for threads in [2, 5] {
+            assert!(go(threads) == one, "{threads} threads differ from 1");
+        }
     }
 }
 
