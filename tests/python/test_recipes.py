@@ -37,8 +37,9 @@ def test_every_packaged_recipe_names_a_registered_scene_and_builds_its_keywords(
 def test_the_file_entry_is_the_recipe_and_a_scene_without_one_is_generic():
     import yaml
 
-    entry = yaml.safe_load(hyperparameter_file("ppo").read_text())[scene_env_id("inverted-2")]
-    recipe = recipe_for("inverted-2", "PPO")
+    # An entry of the zoo's plain keywords and PPO's (no wrapper, no env keywords).
+    entry = yaml.safe_load(hyperparameter_file("ppo").read_text())[scene_env_id("inverted-2-randomized")]
+    recipe = recipe_for("inverted-2-randomized", "PPO")
     assert recipe.num_envs == entry["n_envs"] and recipe.timesteps == entry["n_timesteps"]
     assert recipe.hyperparameters == {k: v for k, v in entry.items() if k not in ("n_envs", "n_timesteps", "policy")}
     assert recipe_for("paper-fig1", "ppo") is GENERIC and recipe_for("inverted-2", "a2c") is GENERIC

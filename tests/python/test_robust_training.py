@@ -63,7 +63,10 @@ def test_the_robust_recipe_is_its_own_entry_with_history_or_else_the_scenes():
     robust = recipe_for("swingup-2", "ppo-robust")
     assert robust.source == "ppo.yml: ChainCart-swingup-2-robust-v0"
     assert recipe_for("swingup-2", "ppo").history == robust.history == 1  # a warm start needs the same inputs
-    assert recipe_for("inverted-2", "ppo").history is None
+    inverted = recipe_for("inverted-2", "ppo-robust")
+    assert inverted.source == "ppo.yml: ChainCart-inverted-2-robust-v0"
+    assert recipe_for("inverted-2", "ppo").history == inverted.history == 1
+    assert recipe_for("inverted-2-randomized", "ppo").history is None
     assert recipe_for("inverted-1", "ppo-robust") is GENERIC  # no entry for the variant nor the scene
     assert recipe_for("spatial-inverted-2", "ppo-robust") is recipe_for("spatial-inverted-2", "ppo")
 
