@@ -339,10 +339,11 @@ class ChainCartConfig:
         self, target: Sequence[float], Q: Optional[np.ndarray] = None, R: Optional[np.ndarray] = None
     ) -> np.ndarray:
         """The LQR gain ``K`` (``(2, 4 + 4n)``) at equilibrium ``target`` of the nominal
-        model with this config's real-rig effects: joint damping and cart friction enter
-        the linearisation as damping, and ``u = -K z`` is the command of the actuation per
-        cart axis (N, m/s^2 or V; divide by :attr:`command_scale` for an action). Without
-        rig effects it is ``make_model().lqr_gain(target, Q, R)``."""
+        model with this config's real-rig effects: joint damping and viscous cart friction
+        enter the linearisation as damping (Coulomb friction does not: its slope at rest
+        holds only below ``coulomb_velocity``), and ``u = -K z`` is the command of the
+        actuation per cart axis (N, m/s^2 or V; divide by :attr:`command_scale` for an
+        action). Without rig effects it is ``make_model().lqr_gain(target, Q, R)``."""
         return np.asarray(self._resolved.lqr_gain(list(target), Q, R), dtype=np.float64)
 
     @property

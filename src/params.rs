@@ -357,6 +357,15 @@ impl Rig {
         !self.has_joint_damping() && !self.has_cart_friction() && self.actuation == Actuation::Force
     }
 
+    /// The same rig without its Coulomb friction: the smooth effects a linear design
+    /// can count on.
+    pub fn without_coulomb_friction(&self) -> Rig {
+        Rig {
+            cart_coulomb_friction: 0.0,
+            ..self.clone()
+        }
+    }
+
     /// Some joint has damping.
     pub fn has_joint_damping(&self) -> bool {
         self.joint_damping.iter().any(|&c| c != 0.0)

@@ -13,9 +13,9 @@ is returned.
 
 On a rig (:attr:`ChainCartConfig.has_rig_effects`) :meth:`LQRPolicy.from_env` designs
 on the linearisation with the config's rig (:meth:`ChainCartConfig.lqr_gain`): joint
-damping and viscous cart friction enter as damping, and ``u`` is the command of the
-actuation (a force, the cart's acceleration or the motor's voltage), scaled by
-:attr:`ChainCartConfig.command_scale`.
+damping and viscous cart friction enter as damping (Coulomb friction is left out),
+and ``u`` is the command of the actuation (a force, the cart's acceleration or the
+motor's voltage), scaled by :attr:`ChainCartConfig.command_scale`.
 """
 
 from __future__ import annotations

@@ -90,13 +90,19 @@ impl LqrController {
     /// LQR design for `params` with the real-rig effects `rig` at `s`
     /// ([`Linearization::with_rig`]): `u` is the command of the rig's actuation (a
     /// force, the cart's acceleration or a voltage per axis).
+    ///
+    /// Coulomb friction is left out of the design ([`Rig::without_coulomb_friction`]):
+    /// its slope at rest, `F_c / v_eps`, is the exact first order but holds only below
+    /// `v_eps`, and a gain designed for that much cart damping lost the chain it meets
+    /// in motion (docs/physics.md).
     pub fn with_rig(
         params: &ChainParams,
         s: &[f64],
         rig: &Rig,
         weights: &LqrWeights,
     ) -> Result<Self> {
-        Self::from_linearization(&Linearization::with_rig(params, s, rig)?, weights)
+        let design = rig.without_coulomb_friction();
+        Self::from_linearization(&Linearization::with_rig(params, s, &design)?, weights)
     }
 
     fn from_linearization(lin: &Linearization, weights: &LqrWeights) -> Result<Self> {

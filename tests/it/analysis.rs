@@ -214,6 +214,38 @@ fn acceleration_input_is_the_force_input_through_the_cart_row() {
 }
 
 #[test]
+fn the_lqr_designs_without_the_coulomb_term_that_the_linearisation_keeps() {
+    // The Coulomb law's slope at rest is the exact first order (the linearisation keeps
+    // it), but a gain designed for it expects damping the cart has only below v_eps.
+    let params = ChainParams::uniform(2, 1.0, 0.1, 0.5, 9.81).unwrap();
+    let s = named_signs("inverted", 2).unwrap();
+    let weights = LqrWeights::paper_default(&s);
+    let rig = Rig {
+        joint_damping: vec![0.01],
+        cart_viscous_friction: 0.3,
+        cart_coulomb_friction: 1.0,
+        ..Rig::default()
+    };
+    let smooth = rig.without_coulomb_friction();
+    assert_eq!(smooth.cart_coulomb_friction, 0.0);
+    assert_eq!(smooth.cart_viscous_friction, 0.3);
+    let with = Linearization::with_rig(&params, &s, &rig)
+        .unwrap()
+        .state_space()
+        .unwrap();
+    let without = Linearization::with_rig(&params, &s, &smooth)
+        .unwrap()
+        .state_space()
+        .unwrap();
+    assert!(relative_error(&with.a, &without.a) > 1e-3);
+    let designed = LqrController::with_rig(&params, &s, &rig, &weights).unwrap();
+    let smooth_design = LqrController::with_rig(&params, &s, &smooth, &weights).unwrap();
+    assert_eq!(designed.gain(), smooth_design.gain());
+    // It still stabilises the smooth part of the rig.
+    assert!(spectral_abscissa(&(&without.a - &without.b * designed.gain())) < 0.0);
+}
+
+#[test]
 fn second_order_form_is_symmetric_and_consistent() {
     let params = ChainParams::paper();
     for s in all_signs(5).unwrap() {
