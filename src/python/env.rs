@@ -7,7 +7,7 @@
 
 use super::config::{resolve, ResolvedConfig, SceneTask};
 use super::convert::{check_shape, error, shape_text, type_error, ActionSlice, Actions, Floats};
-use super::reality::{param_arrays, params_dict};
+use super::reality::{param_arrays, params_dict, write_rig_arrays};
 use crate::env::EnvParams;
 use crate::env::{
     AutoresetMode, CheckedTask, EnvBatch, EpisodeEnds, Real, Snapshot, StepOutputs, DIAGNOSTICS,
@@ -534,17 +534,7 @@ impl PyEnvBatch {
         params.set_item("link_masses", PyArray1::from_slice(py, &p.link_masses))?;
         params.set_item("link_lengths", PyArray1::from_slice(py, &p.link_lengths))?;
         params.set_item("gravity", PyArray1::from_slice(py, &p.gravity))?;
-        if p.has_rig() {
-            params.set_item("joint_damping", PyArray1::from_slice(py, &p.joint_damping))?;
-            params.set_item(
-                "cart_viscous_friction",
-                PyArray1::from_slice(py, &p.cart_viscous_friction),
-            )?;
-            params.set_item(
-                "cart_coulomb_friction",
-                PyArray1::from_slice(py, &p.cart_coulomb_friction),
-            )?;
-        }
+        write_rig_arrays(py, p, &params, None)?;
         d.set_item("env_params", params)?;
         d.set_item("noisy_obs", PyArray1::from_vec(py, s.noisy_obs))?;
         d.set_item("action_queue", PyArray1::from_vec(py, s.action_queue))?;

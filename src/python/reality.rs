@@ -385,19 +385,32 @@ pub fn param_arrays<'py>(py: Python<'py>, p: &EnvParams) -> PyResult<Bound<'py, 
         PyArray1::from_slice(py, &p.link_lengths).reshape([num_envs, n])?,
     )?;
     d.set_item("gravity", PyArray1::from_slice(py, &p.gravity))?;
-    if p.has_rig() {
-        d.set_item(
-            "joint_damping",
-            PyArray1::from_slice(py, &p.joint_damping).reshape([num_envs, n])?,
-        )?;
-        d.set_item(
-            "cart_viscous_friction",
-            PyArray1::from_slice(py, &p.cart_viscous_friction),
-        )?;
-        d.set_item(
-            "cart_coulomb_friction",
-            PyArray1::from_slice(py, &p.cart_coulomb_friction),
-        )?;
-    }
+    write_rig_arrays(py, p, &d, Some([num_envs, n]))?;
     Ok(d)
+}
+
+/// Writes the envs' own rig effects, where they draw them, into `d`: the joint damping
+/// shaped `damping_shape` (else flat, as snapshots keep it) and the cart frictions.
+pub fn write_rig_arrays(
+    py: Python<'_>,
+    p: &EnvParams,
+    d: &Bound<'_, PyDict>,
+    damping_shape: Option<[usize; 2]>,
+) -> PyResult<()> {
+    if !p.has_rig() {
+        return Ok(());
+    }
+    let damping = PyArray1::from_slice(py, &p.joint_damping);
+    match damping_shape {
+        Some(shape) => d.set_item("joint_damping", damping.reshape(shape)?)?,
+        None => d.set_item("joint_damping", damping)?,
+    }
+    d.set_item(
+        "cart_viscous_friction",
+        PyArray1::from_slice(py, &p.cart_viscous_friction),
+    )?;
+    d.set_item(
+        "cart_coulomb_friction",
+        PyArray1::from_slice(py, &p.cart_coulomb_friction),
+    )
 }
