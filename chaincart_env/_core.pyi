@@ -292,6 +292,9 @@ class ResolvedConfig:
         """LQR gain ``K`` (``(2, 4 + 4n)``) at ``s`` for the model with this configuration's
         real-rig effects but Coulomb friction: ``u = -K z`` is the command of the actuation
         per cart axis (N, m/s^2 or V). Default weights are the paper's."""
+    def controllability(self, s: _Signs) -> tuple[bool, float]:
+        """``(controllable, margin)`` of the linearisation at ``s`` with this
+        configuration's real-rig effects (Prop. 3's test, joint damping included)."""
     def linearize(self, s: _Signs) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """``(A, B)`` of the first-order linearisation at ``s`` with this configuration's
         real-rig effects, ``B`` per unit of the actuation's command."""

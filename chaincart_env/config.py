@@ -346,6 +346,15 @@ class ChainCartConfig:
         action). Without rig effects it is ``make_model().lqr_gain(target, Q, R)``."""
         return np.asarray(self._resolved.lqr_gain(list(target), Q, R), dtype=np.float64)
 
+    def controllability(self, target: Sequence[float]) -> tuple[bool, float]:
+        """``(controllable, margin)`` of the linearisation at equilibrium ``target`` of the
+        nominal model with this config's real-rig effects: Prop. 3's eigenvector test on
+        the chain's damped modes (joint damping changes them; cart friction and the
+        actuation mode do not change the verdict). Without joint damping it is
+        ``make_model().controllability(target)``."""
+        controllable, margin = self._resolved.controllability(list(target))
+        return bool(controllable), float(margin)
+
     @property
     def has_param_gap(self) -> bool:
         """The true parameters differ from the model's (mismatch or randomisation)."""

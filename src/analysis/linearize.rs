@@ -188,6 +188,11 @@ impl Linearization {
         let k = 2 * self.n_links();
         self.stiffness.view((2, 2), (k, k)).into_owned()
     }
+    /// `D_qq` (`2n` square), the joints' damping (zero for the ideal model).
+    pub fn d_qq(&self) -> DMatrix<f64> {
+        let k = 2 * self.n_links();
+        self.damping.view((2, 2), (k, k)).into_owned()
+    }
     /// `M_qx = M_xq^T` (`2n x 2`): how the chain's modes push the cart (Prop. 3's input).
     pub fn m_qx(&self) -> DMatrix<f64> {
         let k = 2 * self.n_links();

@@ -26,7 +26,8 @@ mod riccati;
 mod sign;
 
 pub use controllability::{
-    controllability, pbh_margin, Controllability, CONTROLLABILITY_THRESHOLD,
+    controllability, controllability_with_rig, pbh_margin, pbh_margin_damped, Controllability,
+    CONTROLLABILITY_THRESHOLD,
 };
 pub use coordinates::{local_coordinates, local_rates, state_from_local, LocalLayout};
 pub use equilibria::{

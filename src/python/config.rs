@@ -8,7 +8,7 @@
 use super::convert::{error, signs, type_error};
 use super::model::{lqr_weights, matrix_to_numpy, state_space_tuple, ChainCart};
 use super::reality::{reality_gap, write_task_keys, RealityArgs};
-use crate::analysis::{Linearization, LqrController};
+use crate::analysis::{controllability_with_rig, Linearization, LqrController};
 use crate::any_chain::AnyChain;
 use crate::env::{
     config_key, CheckedTask, ConfigKey, Destination, Ends, KeyKind, KeyValue, Scene, Start,
@@ -126,6 +126,15 @@ impl ResolvedConfig {
         let rig = self.task().rig.clone();
         let controller = py.detach(|| LqrController::with_rig(&params, &s, &rig, &weights))?;
         Ok(matrix_to_numpy(py, controller.gain()))
+    }
+    /// Controllability at equilibrium `s` with this configuration's real-rig effects
+    /// (paper Prop. 3, joint damping included): `(controllable, margin)`.
+    fn controllability(&self, py: Python<'_>, s: &Bound<'_, PyAny>) -> PyResult<(bool, f64)> {
+        let s = self.equilibrium_signs(s)?;
+        let params = self.chain().params().clone();
+        let rig = self.task().rig.clone();
+        let c = py.detach(|| controllability_with_rig(&params, &s, &rig))?;
+        Ok((c.controllable, c.margin))
     }
     /// The first-order linearisation `(A, B)` at equilibrium `s` with this
     /// configuration's real-rig effects, `B` per unit of the actuation's command

@@ -6,9 +6,11 @@ use chaincart::analysis::{
     all_signs, controllability, equilibria, solve_care, Linearization, LocalLayout, LqrController,
     LqrWeights,
 };
+use chaincart::analysis::{
+    controllability_with_rig, pbh_margin, pbh_margin_damped, CONTROLLABILITY_THRESHOLD,
+};
 use chaincart::analysis::{local_coordinates, local_rates, state_from_local};
 use chaincart::analysis::{lowest, named_signs, signs_of_index};
-use chaincart::analysis::{pbh_margin, CONTROLLABILITY_THRESHOLD};
 use chaincart::params::{Actuation, Motor, Rig};
 use chaincart::{ChainError, ChainParams, InputError, SpatialChain};
 use nalgebra::{DMatrix, DVector, Vector2};
@@ -211,6 +213,119 @@ fn acceleration_input_is_the_force_input_through_the_cart_row() {
     let lqr = LqrController::with_rig(&params, &s, &servo, &LqrWeights::paper_default(&s)).unwrap();
     let closed = &acc.a - &acc.b * lqr.gain();
     assert!(spectral_abscissa(&closed) < 0.0);
+}
+
+#[test]
+fn the_damped_test_without_damping_is_prop_3_and_damping_moves_the_margin_continuously() {
+    let params = ChainParams::paper();
+    for s in all_signs(5).unwrap() {
+        let lin = Linearization::new(&params, &s).unwrap();
+        let zero = DMatrix::zeros(10, 10);
+        let undamped = controllability(&params, &s).unwrap();
+        let quadratic = pbh_margin_damped(&lin.m_qq(), &zero, &lin.g_qq(), &lin.m_qx()).unwrap();
+        assert!(quadratic.controllable, "{s:?}");
+        let relative = (quadratic.margin - undamped.margin).abs() / undamped.margin;
+        assert!(relative < 1e-6, "{s:?}: {quadratic:?} against {undamped:?}");
+        // A little joint damping moves the margin a little and keeps the verdict.
+        let rig = Rig {
+            joint_damping: vec![1e-5],
+            ..Rig::default()
+        };
+        let damped = controllability_with_rig(&params, &s, &rig).unwrap();
+        assert!(damped.controllable, "{s:?}");
+        assert!(
+            (damped.margin - undamped.margin).abs() < 0.05 * undamped.margin,
+            "{s:?}: {damped:?}"
+        );
+    }
+}
+
+#[test]
+fn cart_friction_and_the_actuation_leave_the_verdict_as_prop_3_gives_it() {
+    let params = ChainParams::uniform(3, 1.0, 0.1, 0.5, 9.81).unwrap();
+    let s = named_signs("inverted", 3).unwrap();
+    let ideal = controllability(&params, &s).unwrap();
+    for rig in [
+        Rig {
+            cart_viscous_friction: 2.0,
+            cart_coulomb_friction: 0.5,
+            ..Rig::default()
+        },
+        Rig {
+            actuation: Actuation::Acceleration,
+            ..Rig::default()
+        },
+    ] {
+        assert_eq!(controllability_with_rig(&params, &s, &rig).unwrap(), ideal);
+    }
+    let damped = Rig {
+        joint_damping: vec![0.02, 0.01, 0.005],
+        ..Rig::default()
+    };
+    let c = controllability_with_rig(&params, &s, &damped).unwrap();
+    assert!(c.controllable && c.weakest_multiplicity == 2, "{c:?}");
+}
+
+/// The first-order PBH test on `(A, B)`: `min over eigenvalues lambda of A` of the
+/// smallest singular value of `[A - lambda I, B]`, relative to `||[A, B]||`.
+fn first_order_pbh(lin: &Linearization) -> f64 {
+    use nalgebra::Complex;
+    let ss = lin.state_space().unwrap();
+    let (dim, inputs) = (ss.a.nrows(), ss.b.ncols());
+    let mut ab = DMatrix::zeros(dim, dim + inputs);
+    ab.view_mut((0, 0), (dim, dim)).copy_from(&ss.a);
+    ab.view_mut((0, dim), (dim, inputs)).copy_from(&ss.b);
+    let scale = ab.clone().svd(false, false).singular_values.max();
+    let ab = ab.map(|x| Complex::new(x, 0.0));
+    ss.a.complex_eigenvalues()
+        .iter()
+        .map(|&lambda| {
+            let mut shifted = ab.clone();
+            for i in 0..dim {
+                shifted[(i, i)] -= lambda;
+            }
+            shifted.svd(false, false).singular_values.min() / scale
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn the_rig_verdicts_agree_with_the_first_order_pbh_test() {
+    let params = ChainParams::uniform(2, 1.0, 0.1, 0.5, 9.81).unwrap();
+    let motor = Motor {
+        torque_constant: 0.02,
+        resistance: 2.0,
+        gear_ratio: 5.0,
+        pulley_radius: 0.02,
+        current_limit: 5.0,
+    };
+    for s in all_signs(2).unwrap() {
+        for actuation in [
+            Actuation::Force,
+            Actuation::Acceleration,
+            Actuation::Voltage(motor),
+        ] {
+            // A servo axis takes no cart friction (it tracks its acceleration anyway).
+            let friction = if actuation == Actuation::Acceleration {
+                0.0
+            } else {
+                1.0
+            };
+            let rig = Rig {
+                joint_damping: vec![0.02, 0.005],
+                cart_viscous_friction: friction,
+                actuation,
+                ..Rig::default()
+            };
+            let verdict = controllability_with_rig(&params, &s, &rig).unwrap();
+            let lin = Linearization::with_rig(&params, &s, &rig).unwrap();
+            let pbh = first_order_pbh(&lin);
+            assert!(
+                verdict.controllable && pbh > 1e-9,
+                "{s:?} {actuation:?}: {verdict:?}, {pbh}"
+            );
+        }
+    }
 }
 
 #[test]

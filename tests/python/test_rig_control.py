@@ -99,6 +99,18 @@ def test_the_lqr_designed_with_the_rig_holds_the_rig(rig: str) -> None:
         assert not terminated and success, (rig, seed)
 
 
+def test_controllability_counts_joint_damping_and_nothing_else_of_the_rig() -> None:
+    target = (-1, -1)
+    model = ChainCartConfig().make_model().controllability(list(target))
+    assert ChainCartConfig().controllability(target) == model
+    # Cart friction, a motor or a servo axis leave Prop. 3's verdict and margin as they are.
+    for rig in RIGS.values():
+        if "joint_damping" not in rig:
+            assert ChainCartConfig(**rig).controllability(target) == model
+    damped, margin = ChainCartConfig(joint_damping=[0.02, 0.01]).controllability(target)
+    assert damped and margin != model[1] and abs(margin - model[1]) < 0.2 * model[1]
+
+
 def test_the_lqr_holds_a_cart_with_coulomb_friction() -> None:
     # Designed on the Coulomb law's slope at rest (1 N over 0.01 m/s: 100 N s/m of cart
     # damping), the gain lost the chain from every start; the design leaves it out.
