@@ -949,39 +949,22 @@ impl EnvParams {
         rig.validate(self.n_links)?;
         Ok(rig)
     }
-    /// Checks the sizes of the rig arrays: all empty, or one row per env.
-    pub fn check_rig_sizes(&self) -> Result<()> {
-        let envs = self.num_envs();
-        let (damping, viscous, coulomb) = (
-            self.joint_damping.len(),
-            self.cart_viscous_friction.len(),
-            self.cart_coulomb_friction.len(),
-        );
-        if damping + viscous + coulomb == 0 {
-            return Ok(());
-        }
-        for (name, got, expected) in [
-            ("joint_damping", damping, envs * self.n_links),
-            ("cart_viscous_friction", viscous, envs),
-            ("cart_coulomb_friction", coulomb, envs),
-        ] {
-            if got != expected {
-                return Err(InputError::LengthMismatch {
-                    name,
-                    got,
-                    expected,
-                }
-                .into());
-            }
-        }
-        Ok(())
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    #[test]
+    fn the_randomize_names_are_the_physical_then_the_rig_parameters() {
+        let names: Vec<&str> = Param::ALL
+            .iter()
+            .map(|p| p.name())
+            .chain(RigParam::ALL.iter().map(|p| p.name()))
+            .collect();
+        assert_eq!(names, RANDOMIZE_NAMES);
+    }
 
     #[test]
     fn each_form_maps_the_unit_interval_onto_its_range() {

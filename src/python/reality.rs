@@ -39,18 +39,20 @@ fn numbers(name: &str, value: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     })
 }
 
-/// The entries of a dict keyword (`None` or an empty dict: none).
-fn entries<'py>(
+/// The entries of a dict keyword by key (`None` or an empty dict: none); `names` are
+/// the keys it takes, for the message when it is not a dict.
+fn dict_entries<'py>(
     kind: &'static str,
+    names: &[&str],
     value: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Vec<(Param, Bound<'py, PyAny>)>> {
+) -> PyResult<Vec<(String, Bound<'py, PyAny>)>> {
     let Some(value) = value.filter(|v| !v.is_none()) else {
         return Ok(Vec::new());
     };
     let dict = value.cast::<PyDict>().map_err(|_| {
         error(format!(
             "{kind} = {value}: expected a dict whose keys are some of {}",
-            crate::error::quoted(&Param::NAMES)
+            crate::error::quoted(names)
         ))
     })?;
     let mut out = Vec::new();
@@ -58,14 +60,25 @@ fn entries<'py>(
         let key: String = k
             .extract()
             .map_err(|_| error(format!("{kind} has key {k}: expected a parameter name")))?;
-        let what = match kind {
-            "randomize" => "randomize key",
-            "params" => "params key",
-            _ => "mismatch key",
-        };
-        out.push((Param::from_name(what, &key)?, v));
+        out.push((key, v));
     }
     Ok(out)
+}
+
+/// The entries of `params=`/`mismatch=`, each key a physical parameter.
+fn entries<'py>(
+    kind: &'static str,
+    value: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Vec<(Param, Bound<'py, PyAny>)>> {
+    let what = if kind == "params" {
+        "params key"
+    } else {
+        "mismatch key"
+    };
+    dict_entries(kind, &Param::NAMES, value)?
+        .into_iter()
+        .map(|(key, v)| Ok((Param::from_name(what, &key)?, v)))
+        .collect()
 }
 
 /// `params=`/`mismatch=`: a dict of numbers or per-link lists (or, for `params`, a
@@ -173,19 +186,7 @@ fn param_randomization(name: &str, value: &Bound<'_, PyAny>) -> PyResult<ParamRa
 /// `randomize=`: a dict from physical parameters and rig effects to their draws.
 fn randomization(value: Option<&Bound<'_, PyAny>>) -> PyResult<Randomization> {
     let mut out = Randomization::default();
-    let Some(value) = value.filter(|v| !v.is_none()) else {
-        return Ok(out);
-    };
-    let dict = value.cast::<PyDict>().map_err(|_| {
-        error(format!(
-            "randomize = {value}: expected a dict whose keys are some of {}",
-            crate::error::quoted(&RANDOMIZE_NAMES)
-        ))
-    })?;
-    for (k, v) in dict.iter() {
-        let key: String = k
-            .extract()
-            .map_err(|_| error(format!("randomize has key {k}: expected a parameter name")))?;
+    for (key, v) in dict_entries("randomize", &RANDOMIZE_NAMES, value)? {
         let name = format!("randomize[{key:?}]");
         let draw = Some(param_randomization(&name, &v)?);
         match RigParam::from_name(&key) {
