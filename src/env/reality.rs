@@ -773,35 +773,18 @@ impl RigRow<'_> {
         !self.cart_coulomb_friction.is_empty()
     }
 
-    /// Draws the rig effects around `rig` (the true chain's, joint damping one per
-    /// link) from `rng`, after the physical parameters.
+    /// Draws the rig effects around `rig` (the true chain's, built by
+    /// `Chain::with_drawn_rig`: one joint damping per link) from `rng`, after the
+    /// physical parameters.
     fn sample<R: Rng>(&mut self, r: &Randomization, rig: &Rig, rng: &mut R) {
         if !self.is_drawn() {
             return;
         }
-        for (i, c) in self.joint_damping.iter_mut().enumerate() {
-            *c = rig.damping(i);
-        }
-        if let Some(d) = r.joint_damping {
-            if d.per_link {
-                for c in self.joint_damping.iter_mut() {
-                    *c = d.distribution.sample(*c, rng.random());
-                }
-            } else {
-                let u: f64 = rng.random();
-                for c in self.joint_damping.iter_mut() {
-                    *c = d.distribution.sample(*c, u);
-                }
-            }
-        }
-        let scalar = |d: Option<ParamRandomization>, p: f64, rng: &mut R| match d {
-            Some(d) => d.distribution.sample(p, rng.random()),
-            None => p,
-        };
+        sample_links(r.joint_damping, &rig.joint_damping, self.joint_damping, rng);
         self.cart_viscous_friction[0] =
-            scalar(r.cart_viscous_friction, rig.cart_viscous_friction, rng);
+            sample_scalar(r.cart_viscous_friction, rig.cart_viscous_friction, rng);
         self.cart_coulomb_friction[0] =
-            scalar(r.cart_coulomb_friction, rig.cart_coulomb_friction, rng);
+            sample_scalar(r.cart_coulomb_friction, rig.cart_coulomb_friction, rng);
     }
 }
 
@@ -815,22 +798,25 @@ impl ParamRow<'_> {
         rig: Option<&Rig>,
         rng: &mut R,
     ) {
-        *self.cart_mass = match r.cart_mass {
-            Some(d) => d.distribution.sample(truth.cart_mass(), rng.random()),
-            None => truth.cart_mass(),
-        };
+        *self.cart_mass = sample_scalar(r.cart_mass, truth.cart_mass(), rng);
         sample_links(r.link_masses, truth.masses(), self.link_masses, rng);
         sample_links(r.link_lengths, truth.lengths(), self.link_lengths, rng);
-        *self.gravity = match r.gravity {
-            Some(d) => d.distribution.sample(truth.gravity(), rng.random()),
-            None => truth.gravity(),
-        };
+        *self.gravity = sample_scalar(r.gravity, truth.gravity(), rng);
         if let Some(rig) = rig {
             self.rig.sample(r, rig, rng);
         }
     }
 }
 
+/// One number drawn around `truth` (kept when `r` is `None`).
+fn sample_scalar<R: Rng>(r: Option<ParamRandomization>, truth: f64, rng: &mut R) -> f64 {
+    match r {
+        Some(d) => d.distribution.sample(truth, rng.random()),
+        None => truth,
+    }
+}
+
+/// One number per link drawn around `truth`: a draw per link, or one shared.
 fn sample_links<R: Rng>(
     r: Option<ParamRandomization>,
     truth: &[f64],
