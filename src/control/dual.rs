@@ -42,6 +42,8 @@ pub trait Real:
     fn atan2(self, x: Self) -> Self;
     /// `1 / self`.
     fn recip(self) -> Self;
+    /// `tanh(self)` (the regularised Coulomb law of a rig's cart friction).
+    fn tanh(self) -> Self;
 }
 
 impl Real for f64 {
@@ -68,6 +70,10 @@ impl Real for f64 {
     #[inline(always)]
     fn recip(self) -> Self {
         1.0 / self
+    }
+    #[inline(always)]
+    fn tanh(self) -> Self {
+        f64::tanh(self)
     }
 }
 
@@ -232,6 +238,11 @@ impl<const N: usize> Real for Dual<N> {
         let r = 1.0 / self.re;
         self.chain(r, -r * r)
     }
+    #[inline(always)]
+    fn tanh(self) -> Self {
+        let t = self.re.tanh();
+        self.chain(t, 1.0 - t * t)
+    }
 }
 
 #[cfg(test)]
@@ -241,7 +252,7 @@ mod tests {
     /// A function using every operation, generic over the scalar.
     fn f<S: Real>(x: S, y: S) -> S {
         let (s, c) = (x * y).sin_cos();
-        (s + c * 2.0).sqrt() * x.atan2(y + 3.0) / (x * x + 1.0) - y.recip() * 0.5
+        (s + c * 2.0).sqrt() * x.atan2(y + 3.0) / (x * x + 1.0) - y.recip() * 0.5 + (x * 0.3).tanh()
     }
 
     #[test]

@@ -185,7 +185,8 @@ mod tests {
     use super::*;
     use crate::analysis::Linearization;
     use crate::geometry::{Planar, Spatial};
-    use crate::params::ChainParams;
+    use crate::control::dynamics::tests::test_rigs;
+    use crate::params::{ChainParams, Rig};
     use rand::{Rng, SeedableRng};
 
     /// Central differences of the step in the chart, column by column.
@@ -224,8 +225,14 @@ mod tests {
     }
 
     fn matches_finite_differences<G: ScalarGeometry>(n: usize, seed: u64) {
+        matches_finite_differences_on::<G>(n, seed, Rig::default());
+    }
+
+    fn matches_finite_differences_on<G: ScalarGeometry>(n: usize, seed: u64, rig: Rig) {
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-        let chain = Chain::<G>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap());
+        let chain = Chain::<G>::new(ChainParams::uniform(n, 1.0, 0.1, 0.5, 9.81).unwrap())
+            .with_rig(rig)
+            .unwrap();
         let model = StepModel::new(&chain, 0.02, 2);
         let nz = model.chart().dim();
         let mut ws = model.workspace();
@@ -268,17 +275,28 @@ mod tests {
         }
     }
 
-    /// RK4 applied to a linear system is its Taylor polynomial of degree 4: at an
-    /// equilibrium the step's Jacobians are those of the paper's linearisation.
     #[test]
-    fn at_an_equilibrium_the_step_is_rk4_of_the_linearisation() {
+    fn step_derivatives_match_central_differences_on_a_rig() {
+        for n in [1, 2, 3] {
+            for (k, rig) in test_rigs(n).into_iter().enumerate() {
+                let seed = 10 * k as u64 + n as u64;
+                matches_finite_differences_on::<Planar>(n, seed, rig.clone());
+                matches_finite_differences_on::<Spatial>(n, 500 + seed, rig);
+            }
+        }
+    }
+
+    /// RK4 applied to a linear system is its Taylor polynomial of degree 4: at an
+    /// equilibrium the step's Jacobians are those of the paper's linearisation (with a
+    /// rig, of the linearisation with its damping, friction and actuation).
+    fn rk4_of_the_linearisation_at_an_equilibrium(rig: Rig) {
         let params = ChainParams::uniform(3, 1.0, 0.1, 0.5, 9.81).unwrap();
         let s = [-1.0, 1.0, -1.0];
-        let ss = Linearization::new(&params, &s)
+        let ss = Linearization::with_rig(&params, &s, &rig)
             .unwrap()
             .state_space()
             .unwrap();
-        let chain = Chain::<Spatial>::new(params);
+        let chain = Chain::<Spatial>::new(params).with_rig(rig).unwrap();
         let (dt, substeps) = (0.02, 2);
         let model = StepModel::new(&chain, dt, substeps);
         let base = ChartPoint::new::<Spatial>(3, &chain.equilibrium(&s).unwrap());
@@ -299,15 +317,28 @@ mod tests {
         let input = (&eye + &ah / 2.0 + &a2 / 6.0 + &a2 * &ah / 24.0) * &ss.b * h;
         let expected_a = &taylor * &taylor;
         let expected_b = &taylor * &input + &input;
+        let tolerance = 1e-12 * (1.0 + expected_a.amax().max(expected_b.amax()));
         assert!(
-            (&a - &expected_a).amax() < 1e-12,
+            (&a - &expected_a).amax() < tolerance,
             "{:e}",
             (&a - &expected_a).amax()
         );
         assert!(
-            (&b - &expected_b).amax() < 1e-12,
+            (&b - &expected_b).amax() < tolerance,
             "{:e}",
             (&b - &expected_b).amax()
         );
+    }
+
+    #[test]
+    fn at_an_equilibrium_the_step_is_rk4_of_the_linearisation() {
+        rk4_of_the_linearisation_at_an_equilibrium(Rig::default());
+    }
+
+    #[test]
+    fn at_an_equilibrium_on_a_rig_the_step_is_rk4_of_the_rig_linearisation() {
+        for rig in test_rigs(3) {
+            rk4_of_the_linearisation_at_an_equilibrium(rig);
+        }
     }
 }

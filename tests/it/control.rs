@@ -6,6 +6,7 @@
 use chaincart::control::{MpcOptions, Plan, PlanOptions, Planner, ScalarGeometry};
 use chaincart::geometry::Vector;
 use chaincart::integrate::{Method, StepOptions, Stepper};
+use chaincart::params::{Actuation, Rig};
 use chaincart::{Chain, ChainError, ChainParams, InputError, Planar, Spatial};
 use rand::{Rng, SeedableRng};
 
@@ -253,4 +254,65 @@ fn bad_input_is_named() {
     };
     assert!(planner.mpc_from(reference, zero_iterations).is_err());
     assert!(plan.converged);
+}
+
+/// A chain with joint damping and viscous cart friction, driven by a force or, as a
+/// servo axis, by its acceleration.
+fn rig_chain(actuation: Actuation) -> Chain<Planar> {
+    let (viscous, damping) = match actuation {
+        Actuation::Acceleration => (0.0, vec![0.01, 0.02]), // a servo axis has no cart friction to feel
+        _ => (2.0, vec![0.01, 0.02]),
+    };
+    chain::<Planar>(2)
+        .with_rig(Rig {
+            joint_damping: damping,
+            cart_viscous_friction: viscous,
+            actuation,
+            ..Rig::default()
+        })
+        .unwrap()
+}
+
+#[test]
+fn a_plan_on_a_rig_replays_on_that_rig_and_its_tracker_holds_it() {
+    for (actuation, bound) in [(Actuation::Force, 20.0), (Actuation::Acceleration, 40.0)] {
+        let rig = rig_chain(actuation);
+        let limits = PlanOptions {
+            max_force: bound,
+            ..options(3.0)
+        };
+        let mut planner = Planner::new(&rig, &[-1.0, -1.0], &limits).unwrap();
+        let start = rig.equilibrium(&[1.0, 1.0]).unwrap();
+        let plan = planner.plan(&start).unwrap();
+        assert!(plan.converged, "{actuation:?}: {}", plan.report.reason);
+        assert!(plan.report.peak_force <= bound);
+        // The plan's states are the rig's motion under its commands, step for step.
+        replays_open_loop(&rig, &plan);
+        // The same commands on the ideal chain miss the target: the rig was planned on.
+        let ideal = chain::<Planar>(2);
+        if actuation == Actuation::Force {
+            let mut y = start.clone();
+            let mut stepper = Stepper::new(&ideal);
+            for u in plan.forces.chunks(1) {
+                step(&ideal, &mut stepper, &mut y, u);
+            }
+            assert!(!within_tolerance(&ideal, &y, &[-1.0, -1.0]));
+        }
+        let mut tracker = planner.tracker(&plan).unwrap();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+        for trial in 0..4 {
+            let mut y = perturbed(&rig, &start, 0.05, &mut rng);
+            let mut stepper = Stepper::new(&rig);
+            let mut u = [0.0];
+            for k in 0..plan.forces.len() + 50 {
+                tracker.force(k, &y, &mut u);
+                step(&rig, &mut stepper, &mut y, &u);
+            }
+            assert!(
+                within_tolerance(&rig, &y, &[-1.0, -1.0]),
+                "{actuation:?} trial {trial}: errors {:?}",
+                rig.errors(&y, &[-1.0, -1.0])
+            );
+        }
+    }
 }
