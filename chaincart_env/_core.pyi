@@ -298,6 +298,10 @@ class ResolvedConfig:
     def linearize(self, s: _Signs) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """``(A, B)`` of the first-order linearisation at ``s`` with this configuration's
         real-rig effects, ``B`` per unit of the actuation's command."""
+    def rig_model(self, model: ChainCart) -> ChainCart:
+        """``model`` with this configuration's real-rig effects: its ``step``, ``plan`` and
+        the plan's controllers follow the rig, their command the actuation's (N, m/s^2
+        or V); its analysis methods stay the ideal chain's."""
     def __reduce__(self) -> tuple[Any, ...]: ...
 
 @final

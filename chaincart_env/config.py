@@ -346,6 +346,15 @@ class ChainCartConfig:
         action). Without rig effects it is ``make_model().lqr_gain(target, Q, R)``."""
         return np.asarray(self._resolved.lqr_gain(list(target), Q, R), dtype=np.float64)
 
+    def rig_model(self, model: Optional[_core.ChainCart] = None) -> _core.ChainCart:
+        """:meth:`make_model` (or ``model``, the same chain with other physical
+        parameters) with this config's real-rig effects: its ``step`` and ``plan``, and
+        the plan's tracker and MPC, move the chain as the rig does (joint damping, cart
+        friction) under commands of the actuation (N, m/s^2 or V per cart axis). Its
+        analysis methods (``linearize``, ``lqr_gain``, ``controllability``) stay the ideal
+        chain's: this config's own methods count the rig."""
+        return self._resolved.rig_model(self.make_model() if model is None else model)
+
     def controllability(self, target: Sequence[float]) -> tuple[bool, float]:
         """``(controllable, margin)`` of the linearisation at equilibrium ``target`` of the
         nominal model with this config's real-rig effects: Prop. 3's eigenvector test on

@@ -9,7 +9,7 @@ use crate::geometry::{planar_to_spatial, spatial_to_planar, Planar, Spatial, Vec
 use crate::integrate::{Guard, GuardedStepper, StepOptions, StepStatus};
 use crate::invariants::{Energy, Residuals};
 use crate::model::Chain;
-use crate::params::ChainParams;
+use crate::params::{ChainParams, Rig};
 
 /// A chain in either scene.
 #[derive(Debug, Clone)]
@@ -28,6 +28,14 @@ impl AnyChain {
         } else {
             AnyChain::Spatial(Chain::new(params))
         }
+    }
+    /// The same chain with the real-rig effects `rig` (checked for its links): its
+    /// steps, plans and controllers then follow the rig ([`Chain::with_rig`]).
+    pub fn with_rig(self, rig: Rig) -> Result<Self> {
+        Ok(match self {
+            AnyChain::Spatial(c) => AnyChain::Spatial(c.with_rig(rig)?),
+            AnyChain::Planar(c) => AnyChain::Planar(c.with_rig(rig)?),
+        })
     }
     /// Whether this is the planar model.
     pub fn is_planar(&self) -> bool {

@@ -118,9 +118,13 @@ class PlannedPolicy:
         ``plan_from`` where each episode's plan starts (``"equilibrium"`` or ``"state"``).
         Left out, ``duration`` and ``plan_from`` are the scene's on ``swingup-3`` and
         ``transitions-3`` (:data:`~chaincart_env.policies.settings.SCENE_PLANS`), the
-        planner's default length and ``"equilibrium"`` elsewhere. Refused unless the env's
-        actions command a force (``actuation="force"``)."""
-        settings = env_settings(env, oracle, cls.__name__)
+        planner's default length and ``"equilibrium"`` elsewhere. On a rig
+        (:attr:`ChainCartConfig.has_rig_effects`) it plans, tracks and predicts on the
+        nominal model with the config's rig (:meth:`ChainCartConfig.rig_model`): joint
+        damping and cart friction move its plans, and its commands are the actuation's
+        (a force, the cart's acceleration or the motor's voltage, within the env's
+        command limit)."""
+        settings = env_settings(env, oracle, cls.__name__, rig=True)
         scene_duration, scene_start = SCENE_PLANS.get(settings.scene, (None, "equilibrium"))
         return cls(
             settings, duration=scene_duration if duration is None else duration, on_failure=on_failure,
@@ -198,7 +202,8 @@ class PlannedPolicy:
         return float(np.max(np.abs(state[self._positions] - predicted[self._positions])))
 
     def forces(self, observation: Any, episode_start: Optional[Any] = None) -> np.ndarray:
-        """Forces in newtons, shape (N, force_dim), advancing each env's clock."""
+        """Commands (newtons; on a rig, the actuation's unit), shape (N, force_dim),
+        advancing each env's clock."""
         batch = observation_batch(self.settings, observation)
         n, s = batch.shape[0], self.settings
         self._resize(n)

@@ -34,6 +34,8 @@ class EnvSettings:
     """The task as a controller sees it."""
 
     model: ChainCart
+    #: The largest command per cart axis: a force (N), or with ``env_settings(rig=True)``
+    #: the actuation's limit (N, m/s^2 or V).
     max_force: float
     track_limit: float
     dt: float
@@ -65,17 +67,22 @@ class EnvSettings:
         return self.state_dim + (self.n_links if self.goal_observation else 0)
 
 
-def env_settings(env: Any, oracle: bool = False, controller: str = "this controller") -> EnvSettings:
+def env_settings(env: Any, oracle: bool = False, controller: str = "this controller", rig: bool = False) -> EnvSettings:
     """The settings of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (anything that
     exposes the config through ``unwrapped`` or ``config``). ``oracle=True`` takes the
     true parameters of the env (or of its first env) instead of the nominal model.
-    Refused for an env whose actions command anything but a force (``actuation``):
-    ``controller`` (its name, for the message) plans and acts in forces."""
+    ``rig=True`` is for a controller that plans on the model it is given: the model then
+    carries the config's real-rig effects (:meth:`ChainCartConfig.rig_model`: joint
+    damping, cart friction, the actuation) and ``max_force`` is the actuation's command
+    limit (:attr:`ChainCartConfig.command_scale`: N, m/s^2 or V). Without it, an env whose
+    actions command anything but a force (``actuation``) is refused: ``controller`` (its
+    name, for the message) computes forces on the ideal model."""
     base = getattr(env, "unwrapped", env)
     config = getattr(base, "config", None)
     if config is None:
         raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
-    check_force_actuation(config, controller)
+    if not rig:
+        check_force_actuation(config, controller)
     model = base.model if hasattr(base, "model") else config.make_model()
     if oracle:
         from chaincart_env.policies.lqr import _true_param_rows
@@ -84,13 +91,15 @@ def env_settings(env: Any, oracle: bool = False, controller: str = "this control
         model = ChainCart(
             config.n_links, p["cart_mass"], p["link_masses"], p["link_lengths"], p["gravity"], config.planar
         )
+    if rig and config.has_rig_effects:
+        model = config.rig_model(model)
     if config.integrator != "rk4":
         raise InvalidInputError(
             f"integrator = {config.integrator!r}: the planner's model steps with 'rk4'; expected an rk4 scene"
         )
     return EnvSettings(
         model=model,
-        max_force=float(config.max_force),
+        max_force=float(config.command_scale if rig else config.max_force),
         track_limit=float(config.track_limit),
         dt=float(config.dt),
         substeps=int(config.substeps),

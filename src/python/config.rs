@@ -150,6 +150,17 @@ impl ResolvedConfig {
             &Linearization::with_rig(self.chain().params(), &s, &self.task().rig)?,
         )
     }
+    /// `model` (this configuration's model, or one with other physical parameters)
+    /// with this configuration's real-rig effects: its `step`, `plan` and the plan's
+    /// controllers follow the rig, their command the actuation's (N, m/s^2 or V). Its
+    /// analysis methods (`linearize`, `lqr_gain`, `controllability`) stay the ideal
+    /// chain's; this configuration's own methods count the rig.
+    fn rig_model(&self, model: &ChainCart) -> PyResult<ChainCart> {
+        let rig = self.task().rig.clone();
+        Ok(ChainCart {
+            chain: model.chain.clone().with_rig(rig)?,
+        })
+    }
     /// Pickled as its canonical values, resolved again when loaded.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let resolve = py

@@ -1,14 +1,17 @@
 """The model-based controllers on a real rig: the LQR designs on the linearisation with
 the rig (damping, friction, acceleration or voltage actuation) and commands in the
-actuation's unit; the planners and the energy controller refuse an actuation other
+actuation's unit; the planner, its tracker and MPC plan on the model with the rig
+and command in the actuation's unit; the energy controller refuses an actuation other
 than a force, naming it; the scenes of real rigs build, step, match their documented
 values and are held by the LQR."""
 
 from __future__ import annotations
 
 import ast
+import dataclasses
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -135,12 +138,56 @@ def test_the_oracle_designs_with_the_rig_on_the_true_parameters() -> None:
 
 
 @pytest.mark.parametrize("actuation", ["acceleration", "voltage"])
-@pytest.mark.parametrize("policy", [TrajectoryPolicy, MPCPolicy, EnergyPolicy])
-def test_force_controllers_refuse_another_actuation_naming_it(policy: type, actuation: str) -> None:
-    scene = "swingup-1" if policy is EnergyPolicy else "swingup-2"
-    env = ChainCartEnv(ChainCartConfig(scene=scene, actuation=actuation))
-    with pytest.raises(InvalidInputError, match=rf"actuation = '{actuation}': {policy.__name__} computes cart forces"):
-        policy.from_env(env)
+def test_the_energy_controller_refuses_another_actuation_naming_it(actuation: str) -> None:
+    env = ChainCartEnv(ChainCartConfig(scene="swingup-1", actuation=actuation))
+    with pytest.raises(InvalidInputError, match=rf"actuation = '{actuation}': EnergyPolicy computes cart forces"):
+        EnergyPolicy.from_env(env)
+
+
+@pytest.mark.parametrize("rig", sorted(RIGS))
+def test_the_rig_model_steps_as_the_rig_env(rig: str) -> None:
+    config = ChainCartConfig(scene="swingup-2", **RIGS[rig])
+    env = ChainCartEnv(config)
+    model = config.rig_model()
+    env.reset(seed=3)
+    for action in (0.75, -0.375, 1.0):  # exact in float32, the action's dtype
+        before = env.unwrapped.model_state.copy()
+        env.step(np.array([action], dtype=np.float32))
+        expected = model.step(before, [action * config.command_scale], config.dt, "rk4", config.substeps)
+        np.testing.assert_allclose(env.unwrapped.model_state, expected, rtol=0, atol=1e-12)
+    ideal = config.make_model().step(before, [config.command_scale], config.dt, "rk4", config.substeps)
+    assert np.max(np.abs(ideal - expected)) > 1e-6  # the rig moves the chain otherwise
+
+
+def swing_ups(env: ChainCartEnv, policy: Any, seeds: range) -> list[bool]:
+    """``is_success`` of one episode from each seeded start."""
+    successes = []
+    for seed in seeds:
+        obs, _ = env.reset(seed=seed)
+        policy.reset()
+        while True:
+            obs, _, terminated, truncated, info = env.step(policy.predict(obs)[0])
+            if terminated or truncated:
+                successes.append(bool(info.get("is_success", False)))
+                break
+    return successes
+
+
+@pytest.mark.parametrize("rig", sorted(RIGS))
+@pytest.mark.parametrize("policy", [TrajectoryPolicy, MPCPolicy])
+def test_the_planners_swing_up_on_every_rig(policy: type, rig: str) -> None:
+    env = ChainCartEnv(ChainCartConfig(scene="swingup-2", **RIGS[rig]))
+    controller = policy.from_env(env)
+    assert controller.settings.max_force == env.unwrapped.config.command_scale
+    assert swing_ups(env, controller, range(3)) == [True, True, True]
+
+
+def test_the_plan_on_the_rig_swings_up_where_the_ideal_models_plan_fails() -> None:
+    env = ChainCartEnv(ChainCartConfig(scene="swingup-2", **RIGS["damped"]))
+    on_rig = TrajectoryPolicy.from_env(env)
+    on_ideal = TrajectoryPolicy(dataclasses.replace(on_rig.settings, model=env.unwrapped.config.make_model()))
+    assert swing_ups(env, on_rig, range(3)) == [True, True, True]
+    assert swing_ups(env, on_ideal, range(3)) == [False, False, False]
 
 
 def test_force_controllers_serve_a_damped_force_rig() -> None:
