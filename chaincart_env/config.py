@@ -220,6 +220,7 @@ class ChainCartConfig:
     angle_encoder_counts: Optional[int] = _UNSET
     cart_encoder_counts: Optional[float] = _UNSET
     velocity_filter: float = _UNSET
+    angle_encoder_reference: str = _UNSET
     _resolved: _core.ResolvedConfig = field(default=_UNSET, init=False, repr=False, compare=False)
 
     def __new__(cls, *args: Any, **kwargs: Any) -> "ChainCartConfig":

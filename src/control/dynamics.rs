@@ -238,7 +238,12 @@ impl<G: ScalarGeometry> ScalarChain<G> {
     /// feels from the joint damping (`Chain`'s `damping_couples`: the net damping torque
     /// on link i acts on its massless rod as a couple at its mass and its joint);
     /// returns the horizontal force the first couple puts on the cart.
-    fn damping_couples<S: Real>(&self, rig: &Rig, y: &[S], ws: &mut ScalarWorkspace<G, S>) -> G::CartS<S> {
+    fn damping_couples<S: Real>(
+        &self,
+        rig: &Rig,
+        y: &[S],
+        ws: &mut ScalarWorkspace<G, S>,
+    ) -> G::CartS<S> {
         let lay = self.layout;
         let n = lay.n;
         for i in 0..n {
@@ -250,13 +255,21 @@ impl<G: ScalarGeometry> ScalarChain<G> {
         }
         let spin = |i: usize| G::SpinS::<S>::load(&y[lay.w(i)..]);
         let torque = |i: usize| {
-            let below = if i > 0 { spin(i - 1) } else { G::SpinS::<S>::zero() };
+            let below = if i > 0 {
+                spin(i - 1)
+            } else {
+                G::SpinS::<S>::zero()
+            };
             (spin(i) - below).scale(-rig.damping(i))
         };
         let mut tau = torque(0);
         let mut reaction = G::CartS::<S>::zero();
         for i in 0..n {
-            let tau_next = if i + 1 < n { torque(i + 1) } else { G::SpinS::<S>::zero() };
+            let tau_next = if i + 1 < n {
+                torque(i + 1)
+            } else {
+                G::SpinS::<S>::zero()
+            };
             let couple = G::velocity_s(tau - tau_next, ws.q[i]).scale(self.inv_lengths[i]);
             ws.applied[i] += couple;
             if i > 0 {

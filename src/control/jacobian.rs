@@ -184,8 +184,8 @@ fn seeded(value: f64, index: usize, first: usize) -> D {
 mod tests {
     use super::*;
     use crate::analysis::Linearization;
-    use crate::geometry::{Planar, Spatial};
     use crate::control::dynamics::tests::test_rigs;
+    use crate::geometry::{Planar, Spatial};
     use crate::params::{ChainParams, Rig};
     use rand::{Rng, SeedableRng};
 

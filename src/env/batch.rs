@@ -721,6 +721,7 @@ fn check_size(name: &'static str, got: usize, expected: usize) -> Result<()> {
 /// returns the true system the envs step and the state episodes start from before noise.
 fn check_task<G: LaneScene>(chain: &Chain<G>, task: &TaskConfig) -> Result<(Chain<G>, Vec<f64>)> {
     task.validate(chain.n_links())?;
+    task.sensors.validate_for::<G>()?;
     task.reality.validate(chain.n_links(), chain.state_dim())?;
     let true_params = Chain::new(task.reality.true_params(chain.params())?);
     let true_chain = if task.reality.randomize.draws_rig() {

@@ -22,6 +22,7 @@ use super::config::{
     DEFAULT_MAX_EPISODE_STEPS, DEFAULT_MAX_FORCE, DEFAULT_MAX_VOLTAGE, DEFAULT_REWARD_WEIGHTS,
     DEFAULT_START_NOISE, DEFAULT_SUCCESS_TOLERANCES, DEFAULT_TRACK_LIMIT, REWARD_NAMES,
 };
+use crate::env::sensors::AngleReference;
 use crate::error::{ChainError, InputError, Result};
 use crate::integrate::Method;
 use crate::lanes::Precision;
@@ -781,6 +782,21 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
                differences",
         goes_to: Destination::Task(|t, s| {
             t.sensors.velocity_filter = s.number()?;
+            Ok(())
+        }),
+    },
+    ConfigKey {
+        name: "angle_encoder_reference",
+        kind: KeyKind::Choice(&AngleReference::NAMES),
+        default: KeyValue::Name("vertical"),
+        expected: crate::env::sensors::ANGLE_REFERENCE_EXPECTED,
+        help: "what each angle encoder measures its link from: vertical (every link's \
+               absolute angle) or joint (an encoder at each joint reads the link's angle from \
+               the link above, the first link's from the vertical; each observed angle is the \
+               sum of the joints' counts above it, so link i carries i joints' quantisation; \
+               planar chains with angle_encoder_counts only)",
+        goes_to: Destination::Task(|t, s| {
+            t.sensors.angle_reference = AngleReference::from_name(s.name()?)?;
             Ok(())
         }),
     },

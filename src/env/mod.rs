@@ -67,7 +67,7 @@ pub use reality::{
     RealityGap, RigParam, ACTION_DELAY_EXPECTED, FORCE_RATE_LIMIT_EXPECTED, RANDOMIZE_NAMES,
 };
 pub use scenes::{Scene, DEFAULT_SCENE, SCENES};
-pub use sensors::{Sensors, ANGLE_COUNTS_EXPECTED};
+pub use sensors::{AngleReference, Sensors, ANGLE_COUNTS_EXPECTED};
 pub use start::{base_state, paper_initial_condition, perturb};
 
 #[cfg(test)]

@@ -33,6 +33,16 @@
 //! count: its velocity estimate, and the filter's state, are zero, as a rig's estimator
 //! starts.
 //!
+//! **Joint encoders.** With `angle_encoder_reference = "joint"` (planar chains) each
+//! link's encoder sits at its joint and reads the link's angle from the link above,
+//! `phi_i = theta_i - theta_(i-1)` (the first link's from the vertical, its encoder on
+//! the cart), as on most rigs. Each relative angle is rounded down to its grid, and the
+//! observed angle of link i is the sum of the counts of joints 1..i: it carries the
+//! quantisation of every joint above it, `0 <= theta_i - reading_i < i 2 pi / N`. Its
+//! velocity is the change of that sum over the period. A spatial link on a spherical
+//! joint has no frame fixed to the link above to measure in (the links are rods that
+//! carry no twist), so joint encoders are refused on spatial chains.
+//!
 //! **Channels.** Each encoder replaces only its own channel: with only a cart encoder
 //! the links are observed as without encoders, and the other way round.
 //!
@@ -57,6 +67,39 @@ pub const CART_COUNTS_EXPECTED: &str =
 pub const VELOCITY_FILTER_EXPECTED: &str =
     "a finite number >= 0 (s), and 0 unless an encoder is on";
 
+/// What `angle_encoder_reference` accepts.
+pub const ANGLE_REFERENCE_EXPECTED: &str = "one of vertical, joint (joint: planar chains with \
+     angle_encoder_counts only)";
+
+/// What each link's angle encoder measures the link from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AngleReference {
+    /// The vertical: every link's absolute angle.
+    #[default]
+    Vertical,
+    /// The link above (the first link: the vertical), by an encoder at the joint.
+    Joint,
+}
+
+impl AngleReference {
+    /// The accepted names, in the order of the variants.
+    pub const NAMES: [&'static str; 2] = ["vertical", "joint"];
+
+    /// The reference named `name`.
+    pub fn from_name(name: &str) -> Result<Self> {
+        match name {
+            "vertical" => Ok(Self::Vertical),
+            "joint" => Ok(Self::Joint),
+            _ => Err(InputError::UnknownName {
+                kind: "angle_encoder_reference",
+                name: name.to_string(),
+                expected: &Self::NAMES,
+            }
+            .into()),
+        }
+    }
+}
+
 /// The encoders of an env (default: none, the exact state).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Sensors {
@@ -68,6 +111,8 @@ pub struct Sensors {
     /// Time constant (s) of the first-order filter of the estimated velocities; 0: the
     /// raw finite differences.
     pub velocity_filter: f64,
+    /// What the angle encoders measure each link from.
+    pub angle_reference: AngleReference,
 }
 
 impl Sensors {
@@ -107,7 +152,32 @@ impl Sensors {
             }
             .into());
         }
+        if self.angle_reference == AngleReference::Joint && self.angle_counts.is_none() {
+            return Err(Self::joint_reference_refused(
+                "angle_encoder_counts set: joint encoders are angle encoders (or use vertical)",
+            ));
+        }
         Ok(())
+    }
+
+    /// Checks what needs the chain's geometry: joint encoders on a planar chain only.
+    pub fn validate_for<G: Geometry>(&self) -> Result<()> {
+        if self.angle_reference == AngleReference::Joint && G::Link::DIM != 2 {
+            return Err(Self::joint_reference_refused(
+                "a planar chain: a spherical joint between rods that carry no twist has no frame \
+                 fixed to the link above to measure in (use vertical)",
+            ));
+        }
+        Ok(())
+    }
+
+    fn joint_reference_refused(expected: &str) -> crate::ChainError {
+        InputError::Incompatible {
+            name: "angle_encoder_reference",
+            value: "joint",
+            expected: expected.to_string(),
+        }
+        .into()
     }
 
     /// The filter's weight of a new raw estimate, `1 - exp(-dt / tau)`, or `None`
@@ -152,6 +222,7 @@ impl Sensors {
                 }
             }
         }
+        let mut above = JointsAbove::default();
         for i in 0..layout.n {
             let iq = layout.q(i);
             let mut q = [0.0; 3];
@@ -164,7 +235,10 @@ impl Sensors {
                     let iw = layout.w(i);
                     let (q_row, w_row) = row.split_at_mut(iw);
                     let link = LinkEncoder::new(counts);
-                    if G::Link::DIM == 2 {
+                    if G::Link::DIM == 2 && self.angle_reference == AngleReference::Joint {
+                        let (q_out, w_out) = (&mut q_row[iq..iq + 2], &mut w_row[0]);
+                        link.read_planar_joint(&q, q_out, w_out, &estimate, &mut above);
+                    } else if G::Link::DIM == 2 {
                         link.read_planar(&q, &mut q_row[iq..iq + 2], &mut w_row[0], &estimate);
                     } else {
                         link.read_spatial(&q, &mut q_row[iq..iq + 3], &mut w_row[..3], &estimate);
@@ -257,6 +331,33 @@ impl LinkEncoder {
         *w_out = e.velocity(*w_out, moved * self.step);
     }
 
+    /// A planar link read by the encoder at its joint (module docs): `above` holds what
+    /// the joints above have read and is advanced past this one.
+    fn read_planar_joint(
+        &self,
+        seen: &[f64; 3],
+        q_out: &mut [f64],
+        w_out: &mut f64,
+        e: &Estimate,
+        above: &mut JointsAbove,
+    ) {
+        let theta = seen[0].atan2(seen[1]);
+        let count = self.count(wrap_angle(theta - above.seen));
+        let previous = q_out[0].atan2(q_out[1]);
+        let moved = if e.first {
+            0.0
+        } else {
+            self.unwrapped(count, self.recount(wrap_angle(previous - above.previous)))
+        };
+        above.seen = theta;
+        above.previous = previous;
+        above.counts += count;
+        above.moved += moved;
+        let (s, c) = (above.counts * self.step).sin_cos();
+        q_out.copy_from_slice(&[s, c]);
+        *w_out = e.velocity(*w_out, above.moved * self.step);
+    }
+
     fn read_spatial(&self, seen: &[f64; 3], q_out: &mut [f64], w_out: &mut [f64], e: &Estimate) {
         let [theta_count, phi_count] = self.angle_counts(seen, Self::count);
         let [theta_moved, phi_moved] = if e.first {
@@ -284,6 +385,26 @@ impl LinkEncoder {
         let (theta, phi) = gimbal_angles(q);
         [count(self, theta), count(self, phi)]
     }
+}
+
+/// What the joint encoders above a link have read (all zero above the first link: the
+/// cart does not turn).
+#[derive(Default)]
+struct JointsAbove {
+    /// The angle of the link above as the sensors see it (true, or noisy).
+    seen: f64,
+    /// The link above's previous reading.
+    previous: f64,
+    /// The sum of the joints' counts: the link above's reading in counts.
+    counts: f64,
+    /// The sum of the joints' changes of count since the previous reading.
+    moved: f64,
+}
+
+/// `d` wrapped into `[-pi, pi]`.
+#[inline(always)]
+fn wrap_angle(d: f64) -> f64 {
+    d - 2.0 * PI * (d / (2.0 * PI)).round()
 }
 
 /// Swing `theta` about `e2` and tilt `phi` of a (not necessarily unit) direction.
@@ -354,6 +475,7 @@ mod tests {
             angle_counts: Some(8),
             cart_counts: Some(10.0),
             velocity_filter: 0.0,
+            angle_reference: AngleReference::Vertical,
         };
         let layout = Layout::<Planar>::new(1);
         // x = 0.27 m, theta = 0.5 rad (hanging side), w = 3, xdot = 1.
@@ -434,6 +556,7 @@ mod tests {
             angle_counts: Some(360),
             cart_counts: Some(500.0),
             velocity_filter: 0.0,
+            angle_reference: AngleReference::Vertical,
         };
         let (planar, spatial) = (Layout::<Planar>::new(1), Layout::<Spatial>::new(1));
         let mut rows = ([0.0; 5], [0.0; 10]);

@@ -3,7 +3,7 @@
 //! snapshots, and the checks.
 
 use chaincart::engine::CHUNK;
-use chaincart::env::{AutoresetMode, EnvBatch, Sensors, StepOutputs, TaskConfig};
+use chaincart::env::{AngleReference, AutoresetMode, EnvBatch, Sensors, StepOutputs, TaskConfig};
 use chaincart::lanes::LaneScene;
 use chaincart::{Chain, ChainParams, Planar, Spatial, StepOptions};
 use std::f64::consts::PI;
@@ -26,6 +26,7 @@ fn encoders(velocity_filter: f64) -> Sensors {
         angle_counts: Some(ANGLE_COUNTS),
         cart_counts: Some(CART_COUNTS),
         velocity_filter,
+        angle_reference: AngleReference::Vertical,
     }
 }
 
@@ -217,8 +218,12 @@ fn velocities(planar: bool, n: usize, obs: &[f64]) -> Vec<f64> {
 }
 
 fn velocities_follow_the_counts<G: LaneScene>(planar: bool, tau: f64) {
-    let n = 2;
-    let mut b = batch::<G>(task(n, encoders(tau)), 2, 5, AutoresetMode::NextStep);
+    velocities_follow_the_counts_of::<G>(planar, encoders(tau));
+}
+
+fn velocities_follow_the_counts_of<G: LaneScene>(planar: bool, sensors: Sensors) {
+    let (n, tau) = (2, sensors.velocity_filter);
+    let mut b = batch::<G>(task(n, sensors), 2, 5, AutoresetMode::NextStep);
     let r = run(&mut b, 75, 0);
     let d = b.obs_dim();
     let gain = if tau > 0.0 {
@@ -488,4 +493,104 @@ fn encoders_count_what_the_noisy_sensor_sees() {
         assert_eq!(read[2], (count * step).sin(), "step {s}");
         assert_eq!(read[3], (count * step).cos(), "step {s}");
     }
+}
+
+fn joint_encoders(velocity_filter: f64) -> Sensors {
+    Sensors {
+        angle_reference: AngleReference::Joint,
+        ..encoders(velocity_filter)
+    }
+}
+
+#[test]
+fn joint_encoder_velocities_are_the_finite_differences_of_the_readings() {
+    for tau in [0.0, 0.05] {
+        velocities_follow_the_counts_of::<Planar>(true, joint_encoders(tau));
+    }
+}
+
+/// Joint encoders: each joint's angle (a reading less the reading above) sits on the
+/// grid, each reading lags the true angle by less than one count per joint above it
+/// (the first link reads as a vertical encoder does), and the cart reads as before.
+#[test]
+fn joint_readings_sum_the_counts_of_the_joints_above() {
+    let n = 3;
+    let step = 2.0 * PI / ANGLE_COUNTS as f64;
+    let mut joint = batch::<Planar>(task(n, joint_encoders(0.0)), 2, 8, AutoresetMode::NextStep);
+    let mut vertical = batch::<Planar>(task(n, encoders(0.0)), 2, 8, AutoresetMode::NextStep);
+    let (r, v) = (run(&mut joint, 60, 0), run(&mut vertical, 60, 0));
+    let (d, sd) = (joint.obs_dim(), joint.state_dim());
+    let mut lags = vec![0.0f64; n];
+    for s in 0..r.obs.len() {
+        for env in 0..2 {
+            let obs = &r.obs[s][env * d..(env + 1) * d];
+            let reads = link_angles(true, n, obs);
+            let truth = link_angles(true, n, &r.states[s][env * sd..(env + 1) * sd]);
+            let mut above = 0.0;
+            for i in 0..n {
+                let joint_angle = wrap(reads[i][0] - above);
+                assert!(
+                    is_integer(joint_angle / step, 1e-7),
+                    "step {s} joint {i}: {joint_angle}"
+                );
+                let lag = wrap(truth[i][0] - reads[i][0]);
+                assert!(
+                    (-1e-9..(i + 1) as f64 * step).contains(&lag),
+                    "step {s} link {i}: lags {lag} with {} joints above",
+                    i + 1
+                );
+                lags[i] = lags[i].max(lag);
+                above = reads[i][0];
+            }
+            let same = &v.obs[s][env * d..(env + 1) * d];
+            assert_eq!(
+                obs[..4],
+                same[..4],
+                "step {s}: the cart and the first link read as before"
+            );
+        }
+    }
+    assert!(
+        lags[2] > step,
+        "a third link carries more than one count: {lags:?}"
+    );
+}
+
+#[test]
+fn joint_encoders_are_refused_without_counts_and_on_spatial_chains() {
+    let p = ChainParams::new(1.0, &[0.1; 2], &[0.5; 2], 9.81).unwrap();
+    let without_counts = Sensors {
+        angle_counts: None,
+        ..joint_encoders(0.0)
+    };
+    let e = EnvBatch::<Planar>::new(
+        Chain::new(p.clone()),
+        task(2, without_counts),
+        1,
+        0,
+        AutoresetMode::NextStep,
+        false,
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    assert!(
+        e.contains("angle_encoder_reference") && e.contains("angle_encoder_counts"),
+        "{e}"
+    );
+    let e = EnvBatch::<Spatial>::new(
+        Chain::new(p),
+        task(2, joint_encoders(0.0)),
+        1,
+        0,
+        AutoresetMode::NextStep,
+        false,
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    assert!(
+        e.contains("angle_encoder_reference") && e.contains("planar chain"),
+        "{e}"
+    );
 }

@@ -46,7 +46,7 @@ def test_the_config_has_the_agreed_keyword_names() -> None:
     task = ["reward", "success_hold", "transitions", "goal_observation"]
     rig = ["joint_damping", "cart_viscous_friction", "cart_coulomb_friction", "coulomb_velocity", "actuation"]
     rig += ["max_acceleration", "max_voltage", "motor"]
-    rig += ["angle_encoder_counts", "cart_encoder_counts", "velocity_filter"]
+    rig += ["angle_encoder_counts", "cart_encoder_counts", "velocity_filter", "angle_encoder_reference"]
     extras = ["success_tolerances", *task, "diagnostics", "precision", *(k[0] for k in REALITY_KEYS), "render_view", *rig]
     assert names[len(KEYWORDS) :] == extras
 
@@ -218,6 +218,7 @@ ADDED_SINCE = {
     "coulomb_velocity": 0.01, "actuation": "force", "max_acceleration": 10.0, "max_voltage": 12.0,
     "motor": (0.02, 2.0, 5.0, 0.02, 5.0),
     "angle_encoder_counts": None, "cart_encoder_counts": None, "velocity_filter": 0.0,
+    "angle_encoder_reference": "vertical",
 }
 
 

@@ -226,6 +226,10 @@ def test_the_keys_default_to_off_and_round_trip() -> None:
         (dict(cart_encoder_counts=float("nan")), ["cart_encoder_counts", "a finite number > 0"]),
         (dict(velocity_filter=0.1), ["velocity_filter", "0.1", "0 unless an encoder is on"]),
         (dict(cart_encoder_counts=100.0, velocity_filter=-1.0), ["velocity_filter", "-1", ">= 0"]),
+        (dict(angle_encoder_reference="link"), ["angle_encoder_reference", "link", "\"vertical\", \"joint\""]),
+        (dict(angle_encoder_reference="joint"), ["angle_encoder_reference", "angle_encoder_counts set"]),
+        (dict(angle_encoder_reference="joint", angle_encoder_counts=1024, planar=False),
+         ["angle_encoder_reference", "a planar chain"]),
     ],
 )
 def test_bad_values_are_named(keywords: dict, needles: list[str]) -> None:
@@ -251,3 +255,21 @@ def test_the_command_line_takes_the_encoder_keywords() -> None:
     args = parser.parse_args(["--angle-encoder-counts", "1024", "--cart-encoder-counts", "2000", "--velocity-filter", "0.02"])
     c = config_from_options(args)
     assert (c.angle_encoder_counts, c.cart_encoder_counts, c.velocity_filter) == (1024, 2000.0, 0.02)
+
+
+def test_joint_encoders_read_each_joint_on_the_grid_and_the_first_link_as_before() -> None:
+    step = 2 * np.pi / ANGLE_COUNTS
+    keywords = dict(scene="inverted-3-servo", start_noise=0.3, **ENCODERS)
+    joint = ChainCartEnv(**keywords, angle_encoder_reference="joint")
+    vertical = ChainCartEnv(**keywords)
+    assert joint.unwrapped.config.angle_encoder_reference == "joint"
+    rng = np.random.default_rng(0)
+    obs_j, obs_v = joint.reset(seed=4)[0], vertical.reset(seed=4)[0]
+    for _ in range(40):
+        q = joint.unwrapped.config.state_layout["q"]
+        angles = np.arctan2(obs_j[q[0]:q[1]:2], obs_j[q[0] + 1:q[1]:2])
+        joints = np.angle(np.exp(1j * np.diff(angles, prepend=0.0)))
+        np.testing.assert_allclose(joints / step, np.round(joints / step), atol=1e-7)
+        np.testing.assert_array_equal(obs_j[: q[0] + 2], obs_v[: q[0] + 2])  # the cart and the first link
+        action = rng.uniform(-1, 1, size=1).astype(np.float32)
+        obs_j, obs_v = joint.step(action)[0], vertical.step(action)[0]
