@@ -185,8 +185,12 @@ class HistoryPolicy:
         return (batch[0] if single else batch), state
 
     def reset(self) -> None:
-        """Forgets every env's history (the next call begins new episodes)."""
+        """Forgets every env's history (the next call begins new episodes), and resets
+        ``policy`` too where it keeps its own per-episode state (a clock)."""
         self._buffers = None
+        inner_reset = getattr(self.policy, "reset", None)
+        if callable(inner_reset):
+            inner_reset()
 
 
 def history_of(policy: Any, observation_space: Any, action_space: Any) -> int:

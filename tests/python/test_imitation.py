@@ -139,7 +139,7 @@ def test_focus_rounds_draw_the_transitions_the_learner_misses_and_stop_when_none
     solved = {config.pairs[0], config.pairs[5]}
     asked = []
 
-    def pair_success(act, config, pair, starts, seed):
+    def pair_success(act, config, pair, starts, seed, extras=(0, False)):
         asked.append((pair, starts))
         return 1.0 if pair in solved else 0.0
 
@@ -168,3 +168,27 @@ def test_pair_success_counts_the_first_episode_of_each_start() -> None:
     expert = TrajectoryPolicy.from_env(ChainCartVecEnv(1, config.replace(transitions=[pair])))
     assert _pair_success(lambda obs, _: expert.predict(obs)[0], config, pair, 2, 5) == 1.0
     assert _pair_success(lambda obs, _: np.zeros((obs.shape[0], 1), np.float32), config, pair, 2, 5) == 0.0
+
+
+def test_the_learner_observes_history_and_elapsed_time_as_the_agent_does(tmp_path) -> None:
+    from chaincart_env.tools.compare.imitation import IMITATION_DATA_FILE, imitate
+    from chaincart_env.tools.compare.training import _new_agent
+
+    config = ChainCartConfig(scene="swingup-2")
+    model = _new_agent("ppo", config, 0, 4, {"n_steps": 32, "batch_size": 64, "policy_kwargs": "dict(net_arch=[32, 32])"},
+                       {"norm_obs": True, "norm_reward": False}, history=1, elapsed_time=True)
+    plain, steps = config.obs_dim, TINY.demonstration_steps
+    assert model.observation_space.shape == (plain + (plain + 1) + 1,)
+    imitate(model, config, Imitation(**{**TINY.record(), "noise": TINY.noise, "anchor_weight": 1.0}), 0, tmp_path)
+    seen = np.load(tmp_path / IMITATION_DATA_FILE)["observations"]
+    assert seen.shape[1] == model.observation_space.shape[0]
+    first = seen[: 4 * steps].reshape(steps, 4, -1)  # the first demonstration run, step by step
+    np.testing.assert_allclose(first[:, :, -1], np.arange(steps)[:, None] / config.max_episode_steps * np.ones(4),
+                               rtol=1e-6)
+    np.testing.assert_array_equal(first[1:, :, plain : 2 * plain], first[:-1, :, :plain])  # the observation before
+
+
+def test_the_imitation_plans_where_asked() -> None:
+    assert Imitation(plan_from="equilibrium").plan_from == "equilibrium"
+    with pytest.raises(InvalidInputError, match="plan_from = 'nowhere'"):
+        Imitation(plan_from="nowhere")

@@ -128,6 +128,19 @@ def test_a_training_with_the_mirror_loss_is_seeded_and_recorded(tmp_path) -> Non
         parameters[0], np.concatenate([p.detach().numpy().ravel() for p in plain.model.policy.parameters()]))
 
 
+def test_an_agent_observing_history_and_time_trains_mirrored_and_is_evaluated_as_it_acts(tmp_path) -> None:
+    from chaincart_env.tools.compare.training import train
+
+    config = ChainCartConfig(scene="swingup-2", max_episode_steps=40)
+    result = train(config, timesteps=256, num_envs=4, directory=tmp_path, eval_seeds=[1_000_000, 1_000_001],
+                   eval_every=128, checkpoint_every=10**6, progress_bar=False, hyperparameters=dict(ROLLOUT),
+                   history=1, elapsed_time=True, mirror_weight=0.5)
+    assert result.model.observation_space.shape == (config.obs_dim * 2 + 1 + 1,)
+    assert len(result.evaluations) >= 2  # the periodic evaluations ran the agent on plain envs
+    loss = MirrorLoss(config, 1.0, history=1, elapsed_time=True)
+    assert loss.observation_signs.shape == result.model.observation_space.shape and loss.observation_signs[-1] == 1.0
+
+
 @pytest.mark.parametrize("weight", [-1.0, float("nan"), float("inf"), True, "1"])
 def test_bad_mirror_weights_are_named(weight) -> None:
     with pytest.raises(InvalidInputError, match="mirror weight = "):

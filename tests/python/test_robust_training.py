@@ -17,6 +17,7 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.registration import scene_env_id
 from chaincart_env.robust_training import ROBUST_CONDITIONS, ROBUST_VARIANT, robust_config
 from chaincart_env.tools.compare.recipes import (
+    ELAPSED_TIME_WRAPPER,
     GENERIC,
     HISTORY_WRAPPER,
     _recipe,
@@ -69,6 +70,18 @@ def test_the_robust_recipe_is_its_own_entry_with_history_or_else_the_scenes():
     assert recipe_for("inverted-2-randomized", "ppo").history is None
     assert recipe_for("inverted-1", "ppo-robust") is GENERIC  # no entry for the variant nor the scene
     assert recipe_for("spatial-inverted-2", "ppo-robust") is recipe_for("spatial-inverted-2", "ppo")
+
+
+def test_the_elapsed_time_wrapper_is_read_after_the_history_only():
+    history, timed = {HISTORY_WRAPPER: {"k": 2}}, {ELAPSED_TIME_WRAPPER: None}
+    recipe = _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": [history, timed]})
+    assert (recipe.history, recipe.elapsed_time) == (2, True)
+    recipe = _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": [timed]})
+    assert (recipe.history, recipe.elapsed_time) == (None, True)
+    assert _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10}).elapsed_time is False
+    for bad in ([timed, history], [timed, timed], {ELAPSED_TIME_WRAPPER: {"horizon": 5}}):
+        with pytest.raises(InvalidInputError, match=r"env_wrapper = .*: expected \["):
+            _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": bad})
 
 
 def test_the_history_wrapper_is_read_and_every_other_wrapper_refused():

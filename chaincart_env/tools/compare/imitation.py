@@ -13,6 +13,11 @@ solves the task, then train on as usual. The copy is DAgger (Ross, Gordon and Ba
 3. each round, the learner itself runs the scene, the expert labels the states the
    learner visits, the labels join the data and the fit goes on.
 
+The learner sees what the agent will see in training: an agent observing history or the
+elapsed time (:mod:`chaincart_env.history`, :mod:`chaincart_env.elapsed_time`) runs its
+rounds through the same wrappers, while the expert reads the plain observation. The
+time is what lets a policy copy the planner's controller, which is time-varying.
+
 Only the policy's mean is fitted; the value function learns in the training that
 follows, and the policy's exploration noise is set to :attr:`Imitation.action_std`.
 What keeps the copy while reinforcement learning trains on (a critic trained first, the
@@ -81,6 +86,10 @@ class Imitation:
     #: Weight of the imitation's fit as a second loss during that training, 0 for none
     #: (:class:`~chaincart_env.tools.compare.anchoring.ImitationAnchor`).
     anchor_weight: float = 0.0
+    #: Where the expert's plans start (``"equilibrium"``: one plan from the start
+    #: equilibrium, ``"state"``: a plan per episode), ``None``: the scene's
+    #: (:data:`~chaincart_env.policies.settings.SCENE_PLANS`).
+    plan_from: Optional[str] = None
 
     def __post_init__(self) -> None:
         for name in ("demonstration_steps", "epochs", "rounds", "round_steps", "round_epochs", "batch_size",
@@ -95,6 +104,11 @@ class Imitation:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InvalidInputError(f"imitation {name} = {value!r}: expected a number > 0")
         check_scale(self.anchor_weight, "imitation anchor_weight")
+        from chaincart_env.policies.planned import PLAN_FROM
+
+        if self.plan_from is not None and self.plan_from not in PLAN_FROM:
+            raise InvalidInputError(f"imitation plan_from = {self.plan_from!r}: expected one of {list(PLAN_FROM)} "
+                                    "or None (the scene's)")
 
     def record(self) -> dict[str, Any]:
         """The settings as ``run.json`` records them."""
@@ -169,14 +183,31 @@ class _Fit:
         return loss_sum / n
 
 
-def _rollout(venv: Any, expert: Any, steps: int, act: Any) -> tuple[np.ndarray, np.ndarray, list[bool]]:
-    """``steps`` steps of ``venv`` acting with ``act(observation, expert_action)``; the
+def _learner_envs(native: Any, history: int, timed: bool) -> Any:
+    """``native`` with the observations the agent sees: its history, then its elapsed time."""
+    venv = native
+    if history:
+        from chaincart_env.history import VecHistoryObservation
+
+        venv = VecHistoryObservation(venv, history)
+    if timed:
+        from chaincart_env.elapsed_time import VecElapsedTimeObservation
+
+        venv = VecElapsedTimeObservation(venv)
+    return venv
+
+
+def _rollout(
+    venv: Any, expert: Any, steps: int, act: Any, plain: int
+) -> tuple[np.ndarray, np.ndarray, list[bool]]:
+    """``steps`` steps of ``venv`` acting with ``act(observation, expert_action)``, the
+    expert reading the first ``plain`` columns (the env's own observation); the
     observations, the expert's actions there, and the success of every episode that ended."""
     observation = venv.reset()
     begins = np.ones(venv.num_envs, dtype=bool)
     observations, labels, successes = [], [], []
     for _ in range(steps):
-        label, _ = expert.predict(observation, episode_start=begins)
+        label, _ = expert.predict(observation[:, :plain], episode_start=begins)
         observations.append(observation.copy())
         labels.append(label)
         observation, _, begins, infos = venv.step(act(observation, label))
@@ -190,6 +221,8 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     ``model.n_envs`` envs seeded from ``seed``; writes :data:`IMITATION_FILE` in
     ``directory`` (and, where ``imitation`` anchors the training that follows,
     :data:`IMITATION_DATA_FILE`) and returns the last round's summary."""
+    from chaincart_env.elapsed_time import observation_extras
+    from chaincart_env.env import action_space, observation_space
     from chaincart_env.policies import TrajectoryPolicy
     from chaincart_env.sb3 import ChainCartVecEnv
 
@@ -202,10 +235,13 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     fit = _Fit(model, imitation, seed)
     log = _Log(Path(directory) / IMITATION_FILE)
 
+    plain = config.obs_dim
+    extras = observation_extras(model.observation_space, observation_space(config), action_space(config))
+
     def envs(block: int, drawn: Any = config) -> tuple[Any, Any]:
         # Seeds apart from the training envs' (seed + i) and the evaluations' (1 000 000 + k).
-        venv = ChainCartVecEnv(n_envs, drawn, seed=seed + 100_000 + block * n_envs)
-        return venv, TrajectoryPolicy.from_env(venv)
+        native = ChainCartVecEnv(n_envs, drawn, seed=seed + 100_000 + block * n_envs)
+        return _learner_envs(native, *extras), TrajectoryPolicy.from_env(native, plan_from=imitation.plan_from)
 
     observations, labels = [], []
     for block, noise in enumerate(imitation.noise):
@@ -214,7 +250,7 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
         def noisy(_: np.ndarray, label: np.ndarray, noise: float = noise) -> np.ndarray:
             return np.clip(label + noise * rng.standard_normal(label.shape), -1.0, 1.0).astype(np.float32)
 
-        seen, said, _ = _rollout(venv, expert, imitation.demonstration_steps, noisy)
+        seen, said, _ = _rollout(venv, expert, imitation.demonstration_steps, noisy, plain)
         observations.append(seen)
         labels.append(said)
     raw = np.concatenate(observations)
@@ -234,13 +270,13 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     for round_ in range(1, imitation.rounds + focus + 1):
         drawn = config
         if round_ > imitation.rounds and (round_ - imitation.rounds) % 2 == 1:
-            missed = [pair for pair in pairs
-                      if _pair_success(learner, config, pair, imitation.focus_starts, seed + 200_000 + round_) < 1.0]
+            missed = [pair for pair in pairs if _pair_success(learner, config, pair, imitation.focus_starts,
+                                                              seed + 200_000 + round_, extras) < 1.0]
             if not missed:
                 break
             drawn = config.replace(transitions=missed)
         venv, expert = envs(len(imitation.noise) + round_, drawn)
-        seen, said, successes = _rollout(venv, expert, imitation.round_steps, learner)
+        seen, said, successes = _rollout(venv, expert, imitation.round_steps, learner, plain)
         observations.append(seen)
         labels.append(said)
         raw = np.concatenate(observations)
@@ -254,11 +290,14 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     return log.last
 
 
-def _pair_success(act: Any, config: Any, pair: Any, starts: int, seed: int) -> float:
-    """The success of ``act`` over the first episodes of ``starts`` seeded envs of one transition."""
+def _pair_success(
+    act: Any, config: Any, pair: Any, starts: int, seed: int, extras: tuple[int, bool] = (0, False)
+) -> float:
+    """The success of ``act`` over the first episodes of ``starts`` seeded envs of one
+    transition (observed with ``extras``: history and elapsed time)."""
     from chaincart_env.sb3 import ChainCartVecEnv
 
-    venv = ChainCartVecEnv(starts, config.replace(transitions=[pair]), seed=seed)
+    venv = _learner_envs(ChainCartVecEnv(starts, config.replace(transitions=[pair]), seed=seed), *extras)
     observation, ended = venv.reset(), np.zeros(starts, dtype=bool)
     success = np.zeros(starts, dtype=bool)
     while not ended.all():

@@ -230,14 +230,15 @@ def _train_sb3(
                    curriculum=_curriculum(training), training_reward=training.get("training_reward"),
                    history=training.get("history"), conditions=training.get("conditions"),
                    shaping=_shaping(training), mirror_weight=training.get("mirror_weight", 0.0),
-                   warm_start_from=None if warm_start_from is None else Path(warm_start_from))
+                   warm_start_from=None if warm_start_from is None else Path(warm_start_from),
+                   elapsed_time=training.get("elapsed_time", False))
     trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                    resumed_from=result.resumed_from, evaluations=result.evaluations,
                    normalize=training.get("normalize"), imitation=result.imitation,
                    curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
                    history=training.get("history"), conditions=training.get("conditions"),
                    shaping=_shaping(training).record(), mirror_weight=training.get("mirror_weight", 0.0),
-                   warm_start_from=warm_start_from)
+                   warm_start_from=warm_start_from, elapsed_time=training.get("elapsed_time", False))
     return result, trained
 
 
@@ -522,8 +523,8 @@ def _training_settings(
 
             check_keywords(algo, keywords)
         seen = recipe.history if history is None else history
-        # The imitation's planner data has plain observations: an agent with history starts afresh.
-        warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" and not seen else None
+        # The imitation's learner observes what the agent does (history, elapsed time).
+        warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" else None
         if warm_start is not None and isinstance(imitation, Mapping):
             warm_start = replace(warm_start, **imitation)
         return dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
@@ -531,6 +532,7 @@ def _training_settings(
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
                     imitation=None if warm_start is None else warm_start.record(), curriculum=chosen_curriculum,
                     training_reward=training_reward, history=seen, conditions=conditions,
+                    elapsed_time=recipe.elapsed_time,
                     shaping=chosen_shaping.record(), mirror_weight=float(mirror_weight),
                     warm_start=None if warm_start_from is None else str(warm_start_from))
 
@@ -540,7 +542,7 @@ def _training_settings(
         given_options = ", ".join(f"{key} = {value!r}" for key, value in imitation.items())
         raise InvalidInputError(
             f"{given_options}: settings of an imitation, expected a PPO agent of a scene whose recipe imitates the "
-            f"planner first ({', '.join(SCENE_IMITATIONS)}) without --history"
+            f"planner first ({', '.join(SCENE_IMITATIONS)})"
         )
     for algo in learned:
         base = CONTROLLERS[algo].recipe_algorithm

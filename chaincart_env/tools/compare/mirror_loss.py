@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.symmetry import Mirror
 from chaincart_env.tools.compare.imitation import mean_action
@@ -38,14 +40,16 @@ def check_mirror_weight(weight: Any) -> float:
 
 class MirrorLoss(AuxiliaryLoss):
     """The mirror loss on minibatches of the last rollout, for agents of ``config``'s
-    scene observing ``history`` steps of history."""
+    scene observing ``history`` steps of history (and, with ``elapsed_time``, the
+    elapsed time last, which the mirror leaves as it is)."""
 
     name = "mirror_loss"
 
-    def __init__(self, config: ChainCartConfig, weight: float, history: int = 0) -> None:
+    def __init__(self, config: ChainCartConfig, weight: float, history: int = 0, elapsed_time: bool = False) -> None:
         super().__init__(check_mirror_weight(weight))
         mirror = Mirror(config)
-        self.observation_signs = mirror.observation_signs(history)
+        signs = mirror.observation_signs(history)
+        self.observation_signs = np.append(signs, 1.0).astype(signs.dtype) if elapsed_time else signs
         self.action_signs = mirror.action_signs()
 
     def mirrored(self, model: Any, observed: Any) -> Any:

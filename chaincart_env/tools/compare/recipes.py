@@ -16,7 +16,11 @@ controller that trains on a variant of the scene (``ppo-robust``:
 one zoo wrapper a recipe may name is the observation history,
 ``env_wrapper: [{chaincart_env.history.HistoryObservation: {k: 2}}]``, which ``compare``
 builds as :class:`~chaincart_env.history.VecHistoryObservation` around its native envs
-(the same observations). A recipe's ``env_kwargs`` (configuration keys, as the zoo
+(the same observations); the other is the elapsed time,
+``env_wrapper: [{chaincart_env.history.HistoryObservation: {k: 1}},
+{chaincart_env.elapsed_time.ElapsedTimeObservation: null}]`` (after the history, if
+any: the zoo wraps in list order, so the time ends the observation), built as
+:class:`~chaincart_env.elapsed_time.VecElapsedTimeObservation`. A recipe's ``env_kwargs`` (configuration keys, as the zoo
 gives them to ``gym.make``) are the conditions the agent trains under, e.g. a control
 delay drawn per episode, ``env_kwargs: {action_delay: [0, 2]}``: on top of the scene
 (and of a variant's conditions), in training and in the evaluations that choose the
@@ -42,8 +46,8 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.registration import scene_env_id
 
 __all__ = [
-    "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "TrainingRecipe", "conditions_setting", "history_setting",
-    "hyperparameter_file",
+    "ELAPSED_TIME_WRAPPER", "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "TrainingRecipe", "conditions_setting",
+    "elapsed_time_setting", "history_setting", "hyperparameter_file",
     "load_recipes", "normalize_setting", "recipe_for", "sb3_keywords", "schedule_start",
     "training_conditions",
 ]  # fmt: skip
@@ -54,8 +58,10 @@ ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_wrapper", "env_
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward")
 #: Zoo keys that ask for wrappers ``compare`` does not build: refused rather than ignored.
 UNSUPPORTED_ZOO_KEYS = ("vec_env_wrapper", "frame_stack", "callback")
-#: The wrapper a recipe's ``env_wrapper`` may name: the observation history.
+#: The wrappers a recipe's ``env_wrapper`` may name: the observation history, then the
+#: elapsed time.
 HISTORY_WRAPPER = "chaincart_env.history.HistoryObservation"
+ELAPSED_TIME_WRAPPER = "chaincart_env.elapsed_time.ElapsedTimeObservation"
 
 
 @dataclass(frozen=True)
@@ -75,6 +81,9 @@ class TrainingRecipe:
     #: Configuration keys the agent trains under on top of the scene (the zoo's
     #: ``env_kwargs``), as plain JSON values.
     conditions: dict[str, Any] = field(default_factory=dict)
+    #: The agent observes the elapsed fraction of its episode (the zoo's ``env_wrapper``
+    #: :data:`ELAPSED_TIME_WRAPPER`).
+    elapsed_time: bool = False
 
 
 #: SB3's defaults on 8 envs: what a scene without a recipe trains with.
@@ -101,8 +110,10 @@ def _recipe(algo: str, env_id: str, entry: Any) -> TrainingRecipe:
         raise InvalidInputError(f"{where}: expected an integer n_envs and a number n_timesteps") from None
     keywords = {key: value for key, value in entry.items() if key not in ZOO_KEYS}
     sb3_keywords(keywords, where)  # checked now, so a bad file fails before any training
+    wrappers = entry.get("env_wrapper")
     return TrainingRecipe(num_envs, timesteps, keywords, where, normalize_setting(entry.get("normalize"), where),
-                          history_setting(entry.get("env_wrapper"), where), conditions_setting(entry.get("env_kwargs"), where))
+                          history_setting(wrappers, where), conditions_setting(entry.get("env_kwargs"), where),
+                          elapsed_time_setting(wrappers, where))
 
 
 def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
@@ -126,25 +137,44 @@ def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
                                 "lists, mappings)") from None
 
 
+def _wrappers(value: Any, where: str) -> dict[str, Any]:
+    """A zoo ``env_wrapper`` as ``{wrapper: keywords}``: :data:`HISTORY_WRAPPER`
+    (``{k: K}``) and/or :data:`ELAPSED_TIME_WRAPPER` (no keywords), alone or in a list
+    with the history first; anything else is refused, since ``compare`` would not build it."""
+    if value is None:
+        return {}
+    bad = InvalidInputError(
+        f"{where}: env_wrapper = {value!r}: expected [{{{HISTORY_WRAPPER}: {{k: <integer >= 1>}}}}] and/or "
+        f"[{{{ELAPSED_TIME_WRAPPER}: null}}], in that order: the only wrappers compare builds"
+    )
+    entries = value if isinstance(value, list) else [value]
+    names = [next(iter(e)) if isinstance(e, Mapping) and len(e) == 1 else None for e in entries]
+    if names not in ([HISTORY_WRAPPER], [ELAPSED_TIME_WRAPPER], [HISTORY_WRAPPER, ELAPSED_TIME_WRAPPER]):
+        raise bad
+    found = {name: entry[name] for name, entry in zip(names, entries)}
+    history = found.get(HISTORY_WRAPPER)
+    if HISTORY_WRAPPER in found:
+        if not isinstance(history, Mapping) or set(history) != {"k"}:
+            raise bad
+        k = history["k"]
+        if isinstance(k, bool) or not isinstance(k, int) or k < 1:
+            raise bad
+    if found.get(ELAPSED_TIME_WRAPPER, None) not in (None, {}):
+        raise bad
+    return found
+
+
 def history_setting(value: Any, where: str = "env_wrapper") -> Optional[int]:
     """The history length of a zoo ``env_wrapper`` naming :data:`HISTORY_WRAPPER`
-    (``{wrapper: {k: K}}``, alone or in a list of one), or ``None`` for no wrapper; any
-    other wrapper is refused, since ``compare`` would not build it."""
-    if value is None:
-        return None
-    bad = InvalidInputError(f"{where}: env_wrapper = {value!r}: expected [{{{HISTORY_WRAPPER}: {{k: <integer >= 1>}}}}]"
-                            ", the only wrapper compare builds")
-    if isinstance(value, list):
-        if len(value) != 1:
-            raise bad
-        value = value[0]
-    if not isinstance(value, Mapping) or list(value) != [HISTORY_WRAPPER] or not isinstance(value[HISTORY_WRAPPER], Mapping):
-        raise bad
-    keywords = value[HISTORY_WRAPPER]
-    k = keywords.get("k")
-    if set(keywords) != {"k"} or isinstance(k, bool) or not isinstance(k, int) or k < 1:
-        raise bad
-    return k
+    (``{wrapper: {k: K}}``), or ``None`` without it (see :func:`_wrappers` for what is
+    accepted)."""
+    history = _wrappers(value, where).get(HISTORY_WRAPPER)
+    return None if history is None else int(history["k"])
+
+
+def elapsed_time_setting(value: Any, where: str = "env_wrapper") -> bool:
+    """Whether a zoo ``env_wrapper`` names :data:`ELAPSED_TIME_WRAPPER`."""
+    return ELAPSED_TIME_WRAPPER in _wrappers(value, where)
 
 
 @functools.lru_cache(maxsize=None)

@@ -133,7 +133,7 @@ def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
 def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
     normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
-    history: Optional[int] = None, shaping: Optional[Shaping] = None,
+    history: Optional[int] = None, shaping: Optional[Shaping] = None, elapsed_time: bool = False,
 ) -> BaseAlgorithm:
     from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
@@ -148,6 +148,10 @@ def _new_agent(
         from chaincart_env.history import VecHistoryObservation
 
         native = VecHistoryObservation(native, history)
+    if elapsed_time:
+        from chaincart_env.elapsed_time import VecElapsedTimeObservation
+
+        native = VecElapsedTimeObservation(native)
     if shaping:
         from chaincart_env.tools.compare.shaped_rewards import shaped_envs
 
@@ -178,7 +182,9 @@ def _anchoring(imitation: Optional[Imitation], directory: Path) -> list[BaseCall
     return kept
 
 
-def _mirror_loss(algo: str, config: ChainCartConfig, weight: float, history: Optional[int]) -> list[BaseCallback]:
+def _mirror_loss(
+    algo: str, config: ChainCartConfig, weight: float, history: Optional[int], elapsed_time: bool = False
+) -> list[BaseCallback]:
     """The mirror loss of weight ``weight`` (none for 0), or an InvalidInputError naming
     an algorithm it does not serve."""
     from chaincart_env.tools.compare.mirror_loss import MIRROR_ALGOS, MirrorLoss, check_mirror_weight
@@ -187,7 +193,7 @@ def _mirror_loss(algo: str, config: ChainCartConfig, weight: float, history: Opt
         return []
     if algorithm_class(algo) not in {algorithm_class(name) for name in MIRROR_ALGOS}:
         raise InvalidInputError(f"mirror weight {weight} with {algo}: expected an agent of {list(MIRROR_ALGOS)}")
-    return [MirrorLoss(config, weight, history or 0)]
+    return [MirrorLoss(config, weight, history or 0, elapsed_time)]
 
 
 def training_config(
@@ -246,6 +252,7 @@ def train(
     shaping: Optional[Shaping] = None,
     warm_start_from: Optional[Path] = None,
     mirror_weight: float = 0.0,
+    elapsed_time: bool = False,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -275,6 +282,9 @@ def train(
     ``history``:
     the agent observes the last ``history`` observations and actions too
     (:class:`~chaincart_env.history.VecHistoryObservation`; its evaluations add them as it acts).
+    ``elapsed_time``: the agent observes the elapsed fraction of its episode too, after any
+    history (:class:`~chaincart_env.elapsed_time.VecElapsedTimeObservation`; likewise added in
+    its evaluations).
     ``mirror_weight``: the weight of the mirror loss beside PPO's
     (:mod:`~chaincart_env.tools.compare.mirror_loss`), 0 for none."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
@@ -290,9 +300,10 @@ def train(
     directory.mkdir(parents=True, exist_ok=True)
     resuming = resume and settled_directory(directory / CHECKPOINT_DIR).is_dir()
     trained_on = training_config(config, training_reward, conditions)
-    mirror = _mirror_loss(algo, trained_on, mirror_weight, history)
+    mirror = _mirror_loss(algo, trained_on, mirror_weight, history, elapsed_time)
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
-                                                                    normalize, curriculum, history, shaping)
+                                                                    normalize, curriculum, history, shaping,
+                                                                    elapsed_time)
     if warm_start_from is not None and not resuming:
         from chaincart_env.tools.compare.warm_start import warm_start
 

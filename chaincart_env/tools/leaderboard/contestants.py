@@ -82,7 +82,7 @@ def train_agent(
     if tiny:
         num_envs, small = TINY_TRAINING[CONTROLLERS[name].recipe_algorithm]
         hyperparameters.update(small)
-    imitation = None if tiny or recipe.history else scene_imitation(config.scene, name)
+    imitation = None if tiny else scene_imitation(config.scene, name)
     polish = None if tiny or base != name else chosen_polish(config.scene, "scene", timesteps)
     if polish is not None:  # the recipe's agent first (its own budget given: not polished again)
         from chaincart_env.tools.compare.stages import POLISH_FIRST_STAGE_DIR, first_stage, polish_stage
@@ -100,6 +100,7 @@ def train_agent(
         imitation=imitation,
         curriculum=None if tiny else scene_curriculum(config.scene),
         training_reward=scene_training_reward(config.scene), history=recipe.history,
+        elapsed_time=recipe.elapsed_time,
         conditions=training_conditions(name, recipe, config), shaping=None if tiny else scene_shaping(config.scene),
         warm_start_from=warm_start_from,
     )
