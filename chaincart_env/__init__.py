@@ -11,6 +11,9 @@ environments, its physics and RL task in Rust (``chaincart_env._core``).
 * :class:`HistoryObservation`, :class:`VecHistoryObservation`: the last ``k``
   observations and actions appended to each observation (:mod:`chaincart_env.history`),
   for policies that must cope with a control delay (the VecEnv one needs the ``sb3`` extra).
+* :class:`ElapsedTimeObservation`, :class:`VecElapsedTimeObservation`: the elapsed
+  fraction of the episode appended to each observation (:mod:`chaincart_env.elapsed_time`),
+  for policies that follow a clock, as the planner's time-varying controller does.
 * :func:`pretrained`: a shipped pretrained agent (``pretrained("inverted-2", "ppo")``),
   plain arrays acting in numpy: no torch, no unpickling.
 """
@@ -41,6 +44,7 @@ from chaincart_env.registration import ENV_ID, register_envs, scene_env_id  # no
 from chaincart_env.vector import ChainCartVectorEnv  # noqa: E402
 
 if TYPE_CHECKING:
+    from chaincart_env.elapsed_time import ElapsedTimeObservation, VecElapsedTimeObservation
     from chaincart_env.history import HistoryObservation, VecHistoryObservation
     from chaincart_env.policies import EnergyPolicy, MPCPolicy, TrajectoryPolicy
     from chaincart_env.policies.lqr import LQRPolicy
@@ -63,6 +67,7 @@ __all__ = [
     "ChainCartVecEnv",
     "ChainCartVectorEnv",
     "DEFAULT_SCENE",
+    "ElapsedTimeObservation",
     "EnergyPolicy",
     "HistoryObservation",
     "LQRPolicy",
@@ -71,6 +76,7 @@ __all__ = [
     "RewardWeights",
     "SCENES",
     "TrajectoryPolicy",
+    "VecElapsedTimeObservation",
     "VecHistoryObservation",
     "__version__",
     "pretrained",
@@ -99,6 +105,10 @@ def __getattr__(name: str) -> Any:
         from chaincart_env import history
 
         return getattr(history, name)
+    if name in ("ElapsedTimeObservation", "VecElapsedTimeObservation"):
+        from chaincart_env import elapsed_time
+
+        return getattr(elapsed_time, name)
     if name == "LQRPolicy":
         from chaincart_env.policies.lqr import LQRPolicy
 
