@@ -198,7 +198,7 @@ def test_compare_changes_the_scene_imitation_and_refuses_anchoring_without_one()
     scene = Imitation.from_record(_training_settings(CONFIG, ["ppo"], "sb3", None, None, {}, {})["ppo"]["imitation"])
     assert (scene.critic_warmup, scene.anchor_weight, scene.action_std) == (500_000, 10.0, 0.03)
     with pytest.raises(InvalidInputError, match="critic_warmup = 1000.*transitions-2"):
-        _training_settings(ChainCartConfig(scene="swingup-2"), ["ppo"], "sb3", None, None, {}, {},
+        _training_settings(ChainCartConfig(scene="swingup-3"), ["ppo"], "sb3", None, None, {}, {},
                            imitation={"critic_warmup": 1000})
     with pytest.raises(InvalidInputError, match="anchor_weight = -1"):
         _training_settings(CONFIG, ["ppo"], "sb3", None, None, {}, {}, imitation={"anchor_weight": -1.0})
@@ -211,6 +211,6 @@ def test_the_command_line_reads_the_anchoring_options(capsys) -> None:
         main(["compare", "--scene", "transitions-2", "--no-imitation", "--critic-warmup", "1000", "--out", "/nonexistent"])
     assert "--critic-warmup and --imitation-weight keep an imitation" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        main(["compare", "--scene", "swingup-2", "--policies", "ppo", "--imitation-weight", "1", "--out",
+        main(["compare", "--scene", "swingup-3", "--policies", "ppo", "--imitation-weight", "1", "--out",
               "/nonexistent"])
     assert "anchor_weight = 1.0" in capsys.readouterr().err

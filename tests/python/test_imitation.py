@@ -43,7 +43,8 @@ def test_settings_round_trip_through_their_record() -> None:
 def test_only_ppo_and_a2c_imitate_and_only_on_the_scenes_that_ask() -> None:
     assert scene_imitation("transitions-2", "ppo") is not None
     assert scene_imitation("transitions-2", "sac") is None
-    assert scene_imitation("swingup-2", "ppo") is None
+    assert scene_imitation("swingup-2", "ppo") is not None  # its agent observes the elapsed time
+    assert scene_imitation("swingup-3", "ppo") is None
     assert scene_imitation(None, "ppo") is None
 
 
@@ -116,8 +117,11 @@ def test_compare_records_the_scene_imitation_and_no_imitation_turns_it_off() -> 
     assert on["sac"]["imitation"] is None
     off = _training_settings(config, ["ppo"], "sb3", None, None, {}, {}, imitation=False)
     assert off["ppo"]["imitation"] is None
-    other = _training_settings(ChainCartConfig(scene="swingup-2"), ["ppo"], "sb3", None, None, {}, {})
+    other = _training_settings(ChainCartConfig(scene="swingup-3"), ["ppo"], "sb3", None, None, {}, {})
     assert other["ppo"]["imitation"] is None
+    swing_up = _training_settings(ChainCartConfig(scene="swingup-2"), ["ppo"], "sb3", None, None, {}, {})["ppo"]
+    assert Imitation.from_record(swing_up["imitation"]) == scene_imitation("swingup-2", "ppo")
+    assert swing_up["elapsed_time"] is True and swing_up["history"] == 1  # the copy needs the time
 
 
 def test_training_with_an_imitation_evaluates_it_first(tmp_path) -> None:

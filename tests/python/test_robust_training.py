@@ -73,13 +73,13 @@ def test_the_robust_recipe_is_its_own_entry_with_history_or_else_the_scenes():
 
 
 def test_the_elapsed_time_wrapper_is_read_after_the_history_only():
-    history, timed = {HISTORY_WRAPPER: {"k": 2}}, {ELAPSED_TIME_WRAPPER: None}
+    history, timed = {HISTORY_WRAPPER: {"k": 2}}, {ELAPSED_TIME_WRAPPER: {}}
     recipe = _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": [history, timed]})
     assert (recipe.history, recipe.elapsed_time) == (2, True)
     recipe = _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": [timed]})
     assert (recipe.history, recipe.elapsed_time) == (None, True)
     assert _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10}).elapsed_time is False
-    for bad in ([timed, history], [timed, timed], {ELAPSED_TIME_WRAPPER: {"horizon": 5}}):
+    for bad in ([timed, history], [timed, timed], {ELAPSED_TIME_WRAPPER: {"horizon": 5}}, {ELAPSED_TIME_WRAPPER: None}):
         with pytest.raises(InvalidInputError, match=r"env_wrapper = .*: expected \["):
             _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": bad})
 

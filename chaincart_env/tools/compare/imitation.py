@@ -124,13 +124,16 @@ class Imitation:
 
 #: The scenes whose PPO agents start from an imitation of the planner: the
 #: goal-conditioned transitions of two links, where PPO alone learned only the
-#: transitions to hanging (docs/main-job.md).
+#: transitions to hanging (docs/main-job.md), and the double swing-up, whose agent
+#: observes the elapsed time and so can copy the planner's time-varying controller.
 #: PPO then trains on with a small exploration noise (0.03 of the force limit), its value
-#: function alone for the first 500k steps and the imitation kept as a second loss of
-#: weight 10: with these, one seed's training lifted the copy from 11 to 12 transitions
-#: (and lost it again later; compare keeps the best model).
+#: function alone for the first 500k (250k) steps and the imitation kept as a second
+#: loss of weight 10: with these, one seed's training lifted the transitions' copy from
+#: 11 to 12 transitions (and lost it again later; compare keeps the best model), and
+#: the swing-up's agents keep the copy's hold of force-rate limits and cart friction.
 SCENE_IMITATIONS: dict[str, Imitation] = {
     "transitions-2": Imitation(focus_rounds=8, action_std=0.03, critic_warmup=500_000, anchor_weight=10.0),
+    "swingup-2": Imitation(rounds=10, action_std=0.03, critic_warmup=250_000, anchor_weight=10.0),
 }
 #: The algorithms whose policy an imitation can fit (a Gaussian actor-critic).
 IMITATING_ALGOS = ("ppo", "a2c")

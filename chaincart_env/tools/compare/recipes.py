@@ -18,7 +18,7 @@ one zoo wrapper a recipe may name is the observation history,
 builds as :class:`~chaincart_env.history.VecHistoryObservation` around its native envs
 (the same observations); the other is the elapsed time,
 ``env_wrapper: [{chaincart_env.history.HistoryObservation: {k: 1}},
-{chaincart_env.elapsed_time.ElapsedTimeObservation: null}]`` (after the history, if
+{chaincart_env.elapsed_time.ElapsedTimeObservation: {}}]`` (after the history, if
 any: the zoo wraps in list order, so the time ends the observation), built as
 :class:`~chaincart_env.elapsed_time.VecElapsedTimeObservation`. A recipe's ``env_kwargs`` (configuration keys, as the zoo
 gives them to ``gym.make``) are the conditions the agent trains under, e.g. a control
@@ -139,13 +139,13 @@ def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
 
 def _wrappers(value: Any, where: str) -> dict[str, Any]:
     """A zoo ``env_wrapper`` as ``{wrapper: keywords}``: :data:`HISTORY_WRAPPER`
-    (``{k: K}``) and/or :data:`ELAPSED_TIME_WRAPPER` (no keywords), alone or in a list
+    (``{k: K}``) and/or :data:`ELAPSED_TIME_WRAPPER` (no keywords: ``{}``), alone or in a list
     with the history first; anything else is refused, since ``compare`` would not build it."""
     if value is None:
         return {}
     bad = InvalidInputError(
         f"{where}: env_wrapper = {value!r}: expected [{{{HISTORY_WRAPPER}: {{k: <integer >= 1>}}}}] and/or "
-        f"[{{{ELAPSED_TIME_WRAPPER}: null}}], in that order: the only wrappers compare builds"
+        f"[{{{ELAPSED_TIME_WRAPPER}: {{}}}}], in that order: the only wrappers compare builds"
     )
     entries = value if isinstance(value, list) else [value]
     names = [next(iter(e)) if isinstance(e, Mapping) and len(e) == 1 else None for e in entries]
@@ -159,7 +159,7 @@ def _wrappers(value: Any, where: str) -> dict[str, Any]:
         k = history["k"]
         if isinstance(k, bool) or not isinstance(k, int) or k < 1:
             raise bad
-    if found.get(ELAPSED_TIME_WRAPPER, None) not in (None, {}):
+    if ELAPSED_TIME_WRAPPER in found and found[ELAPSED_TIME_WRAPPER] != {}:  # the zoo calls wrapper(env, **keywords)
         raise bad
     return found
 
