@@ -338,7 +338,11 @@ fn only_the_channels_with_an_encoder_are_quantised() {
 }
 
 fn env_i_is_the_single_env<G: LaneScene>() {
-    let mut t = task(2, encoders(0.04));
+    env_i_is_the_single_env_with::<G>(encoders(0.04));
+}
+
+fn env_i_is_the_single_env_with<G: LaneScene>(sensors: Sensors) {
+    let mut t = task(2, sensors);
     t.reality.obs_noise = vec![0.003];
     let num_envs = CHUNK + 3;
     let mut big = batch::<G>(t.clone(), num_envs, 40, AutoresetMode::SameStep);
@@ -512,6 +516,11 @@ fn joint_encoder_velocities_are_the_finite_differences_of_the_readings() {
 /// Joint encoders: each joint's angle (a reading less the reading above) sits on the
 /// grid, each reading lags the true angle by less than one count per joint above it
 /// (the first link reads as a vertical encoder does), and the cart reads as before.
+#[test]
+fn joint_encoders_read_env_i_of_a_batch_as_the_single_env() {
+    env_i_is_the_single_env_with::<Planar>(joint_encoders(0.04));
+}
+
 #[test]
 fn joint_readings_sum_the_counts_of_the_joints_above() {
     let n = 3;
