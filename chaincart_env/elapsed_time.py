@@ -37,7 +37,7 @@ from chaincart_env.history import PicklableVecWrapper, check_history, history_sp
 
 __all__ = [
     "ElapsedTimeObservation", "ElapsedTimePolicy", "VecElapsedTimeObservation", "check_horizon", "for_plain_env",
-    "observation_extras", "timed_space",
+    "observation_extras", "timed_space", "with_observation_extras",
 ]  # fmt: skip
 
 
@@ -178,6 +178,19 @@ def for_plain_env(policy: Any, observation_space: Any, action_space: Any, horizo
     return HistoryPolicy(clocked, k, observation_space, action_space)
 
 
+def with_observation_extras(venv: Any, history: Optional[int], elapsed_time: bool) -> Any:
+    """An SB3 ``venv`` observed as an agent with ``history`` steps of history (``None``
+    or 0: none) and, with ``elapsed_time``, the elapsed time after it: the wrappers in
+    the order that lays the observation out as the module docstring says."""
+    if history:
+        from chaincart_env.history import VecHistoryObservation
+
+        venv = VecHistoryObservation(venv, history)
+    if elapsed_time:
+        venv = _vec_elapsed_time_class()(venv)
+    return venv
+
+
 def _vec_class() -> type:
     """:class:`VecElapsedTimeObservation`, made on first use (stable-baselines3 loads then)."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
@@ -220,10 +233,15 @@ def _vec_class() -> type:
 _VEC_CLASS: list[type] = []
 
 
+def _vec_elapsed_time_class() -> type:
+    """:class:`VecElapsedTimeObservation`, made once."""
+    if not _VEC_CLASS:
+        _VEC_CLASS.append(_vec_class())
+    return _VEC_CLASS[0]
+
+
 def __getattr__(name: str) -> Any:
     # Lazy: stable-baselines3 (and torch) load only when the VecEnv wrapper is used.
     if name == "VecElapsedTimeObservation":
-        if not _VEC_CLASS:
-            _VEC_CLASS.append(_vec_class())
-        return _VEC_CLASS[0]
+        return _vec_elapsed_time_class()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -186,20 +186,6 @@ class _Fit:
         return loss_sum / n
 
 
-def _learner_envs(native: Any, history: int, timed: bool) -> Any:
-    """``native`` with the observations the agent sees: its history, then its elapsed time."""
-    venv = native
-    if history:
-        from chaincart_env.history import VecHistoryObservation
-
-        venv = VecHistoryObservation(venv, history)
-    if timed:
-        from chaincart_env.elapsed_time import VecElapsedTimeObservation
-
-        venv = VecElapsedTimeObservation(venv)
-    return venv
-
-
 def _rollout(
     venv: Any, expert: Any, steps: int, act: Any, plain: int
 ) -> tuple[np.ndarray, np.ndarray, list[bool]]:
@@ -224,7 +210,7 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     ``model.n_envs`` envs seeded from ``seed``; writes :data:`IMITATION_FILE` in
     ``directory`` (and, where ``imitation`` anchors the training that follows,
     :data:`IMITATION_DATA_FILE`) and returns the last round's summary."""
-    from chaincart_env.elapsed_time import observation_extras
+    from chaincart_env.elapsed_time import observation_extras, with_observation_extras
     from chaincart_env.env import action_space, observation_space
     from chaincart_env.policies import TrajectoryPolicy
     from chaincart_env.sb3 import ChainCartVecEnv
@@ -244,7 +230,7 @@ def imitate(model: Any, config: Any, imitation: Imitation, seed: int, directory:
     def envs(block: int, drawn: Any = config) -> tuple[Any, Any]:
         # Seeds apart from the training envs' (seed + i) and the evaluations' (1 000 000 + k).
         native = ChainCartVecEnv(n_envs, drawn, seed=seed + 100_000 + block * n_envs)
-        return _learner_envs(native, *extras), TrajectoryPolicy.from_env(native, plan_from=imitation.plan_from)
+        return with_observation_extras(native, *extras), TrajectoryPolicy.from_env(native, plan_from=imitation.plan_from)
 
     observations, labels = [], []
     for block, noise in enumerate(imitation.noise):
@@ -298,9 +284,10 @@ def _pair_success(
 ) -> float:
     """The success of ``act`` over the first episodes of ``starts`` seeded envs of one
     transition (observed with ``extras``: history and elapsed time)."""
+    from chaincart_env.elapsed_time import with_observation_extras
     from chaincart_env.sb3 import ChainCartVecEnv
 
-    venv = _learner_envs(ChainCartVecEnv(starts, config.replace(transitions=[pair]), seed=seed), *extras)
+    venv = with_observation_extras(ChainCartVecEnv(starts, config.replace(transitions=[pair]), seed=seed), *extras)
     observation, ended = venv.reset(), np.zeros(starts, dtype=bool)
     success = np.zeros(starts, dtype=bool)
     while not ended.all():

@@ -144,14 +144,10 @@ def _new_agent(
     plan: Any = plan_states(config) if curriculum is not None or (shaping and shaping.plan_bonus) else None
     if curriculum is not None:
         native = PlanStartEnvs(native, plan, curriculum, seed)
-    if history is not None:
-        from chaincart_env.history import VecHistoryObservation
+    if history is not None or elapsed_time:
+        from chaincart_env.elapsed_time import with_observation_extras
 
-        native = VecHistoryObservation(native, history)
-    if elapsed_time:
-        from chaincart_env.elapsed_time import VecElapsedTimeObservation
-
-        native = VecElapsedTimeObservation(native)
+        native = with_observation_extras(native, history, elapsed_time)
     if shaping:
         from chaincart_env.tools.compare.shaped_rewards import shaped_envs
 
