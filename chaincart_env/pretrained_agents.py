@@ -12,13 +12,15 @@ numpy, with the agent's :attr:`~PretrainedPolicy.record`. Each agent is two file
 * ``<name>.json``: the record: scene, name, algorithm, network (hidden sizes,
   activation, how the output becomes an action), observation and action spaces (the
   network's input: with ``history`` k > 0 the env's observation and its last k
-  observations and actions, :mod:`chaincart_env.history`), the
+  observations and actions, :mod:`chaincart_env.history`; with ``elapsed_time`` T > 0
+  the elapsed fraction of the episode of T steps last, :mod:`chaincart_env.elapsed_time`), the
   normalisation's clip and epsilon, the env configuration, how it was trained (command,
   seed, git commit, steps) and the success it was measured at (which seeded starts,
   the outcome of each).
 
-An agent with history keeps each env's last observations and actions itself: it acts
-on the env's plain observations, restarting an env's history where ``episode_start``
+An agent with history keeps each env's last observations and actions itself, and an
+agent that observes the elapsed time counts each env's steps: it acts on the env's
+plain observations, restarting an env's history and clock where ``episode_start``
 says (SB3's convention), at its first call, and after :meth:`PretrainedPolicy.reset`.
 
 The forward pass is SB3's deterministic one: observations normalised as
@@ -212,6 +214,8 @@ class PretrainedPolicy:
         self.action_high = np.asarray(action["high"], dtype=np.float32).reshape(self.action_shape)
         #: Steps of observation and action history the network reads (0: none).
         self.history = self._history_steps(record.get("history", 0), where)
+        #: The episode length whose elapsed fraction ends the network's input (0: none).
+        self.elapsed_time = self._elapsed_time_steps(record.get("elapsed_time", 0), where)
         #: The env's observation, which ``predict`` takes.
         self.observation_shape = self._env_observation_shape(where)
         sizes = [int(np.prod(self.input_shape))] + hidden + [int(np.prod(self.action_shape))]
@@ -219,7 +223,7 @@ class PretrainedPolicy:
         self._layers = [self._layer(arrays, key, n_in, n_out, where)
                         for key, n_in, n_out in zip(names, sizes[:-1], sizes[1:])]
         self._normalization = self._statistics(record.get("normalization"), arrays, sizes[0], where)
-        self._with_history = self._history_policy() if self.history else None
+        self._adapter = self._history_policy() if self.history or self.elapsed_time else None
 
     @staticmethod
     def _history_steps(value: Any, where: str) -> int:
@@ -227,27 +231,42 @@ class PretrainedPolicy:
             raise InvalidInputError(f"{where}: history {value!r}: expected an integer >= 0")
         return value
 
+    @staticmethod
+    def _elapsed_time_steps(value: Any, where: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise InvalidInputError(f"{where}: elapsed_time {value!r}: expected an integer >= 0 (the episode's "
+                                    "length in steps, 0 for none)")
+        return value
+
     def _env_observation_shape(self, where: str) -> tuple[int, ...]:
-        """The env's observation shape: the input less ``history`` observations and actions."""
-        if not self.history:
+        """The env's observation shape: the input less the elapsed time and ``history``
+        observations and actions."""
+        if not self.history and not self.elapsed_time:
             return self.input_shape
         k, actions = self.history, int(np.prod(self.action_shape))
-        size, left = divmod(int(np.prod(self.input_shape)) - k * actions, k + 1)
+        size, left = divmod(int(np.prod(self.input_shape)) - (1 if self.elapsed_time else 0) - k * actions, k + 1)
         if len(self.input_shape) != 1 or left or size < 1:
-            raise InvalidInputError(f"{where}: input of shape {self.input_shape} with history {k}: expected "
-                                    f"obs + {k} * (obs + {actions}) numbers")
+            raise InvalidInputError(f"{where}: input of shape {self.input_shape} with history {k} and elapsed_time "
+                                    f"{self.elapsed_time}: expected obs + {k} * (obs + {actions}) numbers, plus 1 "
+                                    "with the elapsed time")
         return (size,)
 
     def _history_policy(self) -> Any:
-        """The network behind :class:`~chaincart_env.history.HistoryPolicy`, which keeps
-        each env's history."""
+        """The network behind the adapters that keep each env's history
+        (:class:`~chaincart_env.history.HistoryPolicy`) and clock
+        (:class:`~chaincart_env.elapsed_time.ElapsedTimePolicy`)."""
         from gymnasium import spaces
 
-        from chaincart_env.history import HistoryPolicy
+        from chaincart_env.elapsed_time import ElapsedTimePolicy
+        from chaincart_env.history import HistoryPolicy, history_space
 
         observation = spaces.Box(-np.inf, np.inf, self.observation_shape, np.float32)
         action = spaces.Box(self.action_low, self.action_high, dtype=np.float32)
-        return HistoryPolicy(_Network(self), self.history, observation, action)
+        policy: Any = _Network(self)
+        if self.elapsed_time:
+            inner = history_space(observation, action, self.history) if self.history else observation
+            policy = ElapsedTimePolicy(policy, self.elapsed_time, inner)
+        return HistoryPolicy(policy, self.history, observation, action) if self.history else policy
 
     @staticmethod
     def _layer(arrays: Mapping[str, np.ndarray], key: str, n_in: int, n_out: int, where: str) -> _Layer:
@@ -352,22 +371,23 @@ class PretrainedPolicy:
                 f"{self.label}: observation of shape {obs.shape}: expected {self.observation_shape} or a batch "
                 f"(n, {', '.join(map(str, self.observation_shape))})"
             )
-        if self._with_history is not None:
-            return self._with_history.predict(obs, state=state, episode_start=episode_start)  # type: ignore[no-any-return]
+        if self._adapter is not None:
+            return self._adapter.predict(obs, state=state, episode_start=episode_start)  # type: ignore[no-any-return]
         batch = obs.reshape(1 if single else obs.shape[0], -1)
         actions = self.forward(batch).reshape((-1, *self.action_shape))
         return (actions[0] if single else actions), state
 
     def reset(self) -> None:
-        """Forgets every env's history (an agent with history begins new episodes at its
-        next call); nothing for an agent without."""
-        if self._with_history is not None:
-            self._with_history.reset()
+        """Forgets every env's history and clock (an agent with either begins new
+        episodes at its next call); nothing for an agent without."""
+        if self._adapter is not None:
+            self._adapter.reset()
 
     def __repr__(self) -> str:
         hidden = [layer.weight.shape[0] for layer in self._layers[:-1]]
         return (f"PretrainedPolicy({self.label}, {self.record.get('algorithm')}, hidden {hidden}, {self.activation}, "
-                f"normalised={self._normalization is not None}, history={self.history})")
+                f"normalised={self._normalization is not None}, history={self.history}, "
+                f"elapsed_time={self.elapsed_time})")
 
 
 class _Network:

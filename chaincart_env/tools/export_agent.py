@@ -287,11 +287,12 @@ def measure_success(policy: Any, config: ChainCartConfig, seeds: Sequence[int]) 
 
 def agent_record(
     model: Any, statistics: Any, config: ChainCartConfig, name: str, training: Optional[dict[str, Any]] = None,
-    history: int = 0,
+    history: int = 0, elapsed_time: int = 0,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The record (without its measured success) and arrays of the SB3 ``model``
     (normalising with the ``VecNormalize`` ``statistics``, or ``None``; observing
-    ``history`` steps of history) as the agent ``name`` of ``config``'s scene: what
+    ``history`` steps of history and, for ``elapsed_time`` > 0, the elapsed fraction of
+    episodes of that many steps) as the agent ``name`` of ``config``'s scene: what
     :class:`PretrainedPolicy` loads."""
     arrays, network = actor_arrays(model)
     statistic_arrays, normalization = normalization_arrays(statistics)
@@ -302,7 +303,8 @@ def agent_record(
         observation_space=dict(shape=list(model.observation_space.shape), dtype=str(model.observation_space.dtype)),
         action_space=dict(shape=list(model.action_space.shape), low=model.action_space.low.tolist(),
                           high=model.action_space.high.tolist()),
-        history=history, normalization=normalization, config=config.to_dict(), training=training or {},
+        history=history, elapsed_time=elapsed_time, normalization=normalization, config=config.to_dict(),
+        training=training or {},
     )
     return record, arrays
 
@@ -333,20 +335,22 @@ def _training_record(info: dict[str, Any], model: Any, command: Optional[str], g
     )
 
 
-def _history_steps(model: Any, config: ChainCartConfig, model_path: Path) -> int:
-    """The steps of history ``model`` observes on ``config``'s env (0: its plain
-    observation), or an error naming both spaces."""
+def _observation_extras(model: Any, config: ChainCartConfig, model_path: Path) -> tuple[int, int]:
+    """``(history, elapsed_time)``: the steps of history ``model`` observes on
+    ``config``'s env and the episode length whose elapsed fraction it observes (0, 0:
+    its plain observation), or an error naming both spaces."""
+    from chaincart_env.elapsed_time import observation_extras
     from chaincart_env.env import action_space, observation_space
-    from chaincart_env.history import history_of
 
     expected = f"({config.obs_dim},) and ({config.force_dim},), the spaces of scene {config.scene!r}"
     if tuple(model.action_space.shape) != (config.force_dim,):
         raise InvalidInputError(f"{model_path} acts with {model.action_space.shape}: expected {expected}")
     try:
-        return history_of(model, observation_space(config), action_space(config))
+        k, timed = observation_extras(model.observation_space, observation_space(config), action_space(config))
     except InvalidInputError:
         raise InvalidInputError(f"{model_path} observes {model.observation_space.shape}: expected {expected}, "
-                                "or those with k steps of history (--history k)") from None
+                                "or those with k steps of history (--history k) and the elapsed time") from None
+    return k, int(config.max_episode_steps) if timed else 0
 
 
 def export_agent(
@@ -394,10 +398,10 @@ def export_agent(
         raise InvalidInputError(f"--vecnormalize {statistics_path}: the file does not exist")
     statistics = read_statistics(statistics_path.read_bytes()) if statistics_path.is_file() else None
     model, algo_name = _load_model(model_path, algo or info.get("algo"))
-    history = _history_steps(model, config, model_path)
+    history, elapsed_time = _observation_extras(model, config, model_path)
     record, arrays = agent_record(model, statistics, config, name,
                                   training=_training_record(info, model, command, git_commit, config, algo_name),
-                                  history=history)
+                                  history=history, elapsed_time=elapsed_time)
     record["exported"] = dict(date=datetime.date.today().isoformat(), from_file=model_path.name,
                               statistics_file=statistics_path.name if statistics is not None else None,
                               stable_baselines3=stable_baselines3.__version__)

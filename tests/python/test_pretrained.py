@@ -319,15 +319,21 @@ def test_export_checks_its_input(saved_run: pathlib.Path, tmp_path: pathlib.Path
         assert re.search(message, capsys.readouterr().err), message
 
 
-def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrappers_do(tmp_path: pathlib.Path) -> None:
+@pytest.mark.parametrize("k, timed", [(2, False), (1, True)])
+def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrappers_do(
+    tmp_path: pathlib.Path, k: int, timed: bool
+) -> None:
     import gymnasium
 
-    from chaincart_env.history import HistoryObservation, HistoryPolicy
+    from chaincart_env.elapsed_time import ElapsedTimeObservation, for_plain_env
+    from chaincart_env.history import HistoryObservation
 
-    k, folder = 2, tmp_path / "history-run"
+    folder = tmp_path / "history-run"
     folder.mkdir()
     config = ChainCartConfig(scene="inverted-2", max_episode_steps=12)
-    env = HistoryObservation(gymnasium.make("ChainCart-inverted-2-v0", max_episode_steps=12), k)
+    env: Any = HistoryObservation(gymnasium.make("ChainCart-inverted-2-v0", max_episode_steps=12), k)
+    if timed:  # the elapsed time after the history, as the recipes lay it out
+        env = ElapsedTimeObservation(env)
     model = _sb3_model("PPO", dict(net_arch=[16, 16]), env)
     model.save(folder / "model.zip")
     (folder / "config.json").write_text(json.dumps(config.to_dict()))
@@ -335,10 +341,11 @@ def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrapper
                  "--episodes", "2"]) == 0  # fmt: skip
     agent = load_agent(tmp_path / "agents" / "inverted-2" / "hist.npz", tmp_path / "agents" / "inverted-2" / "hist.json")
     assert agent.history == k and agent.record["history"] == k
-    assert agent.observation_shape == (8,) and agent.input_shape == (8 + k * 9,)
+    assert agent.elapsed_time == agent.record["elapsed_time"] == (12 if timed else 0)
+    assert agent.observation_shape == (8,) and agent.input_shape == (8 + k * 9 + timed,)
     agent.check_config(config)  # acts on the scene's plain observations
-    # Two envs over an episode end, against SB3's model behind the history wrapper of the package.
-    reference = HistoryPolicy(model, k, env.unwrapped.observation_space, env.action_space)
+    # Two envs over an episode end, against SB3's model behind the package's wrappers.
+    reference = for_plain_env(model, env.unwrapped.observation_space, env.action_space, 12)
     batch = config.replace(start_noise=0.5).make_batch(2, "same_step")  # starts far enough to push
     obs = batch.reset([0, 1], None)
     starts, moved = np.ones(2, dtype=bool), False
@@ -350,7 +357,7 @@ def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrapper
         obs, _, _, _, n_ended = batch.step(np.asarray(actual, dtype=np.float32))
         starts = batch.episode_arrays()[0].astype(bool) if n_ended else np.zeros(2, dtype=bool)
     assert moved  # actions worth comparing, not all near zero
-    # reset() starts every history afresh: the same first action as a new agent's.
+    # reset() starts every history and clock afresh: the same first action as a new agent's.
     agent.reset()
     fresh = load_agent(tmp_path / "agents" / "inverted-2" / "hist.npz", tmp_path / "agents" / "inverted-2" / "hist.json")
     np.testing.assert_array_equal(agent.predict(obs[0])[0], fresh.predict(obs[0])[0])
@@ -361,9 +368,12 @@ def test_a_record_with_a_bad_history_is_refused() -> None:
     model = _sb3_model("PPO", dict(net_arch=[8]))
     record, arrays = _record_and_arrays(model)
     for bad, message in ((-1, "history -1: expected an integer >= 0"), (True, "history True"),
-                         (5, r"input of shape \(8,\) with history 5: expected obs \+ 5 \* \(obs \+ 1\)")):
+                         (5, r"input of shape \(8,\) with history 5 and elapsed_time 0: expected obs \+ 5 \* \(obs \+ 1\)")):
         with pytest.raises(InvalidInputError, match=message):
             PretrainedPolicy({**record, "history": bad}, arrays)
+    for bad, message in ((-3, "elapsed_time -3: expected an integer >= 0"), (2.5, "elapsed_time 2.5")):
+        with pytest.raises(InvalidInputError, match=message):
+            PretrainedPolicy({**record, "elapsed_time": bad}, arrays)
 
 
 def _record_and_arrays(model: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
