@@ -36,10 +36,11 @@
 //! **Joint encoders.** With `angle_encoder_reference = "joint"` (planar chains) each
 //! link's encoder sits at its joint and reads the link's angle from the link above,
 //! `phi_i = theta_i - theta_(i-1)` (the first link's from the vertical, its encoder on
-//! the cart), as on a rig with an encoder at each joint. Each relative angle is rounded down to its grid, and the
-//! observed angle of link i is the sum of the counts of joints 1..i: it carries the
-//! quantisation of every joint above it, `0 <= theta_i - reading_i < i 2 pi / N`. Its
-//! velocity is the change of that sum over the period. A spatial link on a spherical
+//! the cart), as on a rig with an encoder at each joint. Each relative angle is
+//! rounded down to its grid, and the observed angle of link i is the sum of the counts
+//! of joints 1..i: it carries the quantisation of every joint above it,
+//! `0 <= theta_i - reading_i < i 2 pi / N`. Its velocity is the change of that sum over
+//! the period. A spatial link on a spherical
 //! joint has no frame fixed to the link above to measure in (the links are rods that
 //! carry no twist), so joint encoders are refused on spatial chains.
 //!
