@@ -40,9 +40,9 @@
 //! rounded down to its grid, and the observed angle of link i is the sum of the counts
 //! of joints 1..i: it carries the quantisation of every joint above it,
 //! `0 <= theta_i - reading_i < i 2 pi / N`. Its velocity is the change of that sum over
-//! the period. A spatial link on a spherical
-//! joint has no frame fixed to the link above to measure in (the links are rods that
-//! carry no twist), so joint encoders are refused on spatial chains.
+//! the period. A spatial link on a spherical joint has no frame fixed to the link above
+//! to measure in (the links are rods that carry no twist), so joint encoders are
+//! refused on spatial chains.
 //!
 //! **Channels.** Each encoder replaces only its own channel: with only a cart encoder
 //! the links are observed as without encoders, and the other way round.
