@@ -449,20 +449,25 @@ fn bad_sensor_values_are_named() {
         ),
     ];
     for (sensors, name) in cases {
-        let p = ChainParams::new(1.0, &[0.1], &[0.5], 9.81).unwrap();
-        let e = EnvBatch::<Planar>::new(
-            Chain::new(p),
-            task(1, sensors),
-            1,
-            0,
-            AutoresetMode::NextStep,
-            false,
-        )
-        .err()
-        .expect("refused")
-        .to_string();
+        let e = refusal::<Planar>(1, sensors);
         assert!(e.contains(name) && e.contains("expected"), "{e}");
     }
+}
+
+/// The error a batch of `n` links with `sensors` is refused with.
+fn refusal<G: LaneScene>(n: usize, sensors: Sensors) -> String {
+    let p = ChainParams::new(1.0, &vec![0.1; n], &vec![0.5; n], 9.81).unwrap();
+    EnvBatch::<G>::new(
+        Chain::new(p),
+        task(n, sensors),
+        1,
+        0,
+        AutoresetMode::NextStep,
+        false,
+    )
+    .err()
+    .expect("refused")
+    .to_string()
 }
 
 #[test]
@@ -567,37 +572,16 @@ fn joint_readings_sum_the_counts_of_the_joints_above() {
 
 #[test]
 fn joint_encoders_are_refused_without_counts_and_on_spatial_chains() {
-    let p = ChainParams::new(1.0, &[0.1; 2], &[0.5; 2], 9.81).unwrap();
     let without_counts = Sensors {
         angle_counts: None,
         ..joint_encoders(0.0)
     };
-    let e = EnvBatch::<Planar>::new(
-        Chain::new(p.clone()),
-        task(2, without_counts),
-        1,
-        0,
-        AutoresetMode::NextStep,
-        false,
-    )
-    .err()
-    .expect("refused")
-    .to_string();
+    let e = refusal::<Planar>(2, without_counts);
     assert!(
         e.contains("angle_encoder_reference") && e.contains("angle_encoder_counts"),
         "{e}"
     );
-    let e = EnvBatch::<Spatial>::new(
-        Chain::new(p),
-        task(2, joint_encoders(0.0)),
-        1,
-        0,
-        AutoresetMode::NextStep,
-        false,
-    )
-    .err()
-    .expect("refused")
-    .to_string();
+    let e = refusal::<Spatial>(2, joint_encoders(0.0));
     assert!(
         e.contains("angle_encoder_reference") && e.contains("planar chain"),
         "{e}"
