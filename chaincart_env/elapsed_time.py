@@ -33,7 +33,7 @@ import gymnasium
 import numpy as np
 
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.history import PicklableVecWrapper, check_history, history_space, with_history
+from chaincart_env.history import HistoryPolicy, PicklableVecWrapper, check_history, history_space
 
 __all__ = [
     "ElapsedTimeObservation", "ElapsedTimePolicy", "VecElapsedTimeObservation", "check_horizon", "for_plain_env",
@@ -167,15 +167,10 @@ def for_plain_env(policy: Any, observation_space: Any, action_space: Any, horizo
     (the elapsed time, :class:`ElapsedTimePolicy`; history,
     :class:`~chaincart_env.history.HistoryPolicy`)."""
     k, timed = observation_extras(getattr(policy, "observation_space", None), observation_space, action_space)
-    if not timed:
-        return with_history(policy, observation_space, action_space)
-    inner = history_space(observation_space, action_space, check_history(k)) if k else observation_space
-    clocked = ElapsedTimePolicy(policy, horizon, inner)
-    if not k:
-        return clocked
-    from chaincart_env.history import HistoryPolicy
-
-    return HistoryPolicy(clocked, k, observation_space, action_space)
+    if timed:
+        inner = history_space(observation_space, action_space, check_history(k)) if k else observation_space
+        policy = ElapsedTimePolicy(policy, horizon, inner)
+    return HistoryPolicy(policy, k, observation_space, action_space) if k else policy
 
 
 def with_observation_extras(venv: Any, history: Optional[int], elapsed_time: bool) -> Any:
