@@ -37,7 +37,7 @@ from chaincart_env.history import HistoryPolicy, PicklableVecWrapper, check_hist
 
 __all__ = [
     "ElapsedTimeObservation", "ElapsedTimePolicy", "VecElapsedTimeObservation", "check_horizon", "for_plain_env",
-    "observation_extras", "timed_space", "with_observation_extras",
+    "observation_extras", "timed_space", "with_adapters", "with_observation_extras",
 ]  # fmt: skip
 
 
@@ -167,10 +167,19 @@ def for_plain_env(policy: Any, observation_space: Any, action_space: Any, horizo
     (the elapsed time, :class:`ElapsedTimePolicy`; history,
     :class:`~chaincart_env.history.HistoryPolicy`)."""
     k, timed = observation_extras(getattr(policy, "observation_space", None), observation_space, action_space)
-    if timed:
-        inner = history_space(observation_space, action_space, check_history(k)) if k else observation_space
+    return with_adapters(policy, k, horizon if timed else 0, observation_space, action_space)
+
+
+def with_adapters(policy: Any, history: int, horizon: int, observation_space: Any, action_space: Any) -> Any:
+    """``policy``, whose input is an env's observation followed by ``history`` steps of
+    history (0: none) and, for ``horizon`` > 0, the elapsed fraction of episodes of
+    ``horizon`` steps, acting on the env's plain observations: wrapped in
+    :class:`ElapsedTimePolicy` (inside) and :class:`~chaincart_env.history.HistoryPolicy`
+    (outside), as the observation is laid out."""
+    if horizon:
+        inner = history_space(observation_space, action_space, check_history(history)) if history else observation_space
         policy = ElapsedTimePolicy(policy, horizon, inner)
-    return HistoryPolicy(policy, k, observation_space, action_space) if k else policy
+    return HistoryPolicy(policy, history, observation_space, action_space) if history else policy
 
 
 def with_observation_extras(venv: Any, history: Optional[int], elapsed_time: bool) -> Any:

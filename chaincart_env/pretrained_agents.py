@@ -257,16 +257,11 @@ class PretrainedPolicy:
         (:class:`~chaincart_env.elapsed_time.ElapsedTimePolicy`)."""
         from gymnasium import spaces
 
-        from chaincart_env.elapsed_time import ElapsedTimePolicy
-        from chaincart_env.history import HistoryPolicy, history_space
+        from chaincart_env.elapsed_time import with_adapters
 
         observation = spaces.Box(-np.inf, np.inf, self.observation_shape, np.float32)
         action = spaces.Box(self.action_low, self.action_high, dtype=np.float32)
-        policy: Any = _Network(self)
-        if self.elapsed_time:
-            inner = history_space(observation, action, self.history) if self.history else observation
-            policy = ElapsedTimePolicy(policy, self.elapsed_time, inner)
-        return HistoryPolicy(policy, self.history, observation, action) if self.history else policy
+        return with_adapters(_Network(self), self.history, self.elapsed_time, observation, action)
 
     @staticmethod
     def _layer(arrays: Mapping[str, np.ndarray], key: str, n_in: int, n_out: int, where: str) -> _Layer:
