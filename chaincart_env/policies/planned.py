@@ -168,6 +168,23 @@ class PlannedPolicy:
         """Forgets every env's episode (the next call begins new ones)."""
         self._resize(0)
 
+    def __getstate__(self) -> dict[str, Any]:
+        # Plans and controllers are the core's objects, which do not pickle; the pairs
+        # and clocks do, and a restored policy plans its pairs again (__setstate__).
+        state = dict(self.__dict__)
+        state["_plans"], state["_controllers"] = {}, [None] * len(self._controllers)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Restores a pickled policy: each running episode's controller is built again
+        from the plan of its pair, planned anew (the planner is deterministic, so it is
+        the same plan where the planner's time limit did not cut it short; an episode
+        that followed a plan from its own start state follows its pair's plan)."""
+        self.__dict__.update(state)
+        for i, pair in enumerate(self._pairs):
+            if pair is not None:
+                self._controllers[i] = self._controller(self.plan(*pair), None)
+
     def _controller(self, plan: Any, previous: Any) -> Any:
         raise NotImplementedError
 
