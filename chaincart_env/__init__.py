@@ -14,6 +14,9 @@ environments, its physics and RL task in Rust (``chaincart_env._core``).
 * :class:`ElapsedTimeObservation`, :class:`VecElapsedTimeObservation`: the elapsed
   fraction of the episode appended to each observation (:mod:`chaincart_env.elapsed_time`),
   for policies that follow a clock, as the planner's time-varying controller does.
+* :class:`ResidualAction`, :class:`VecResidualAction`, :class:`ResidualPolicy`: an agent
+  whose action corrects the planner's time-varying LQR instead of replacing it
+  (:mod:`chaincart_env.residual`).
 * :func:`pretrained`: a shipped pretrained agent (``pretrained("inverted-2", "ppo")``),
   plain arrays acting in numpy: no torch, no unpickling.
 """
@@ -49,6 +52,7 @@ if TYPE_CHECKING:
     from chaincart_env.policies import EnergyPolicy, MPCPolicy, TrajectoryPolicy
     from chaincart_env.policies.lqr import LQRPolicy
     from chaincart_env.pretrained_agents import pretrained
+    from chaincart_env.residual import ResidualAction, ResidualPolicy, VecResidualAction
     from chaincart_env.roa import region_of_attraction
     from chaincart_env.sb3 import ChainCartVecEnv
 
@@ -73,11 +77,14 @@ __all__ = [
     "LQRPolicy",
     "MPCPolicy",
     "PlanningError",
+    "ResidualAction",
+    "ResidualPolicy",
     "RewardWeights",
     "SCENES",
     "TrajectoryPolicy",
     "VecElapsedTimeObservation",
     "VecHistoryObservation",
+    "VecResidualAction",
     "__version__",
     "pretrained",
     "region_of_attraction",
@@ -109,6 +116,10 @@ def __getattr__(name: str) -> Any:
         from chaincart_env import elapsed_time
 
         return getattr(elapsed_time, name)
+    if name in ("ResidualAction", "ResidualPolicy", "VecResidualAction"):
+        from chaincart_env import residual
+
+        return getattr(residual, name)
     if name == "LQRPolicy":
         from chaincart_env.policies.lqr import LQRPolicy
 

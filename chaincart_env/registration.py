@@ -11,7 +11,10 @@ its 12 000 steps, and its ``spec`` says so.
 
 Every scene also has a robust variant, ``ChainCart-<scene>-robust-v0``: the scene with
 the per-episode draws robust agents train on
-(:data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`).
+(:data:`~chaincart_env.robust_training.ROBUST_CONDITIONS`), and a residual one,
+``ChainCart-<scene>-residual-v0``: the scene itself, under the id whose entries in the
+packaged hyperparameter files train residual agents (their ``env_wrapper`` adds the
+planner's controller, :mod:`chaincart_env.residual`).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from typing import Any, Mapping, Optional
 import gymnasium
 
 from chaincart_env.config import DEFAULT_SCENE, SCENES
+from chaincart_env.residual import RESIDUAL_VARIANT
 from chaincart_env.robust_training import ROBUST_CONDITIONS, ROBUST_VARIANT
 
 __all__ = ["ENV_ID", "scene_env_id", "register_envs"]
@@ -54,9 +58,10 @@ def _register(env_id: str, scene: str | None, conditions: Optional[Mapping[str, 
 
 
 def register_envs() -> None:
-    """Registers ``ChainCart-v0``, every scene's id and every scene's robust variant
-    (idempotent)."""
+    """Registers ``ChainCart-v0``, every scene's id and every scene's robust and residual
+    variants (idempotent)."""
     _register(ENV_ID, None)
     for scene in SCENES:
         _register(scene_env_id(scene), scene)
         _register(scene_env_id(scene, ROBUST_VARIANT), scene, ROBUST_CONDITIONS)
+        _register(scene_env_id(scene, RESIDUAL_VARIANT), scene)

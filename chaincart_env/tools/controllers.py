@@ -5,7 +5,10 @@ label it has in tables and pictures, and where its class lives.
 * Learned: ``ppo``, ``sac``, ``td3`` (stable-baselines3's ``PPO``, ``SAC``, ``TD3``),
   trained on the scene with its packaged recipe; ``ppo-robust``, PPO trained on the
   scene's robust variant (:mod:`chaincart_env.robust_training`: parameters, noise and
-  delay drawn per episode, with observation history) and evaluated on the scene.
+  delay drawn per episode, with observation history) and evaluated on the scene;
+  ``ppo-residual``, PPO learning a correction of the planner's time-varying LQR
+  (:mod:`chaincart_env.residual`) with its recipe alone (the scene's imitation, plan
+  starts, training reward, shaping and polish are the plain agent's).
 * Model-based, designed on the scene's nominal model with their class's ``from_env``:
   ``lqr`` (:class:`~chaincart_env.LQRPolicy`), ``mpc``, ``trajectory`` and ``energy``
   (``MPCPolicy``, ``TrajectoryPolicy``, ``EnergyPolicy`` of ``chaincart_env.policies``).
@@ -29,6 +32,7 @@ from typing import Any, Optional
 
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
+from chaincart_env.residual import RESIDUAL_VARIANT
 from chaincart_env.robust_training import ROBUST_VARIANT
 
 __all__ = [
@@ -66,6 +70,19 @@ class Controller:
         """The algorithm whose hyperparameter file holds this controller's recipes."""
         return self.algorithm or self.name
 
+    @property
+    def fine_tunes(self) -> bool:
+        """Whether it trains in two stages: its algorithm's nominal agent first, then that
+        agent fine-tuned on the variant (``ppo-robust``)."""
+        return self.variant == ROBUST_VARIANT
+
+    @property
+    def takes_scene_methods(self) -> bool:
+        """Whether it trains with the scene's methods beside its recipe (imitation, plan
+        starts, training reward, shaping, polish): all but a residual agent, whose base is
+        the planner's controller already."""
+        return self.variant != RESIDUAL_VARIANT
+
 
 #: Every controller, in the order the help lists them.
 CONTROLLERS: dict[str, Controller] = {
@@ -76,6 +93,8 @@ CONTROLLERS: dict[str, Controller] = {
         Controller("td3", "TD3", "stable_baselines3", "TD3", learned=True),
         Controller("ppo-robust", "PPO robust", "stable_baselines3", "PPO", learned=True, algorithm="ppo",
                    variant=ROBUST_VARIANT),
+        Controller("ppo-residual", "PPO residual", "stable_baselines3", "PPO", learned=True, algorithm="ppo",
+                   variant=RESIDUAL_VARIANT),
         Controller("lqr", "LQR", "chaincart_env.policies.lqr", "LQRPolicy", learned=False),
         Controller("mpc", "MPC", "chaincart_env.policies", "MPCPolicy", learned=False),
         Controller("trajectory", "Trajectory", "chaincart_env.policies", "TrajectoryPolicy", learned=False),

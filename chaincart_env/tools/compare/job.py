@@ -231,14 +231,15 @@ def _train_sb3(
                    history=training.get("history"), conditions=training.get("conditions"),
                    shaping=_shaping(training), mirror_weight=training.get("mirror_weight", 0.0),
                    warm_start_from=None if warm_start_from is None else Path(warm_start_from),
-                   elapsed_time=training.get("elapsed_time", False))
+                   elapsed_time=training.get("elapsed_time", False), residual=training.get("residual"))
     trained = dict(timesteps_trained=int(result.model.num_timesteps), num_envs=training["num_envs"],
                    resumed_from=result.resumed_from, evaluations=result.evaluations,
                    normalize=training.get("normalize"), imitation=result.imitation,
                    curriculum=training.get("curriculum"), training_reward=training.get("training_reward"),
                    history=training.get("history"), conditions=training.get("conditions"),
                    shaping=_shaping(training).record(), mirror_weight=training.get("mirror_weight", 0.0),
-                   warm_start_from=warm_start_from, elapsed_time=training.get("elapsed_time", False))
+                   warm_start_from=warm_start_from, elapsed_time=training.get("elapsed_time", False),
+                   residual=training.get("residual"))
     return result, trained
 
 
@@ -527,13 +528,16 @@ def _training_settings(
         warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" else None
         if warm_start is not None and isinstance(imitation, Mapping):
             warm_start = replace(warm_start, **imitation)
+        scene_methods = CONTROLLERS[algo].takes_scene_methods if algo in CONTROLLERS else True
         return dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                     num_envs=recipe.num_envs if num_envs is None else num_envs,
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
-                    imitation=None if warm_start is None else warm_start.record(), curriculum=chosen_curriculum,
-                    training_reward=training_reward, history=seen, conditions=conditions,
-                    elapsed_time=recipe.elapsed_time,
-                    shaping=chosen_shaping.record(), mirror_weight=float(mirror_weight),
+                    imitation=None if warm_start is None else warm_start.record(),
+                    curriculum=chosen_curriculum if scene_methods else None,
+                    training_reward=training_reward if scene_methods else None, history=seen, conditions=conditions,
+                    elapsed_time=recipe.elapsed_time, residual=recipe.residual,
+                    shaping=(chosen_shaping if scene_methods else Shaping()).record(),
+                    mirror_weight=float(mirror_weight),
                     warm_start=None if warm_start_from is None else str(warm_start_from))
 
     for algo in learned:
@@ -546,9 +550,9 @@ def _training_settings(
         )
     for algo in learned:
         base = CONTROLLERS[algo].recipe_algorithm
-        if base != algo and warm_start_from is None:  # a variant: its algorithm's nominal agent first
+        if CONTROLLERS[algo].fine_tunes and warm_start_from is None:  # its algorithm's nominal agent first
             out[algo]["first_stage"] = {**one(base), "algo": base}
-        elif polish is not None and base == algo:  # a variant is a fine-tuning already
+        elif polish is not None and base == algo:  # a variant is a fine-tuning or a residual already
             from chaincart_env.tools.compare.stages import polish_stage
 
             out[algo] = polish_stage(algo, out[algo], polish["timesteps"], polish.get("learning_rate"))

@@ -46,8 +46,8 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.registration import scene_env_id
 
 __all__ = [
-    "ELAPSED_TIME_WRAPPER", "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "TrainingRecipe", "conditions_setting",
-    "elapsed_time_setting", "history_setting", "hyperparameter_file",
+    "ELAPSED_TIME_WRAPPER", "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "RESIDUAL_WRAPPER", "TrainingRecipe",
+    "conditions_setting", "elapsed_time_setting", "history_setting", "hyperparameter_file", "residual_scenes", "residual_setting",
     "load_recipes", "normalize_setting", "recipe_for", "sb3_keywords", "schedule_start",
     "training_conditions",
 ]  # fmt: skip
@@ -58,8 +58,9 @@ ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_wrapper", "env_
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward")
 #: Zoo keys that ask for wrappers ``compare`` does not build: refused rather than ignored.
 UNSUPPORTED_ZOO_KEYS = ("vec_env_wrapper", "frame_stack", "callback")
-#: The wrappers a recipe's ``env_wrapper`` may name: the observation history, then the
-#: elapsed time.
+#: The wrappers a recipe's ``env_wrapper`` may name: the residual action, the observation
+#: history, then the elapsed time.
+RESIDUAL_WRAPPER = "chaincart_env.residual.ResidualAction"
 HISTORY_WRAPPER = "chaincart_env.history.HistoryObservation"
 ELAPSED_TIME_WRAPPER = "chaincart_env.elapsed_time.ElapsedTimeObservation"
 
@@ -84,6 +85,9 @@ class TrainingRecipe:
     #: The agent observes the elapsed fraction of its episode (the zoo's ``env_wrapper``
     #: :data:`ELAPSED_TIME_WRAPPER`).
     elapsed_time: bool = False
+    #: The agent corrects the planner's controller with this weight (the zoo's
+    #: ``env_wrapper`` :data:`RESIDUAL_WRAPPER`, :mod:`chaincart_env.residual`), or ``None``.
+    residual: Optional[float] = None
 
 
 #: SB3's defaults on 8 envs: what a scene without a recipe trains with.
@@ -113,7 +117,7 @@ def _recipe(algo: str, env_id: str, entry: Any) -> TrainingRecipe:
     wrappers = entry.get("env_wrapper")
     return TrainingRecipe(num_envs, timesteps, keywords, where, normalize_setting(entry.get("normalize"), where),
                           history_setting(wrappers, where), conditions_setting(entry.get("env_kwargs"), where),
-                          elapsed_time_setting(wrappers, where))
+                          elapsed_time_setting(wrappers, where), residual_setting(wrappers, where))
 
 
 def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
@@ -137,21 +141,30 @@ def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
                                 "lists, mappings)") from None
 
 
+#: The wrappers a recipe's ``env_wrapper`` may list, in the order they must come.
+_WRAPPER_ORDER = (RESIDUAL_WRAPPER, HISTORY_WRAPPER, ELAPSED_TIME_WRAPPER)
+
+
 def _wrappers(value: Any, where: str) -> dict[str, Any]:
-    """A zoo ``env_wrapper`` as ``{wrapper: keywords}``: :data:`HISTORY_WRAPPER`
-    (``{k: K}``) and/or :data:`ELAPSED_TIME_WRAPPER` (no keywords: ``{}``), alone or in a list
-    with the history first; anything else is refused, since ``compare`` would not build it."""
+    """A zoo ``env_wrapper`` as ``{wrapper: keywords}``: some of :data:`RESIDUAL_WRAPPER`
+    (``{scale: S}``, or ``{}`` for its default), :data:`HISTORY_WRAPPER` (``{k: K}``) and
+    :data:`ELAPSED_TIME_WRAPPER` (no keywords: ``{}``), alone or in a list in that order;
+    anything else is refused, since ``compare`` would not build it."""
+    from chaincart_env.residual import DEFAULT_SCALE, check_scale
+
     if value is None:
         return {}
     bad = InvalidInputError(
-        f"{where}: env_wrapper = {value!r}: expected [{{{HISTORY_WRAPPER}: {{k: <integer >= 1>}}}}] and/or "
-        f"[{{{ELAPSED_TIME_WRAPPER}: {{}}}}], in that order: the only wrappers compare builds"
+        f"{where}: env_wrapper = {value!r}: expected some of [{{{RESIDUAL_WRAPPER}: {{scale: <number in (0, 2]>}}}}, "
+        f"{{{HISTORY_WRAPPER}: {{k: <integer >= 1>}}}}, {{{ELAPSED_TIME_WRAPPER}: {{}}}}], in that order: the only "
+        "wrappers compare builds"
     )
     entries = value if isinstance(value, list) else [value]
     names = [next(iter(e)) if isinstance(e, Mapping) and len(e) == 1 else None for e in entries]
-    if names not in ([HISTORY_WRAPPER], [ELAPSED_TIME_WRAPPER], [HISTORY_WRAPPER, ELAPSED_TIME_WRAPPER]):
+    order = [_WRAPPER_ORDER.index(name) for name in names if name in _WRAPPER_ORDER]
+    if not names or len(order) != len(names) or order != sorted(set(order)):  # known, each once, in order
         raise bad
-    found = {name: entry[name] for name, entry in zip(names, entries)}
+    found = {str(name): entry[name] for name, entry in zip(names, entries)}
     history = found.get(HISTORY_WRAPPER)
     if HISTORY_WRAPPER in found:
         if not isinstance(history, Mapping) or set(history) != {"k"}:
@@ -161,6 +174,14 @@ def _wrappers(value: Any, where: str) -> dict[str, Any]:
             raise bad
     if ELAPSED_TIME_WRAPPER in found and found[ELAPSED_TIME_WRAPPER] != {}:  # the zoo calls wrapper(env, **keywords)
         raise bad
+    if RESIDUAL_WRAPPER in found:
+        residual = found[RESIDUAL_WRAPPER]
+        if not isinstance(residual, Mapping) or not set(residual) <= {"scale"}:
+            raise bad
+        try:
+            check_scale(residual.get("scale", DEFAULT_SCALE))
+        except InvalidInputError:
+            raise bad from None
     return found
 
 
@@ -175,6 +196,15 @@ def history_setting(value: Any, where: str = "env_wrapper") -> Optional[int]:
 def elapsed_time_setting(value: Any, where: str = "env_wrapper") -> bool:
     """Whether a zoo ``env_wrapper`` names :data:`ELAPSED_TIME_WRAPPER`."""
     return ELAPSED_TIME_WRAPPER in _wrappers(value, where)
+
+
+def residual_setting(value: Any, where: str = "env_wrapper") -> Optional[float]:
+    """The residual scale of a zoo ``env_wrapper`` naming :data:`RESIDUAL_WRAPPER`, or
+    ``None`` without it."""
+    from chaincart_env.residual import DEFAULT_SCALE
+
+    residual = _wrappers(value, where).get(RESIDUAL_WRAPPER)
+    return None if residual is None else float(residual.get("scale", DEFAULT_SCALE))
 
 
 @functools.lru_cache(maxsize=None)
@@ -193,8 +223,10 @@ def load_recipes(algo: str) -> dict[str, TrainingRecipe]:
 def recipe_for(scene: str, algo: str) -> TrainingRecipe:
     """The recipe of ``scene`` and ``algo`` (any case): an algorithm, or a learned
     controller that trains on a variant of the scene (``ppo-robust``: the entry of
-    ``ChainCart-<scene>-robust-v0`` in ``ppo.yml``, else the scene's); :data:`GENERIC`
-    without one."""
+    ``ChainCart-<scene>-robust-v0`` in ``ppo.yml``, else the scene's; ``ppo-residual``:
+    that of ``ChainCart-<scene>-residual-v0``, and without one a
+    :class:`~chaincart_env.tools.controllers.NotApplicable` naming the scenes that have
+    one); :data:`GENERIC` without one."""
     from chaincart_env.tools.controllers import CONTROLLERS
 
     name = algo.lower()
@@ -203,7 +235,24 @@ def recipe_for(scene: str, algo: str) -> TrainingRecipe:
     variant = controller.variant if controller is not None else None
     if variant is not None and scene_env_id(scene, variant) in recipes:
         return recipes[scene_env_id(scene, variant)]
+    if controller is not None and not controller.takes_scene_methods:
+        from chaincart_env.tools.controllers import NotApplicable
+
+        raise NotApplicable(
+            f"{name} has no recipe for {scene}: expected an entry {scene_env_id(scene, variant)} in "
+            f"{controller.recipe_algorithm}.yml (residual recipes exist for "
+            f"{', '.join(residual_scenes(controller.recipe_algorithm)) or 'no scene'})"
+        )
     return recipes.get(scene_env_id(scene), GENERIC)
+
+
+def residual_scenes(algo: str) -> list[str]:
+    """The scenes with a residual recipe in ``algo``'s packaged file."""
+    from chaincart_env.config import SCENES
+    from chaincart_env.residual import RESIDUAL_VARIANT
+
+    recipes = load_recipes(algo)
+    return [scene for scene in SCENES if scene_env_id(scene, RESIDUAL_VARIANT) in recipes]
 
 
 def training_conditions(
@@ -220,7 +269,7 @@ def training_conditions(
 
     controller = CONTROLLERS.get(name.lower())
     variant: dict[str, Any] = {}
-    if controller is not None and controller.variant is not None:
+    if controller is not None and controller.variant is not None and controller.fine_tunes:
         if controller.variant != ROBUST_VARIANT:
             raise InvalidInputError(f"{name}: variant {controller.variant!r} has no training conditions; expected "
                                     f"{ROBUST_VARIANT!r}")

@@ -134,6 +134,7 @@ def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
     normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
     history: Optional[int] = None, shaping: Optional[Shaping] = None, elapsed_time: bool = False,
+    residual: Optional[float] = None,
 ) -> BaseAlgorithm:
     from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
@@ -144,6 +145,10 @@ def _new_agent(
     plan: Any = plan_states(config) if curriculum is not None or (shaping and shaping.plan_bonus) else None
     if curriculum is not None:
         native = PlanStartEnvs(native, plan, curriculum, seed)
+    if residual is not None:
+        from chaincart_env.residual import VecResidualAction
+
+        native = VecResidualAction(native, residual)
     if history is not None or elapsed_time:
         from chaincart_env.elapsed_time import with_observation_extras
 
@@ -158,6 +163,10 @@ def _new_agent(
         model = algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
     except TypeError as error:  # an unknown or ill-typed keyword
         raise InvalidInputError(f"{algo} keywords {kwargs}: {error}") from None
+    if residual is not None:  # saved with the model: every evaluation then adds the same base
+        from chaincart_env.residual import RESIDUAL_ATTRIBUTE
+
+        setattr(model, RESIDUAL_ATTRIBUTE, {"scale": float(residual), "config": config.to_dict()})
     statistics = model.get_vec_normalize_env()
     if statistics is not None:  # rewards are normalised by their discounted return, with the agent's discount
         statistics.gamma = float(getattr(model, "gamma", statistics.gamma))
@@ -190,6 +199,24 @@ def _mirror_loss(
     if algorithm_class(algo) not in {algorithm_class(name) for name in MIRROR_ALGOS}:
         raise InvalidInputError(f"mirror weight {weight} with {algo}: expected an agent of {list(MIRROR_ALGOS)}")
     return [MirrorLoss(config, weight, history or 0, elapsed_time)]
+
+
+def _check_residual(
+    residual: Optional[float], imitation: Optional[Imitation], curriculum: Optional[PlanStarts], mirror_weight: float
+) -> None:
+    """Refuses a residual agent with what it cannot take: an imitation (the learner would
+    copy the base it already has), plan starts (the base's clock starts at the plan's
+    beginning) and the mirror loss (the base's command in the observation is not mirrored)."""
+    if residual is None:
+        return
+    from chaincart_env.residual import check_scale
+
+    check_scale(residual)
+    given = [what for what, on in (("an imitation", imitation is not None), ("plan starts", curriculum is not None),
+                                   ("the mirror loss", bool(mirror_weight))) if on]
+    if given:
+        raise InvalidInputError(f"residual scale {residual} with {' and '.join(given)}: expected a residual agent "
+                                "trained without them (its base is the planner's controller already)")
 
 
 def training_config(
@@ -249,6 +276,7 @@ def train(
     warm_start_from: Optional[Path] = None,
     mirror_weight: float = 0.0,
     elapsed_time: bool = False,
+    residual: Optional[float] = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -282,13 +310,18 @@ def train(
     history (:class:`~chaincart_env.elapsed_time.VecElapsedTimeObservation`; likewise added in
     its evaluations).
     ``mirror_weight``: the weight of the mirror loss beside PPO's
-    (:mod:`~chaincart_env.tools.compare.mirror_loss`), 0 for none."""
+    (:mod:`~chaincart_env.tools.compare.mirror_loss`), 0 for none.
+    ``residual``: the agent corrects the planner's controller with this weight
+    (:mod:`chaincart_env.residual`; the model records it, so that its evaluations add
+    the same base), ``None`` for a plain agent; it excludes an imitation and plan starts,
+    which would start the base's clock away from its plan."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
     from chaincart_env.tools.compare.run_files import settled_directory
 
     cls = algorithm_class(algo)
+    _check_residual(residual, imitation, curriculum, mirror_weight)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
@@ -299,7 +332,7 @@ def train(
     mirror = _mirror_loss(algo, trained_on, mirror_weight, history, elapsed_time)
     model = restore(directory, cls)[0] if resuming else _new_agent(algo, trained_on, seed, num_envs, kwargs,
                                                                     normalize, curriculum, history, shaping,
-                                                                    elapsed_time)
+                                                                    elapsed_time, residual)
     if warm_start_from is not None and not resuming:
         from chaincart_env.tools.compare.warm_start import warm_start
 

@@ -1,6 +1,6 @@
 """The controllers of a leaderboard: the model-based ones built with their class's
 ``from_env`` (:mod:`chaincart_env.tools.controllers`, the registry the main job uses
-too), and the learned ones (``ppo``, ``sac``, ``td3``, ``ppo-robust``) trained on the
+too), and the learned ones (``ppo``, ``sac``, ``td3``, ``ppo-robust``, ``ppo-residual``) trained on the
 scene (or its robust variant) with their packaged recipe (:mod:`chaincart_env.tools.compare.recipes`), one agent per seed, kept
 in the run directory and reused when the leaderboard runs again.
 
@@ -67,9 +67,10 @@ def train_agent(
     from chaincart_env.tools.controllers import CONTROLLERS
 
     directory = Path(directory)
-    base = CONTROLLERS[name].recipe_algorithm
+    controller = CONTROLLERS[name]
+    base, scene_methods = controller.recipe_algorithm, controller.takes_scene_methods
     warm_start_from = None
-    if base != name:  # a variant (ppo-robust): the algorithm's nominal agent of this seed first, then fine-tuned
+    if controller.fine_tunes:  # ppo-robust: the algorithm's nominal agent of this seed first, then fine-tuned
         from chaincart_env.tools.compare.stages import first_stage
 
         # The leaderboard's own agent of that algorithm and seed (agents/<scene>/<algo>/seed-<s>), where trained.
@@ -84,6 +85,7 @@ def train_agent(
         hyperparameters.update(small)
     imitation = None if tiny else scene_imitation(config.scene, name)
     polish = None if tiny or base != name else chosen_polish(config.scene, "scene", timesteps)
+    methods = scene_methods and not tiny  # a residual agent's base is the planner's controller already
     if polish is not None:  # the recipe's agent first (its own budget given: not polished again)
         from chaincart_env.tools.compare.stages import POLISH_FIRST_STAGE_DIR, first_stage, polish_stage
 
@@ -98,10 +100,10 @@ def train_agent(
         eval_every=max(budget // EVALUATIONS, 1), checkpoint_every=max(budget // 5, 1),
         progress_bar=progress_bar, hyperparameters=hyperparameters, resume=True, normalize=recipe.normalize,
         imitation=imitation,
-        curriculum=None if tiny else scene_curriculum(config.scene),
-        training_reward=scene_training_reward(config.scene), history=recipe.history,
-        elapsed_time=recipe.elapsed_time,
-        conditions=training_conditions(name, recipe, config), shaping=None if tiny else scene_shaping(config.scene),
+        curriculum=scene_curriculum(config.scene) if methods else None,
+        training_reward=scene_training_reward(config.scene) if scene_methods else None, history=recipe.history,
+        elapsed_time=recipe.elapsed_time, residual=recipe.residual,
+        conditions=training_conditions(name, recipe, config), shaping=scene_shaping(config.scene) if methods else None,
         warm_start_from=warm_start_from,
     )
     copy_agent(directory / BEST_MODEL_FILE, directory / MODEL_FILE)

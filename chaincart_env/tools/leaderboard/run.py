@@ -32,6 +32,7 @@ from chaincart_env.config import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.tools.compare.cell_runner import map_cells, torch_threads
 from chaincart_env.tools.compare.policy_sources import PolicySource
+from chaincart_env.tools.compare.recipes import recipe_for
 from chaincart_env.tools.compare.run_files import MODEL_FILE, folder_contents, write_folder
 from chaincart_env.tools.compare.tables import write_csv
 from chaincart_env.tools.controllers import LEARNED, NotApplicable
@@ -207,13 +208,15 @@ def _plan(settings: LeaderboardSettings, out: Path, log: Callable[[str], None],
     for scene in settings.scenes:
         config = ChainCartConfig(scene=scene, **settings.extra)
         for name in settings.controllers:
-            if name not in LEARNED:
-                try:  # one design (or shipped agent) per scene, whatever the seed
+            try:
+                if name not in LEARNED:  # one design (or shipped agent) per scene, whatever the seed
                     plan.designs[f"{scene}/{name}"] = fixed_source(name, config, settings.wall_clock)
-                except NotApplicable as reason:
-                    plan.skipped[(scene, name)] = str(reason)
-                    log(f"leaderboard: {reason} (not scored)")
-                    continue
+                else:  # a learned agent without a recipe for the scene (a residual agent's)
+                    recipe_for(scene, name)
+            except NotApplicable as reason:
+                plan.skipped[(scene, name)] = str(reason)
+                log(f"leaderboard: {reason} (not scored)")
+                continue
             for seed in settings.seeds:
                 key = f"{scene}/{name}"
                 cells = cells_of(scene, name, settings.axes, settings.values(), seed, settings.episodes_per_cell)
