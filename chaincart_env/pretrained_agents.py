@@ -13,7 +13,10 @@ numpy, with the agent's :attr:`~PretrainedPolicy.record`. Each agent is two file
   activation, how the output becomes an action), observation and action spaces (the
   network's input: with ``history`` k > 0 the env's observation and its last k
   observations and actions, :mod:`chaincart_env.history`; with ``elapsed_time`` T > 0
-  the elapsed fraction of the episode of T steps last, :mod:`chaincart_env.elapsed_time`), the
+  the elapsed fraction of the episode of T steps last, :mod:`chaincart_env.elapsed_time`;
+  with ``residual`` (``{"scale": s, "config": {...}}``) the agent corrects the planner's
+  controller designed on that configuration, and the base's command follows the env's
+  observation wherever it appears, :mod:`chaincart_env.residual`), the
   normalisation's clip and epsilon, the env configuration, how it was trained (command,
   seed, git commit, steps) and the success it was measured at (which seeded starts,
   the outcome of each).
@@ -216,6 +219,8 @@ class PretrainedPolicy:
         self.history = self._history_steps(record.get("history", 0), where)
         #: The episode length whose elapsed fraction ends the network's input (0: none).
         self.elapsed_time = self._elapsed_time_steps(record.get("elapsed_time", 0), where)
+        #: The planner's controller the agent corrects (:mod:`chaincart_env.residual`), or ``None``.
+        self.residual = self._residual_setting(record.get("residual"), where)
         #: The env's observation, which ``predict`` takes.
         self.observation_shape = self._env_observation_shape(where)
         sizes = [int(np.prod(self.input_shape))] + hidden + [int(np.prod(self.action_shape))]
@@ -223,7 +228,7 @@ class PretrainedPolicy:
         self._layers = [self._layer(arrays, key, n_in, n_out, where)
                         for key, n_in, n_out in zip(names, sizes[:-1], sizes[1:])]
         self._normalization = self._statistics(record.get("normalization"), arrays, sizes[0], where)
-        self._adapter = self._history_policy() if self.history or self.elapsed_time else None
+        self._adapter = self._history_policy() if self.history or self.elapsed_time or self.residual else None
 
     @staticmethod
     def _history_steps(value: Any, where: str) -> int:
@@ -238,17 +243,33 @@ class PretrainedPolicy:
                                     "length in steps, 0 for none)")
         return value
 
+    @staticmethod
+    def _residual_setting(value: Any, where: str) -> Optional[dict[str, Any]]:
+        from chaincart_env.residual import RESIDUAL_ATTRIBUTE, residual_setting
+
+        class _Carrier:
+            pass
+
+        carrier = _Carrier()
+        setattr(carrier, RESIDUAL_ATTRIBUTE, value)
+        try:
+            return residual_setting(carrier)
+        except InvalidInputError as error:
+            raise InvalidInputError(f"{where}: residual: {error}") from None
+
     def _env_observation_shape(self, where: str) -> tuple[int, ...]:
-        """The env's observation shape: the input less the elapsed time and ``history``
-        observations and actions."""
-        if not self.history and not self.elapsed_time:
+        """The env's observation shape: the input less the elapsed time, ``history``
+        observations and actions, and the base's command of a residual agent."""
+        if not self.history and not self.elapsed_time and not self.residual:
             return self.input_shape
         k, actions = self.history, int(np.prod(self.action_shape))
         size, left = divmod(int(np.prod(self.input_shape)) - (1 if self.elapsed_time else 0) - k * actions, k + 1)
+        size -= actions if self.residual else 0
         if len(self.input_shape) != 1 or left or size < 1:
-            raise InvalidInputError(f"{where}: input of shape {self.input_shape} with history {k} and elapsed_time "
-                                    f"{self.elapsed_time}: expected obs + {k} * (obs + {actions}) numbers, plus 1 "
-                                    "with the elapsed time")
+            raise InvalidInputError(f"{where}: input of shape {self.input_shape} with history {k}, elapsed_time "
+                                    f"{self.elapsed_time} and residual {self.residual is not None}: expected obs + "
+                                    f"{k} * (obs + {actions}) numbers, plus 1 with the elapsed time, obs holding "
+                                    "the base's command after the env's observation for a residual agent")
         return (size,)
 
     def _history_policy(self) -> Any:
@@ -261,6 +282,10 @@ class PretrainedPolicy:
 
         observation = spaces.Box(-np.inf, np.inf, self.observation_shape, np.float32)
         action = spaces.Box(self.action_low, self.action_high, dtype=np.float32)
+        if self.residual is not None:  # the base's command first, then the history and clock inside
+            from chaincart_env.residual import ResidualPolicy
+
+            return ResidualPolicy(_Network(self), self.residual, observation, action, self.elapsed_time)
         return with_adapters(_Network(self), self.history, self.elapsed_time, observation, action)
 
     @staticmethod
@@ -382,14 +407,18 @@ class PretrainedPolicy:
         hidden = [layer.weight.shape[0] for layer in self._layers[:-1]]
         return (f"PretrainedPolicy({self.label}, {self.record.get('algorithm')}, hidden {hidden}, {self.activation}, "
                 f"normalised={self._normalization is not None}, history={self.history}, "
-                f"elapsed_time={self.elapsed_time})")
+                f"elapsed_time={self.elapsed_time}, residual={self.residual is not None})")
 
 
 class _Network:
     """A policy's network as a ``predict`` on its whole input (history included)."""
 
     def __init__(self, policy: PretrainedPolicy) -> None:
+        from gymnasium import spaces
+
         self._policy = policy
+        #: The network's input, from which the adapters read what it holds.
+        self.observation_space = spaces.Box(-np.inf, np.inf, policy.input_shape, np.float32)
 
     def predict(self, observation: np.ndarray, state: Any = None, episode_start: Any = None,
                 deterministic: bool = True) -> tuple[np.ndarray, Any]:

@@ -292,8 +292,11 @@ def agent_record(
     """The record (without its measured success) and arrays of the SB3 ``model``
     (normalising with the ``VecNormalize`` ``statistics``, or ``None``; observing
     ``history`` steps of history and, for ``elapsed_time`` > 0, the elapsed fraction of
-    episodes of that many steps) as the agent ``name`` of ``config``'s scene: what
+    episodes of that many steps; correcting the planner's controller if the model
+    records a residual setting) as the agent ``name`` of ``config``'s scene: what
     :class:`PretrainedPolicy` loads."""
+    from chaincart_env.residual import residual_setting
+
     arrays, network = actor_arrays(model)
     statistic_arrays, normalization = normalization_arrays(statistics)
     arrays.update(statistic_arrays)
@@ -303,8 +306,8 @@ def agent_record(
         observation_space=dict(shape=list(model.observation_space.shape), dtype=str(model.observation_space.dtype)),
         action_space=dict(shape=list(model.action_space.shape), low=model.action_space.low.tolist(),
                           high=model.action_space.high.tolist()),
-        history=history, elapsed_time=elapsed_time, normalization=normalization, config=config.to_dict(),
-        training=training or {},
+        history=history, elapsed_time=elapsed_time, residual=residual_setting(model), normalization=normalization,
+        config=config.to_dict(), training=training or {},
     )
     return record, arrays
 
@@ -341,12 +344,16 @@ def _observation_extras(model: Any, config: ChainCartConfig, model_path: Path) -
     its plain observation), or an error naming both spaces."""
     from chaincart_env.elapsed_time import observation_extras
     from chaincart_env.env import action_space, observation_space
+    from chaincart_env.residual import residual_setting, residual_space
 
     expected = f"({config.obs_dim},) and ({config.force_dim},), the spaces of scene {config.scene!r}"
     if tuple(model.action_space.shape) != (config.force_dim,):
         raise InvalidInputError(f"{model_path} acts with {model.action_space.shape}: expected {expected}")
+    observed = observation_space(config)
+    if residual_setting(model) is not None:  # the base's command follows the env's observation
+        observed = residual_space(observed, action_space(config))
     try:
-        k, timed = observation_extras(model.observation_space, observation_space(config), action_space(config))
+        k, timed = observation_extras(model.observation_space, observed, action_space(config))
     except InvalidInputError:
         raise InvalidInputError(f"{model_path} observes {model.observation_space.shape}: expected {expected}, "
                                 "or those with k steps of history (--history k) and the elapsed time") from None

@@ -319,22 +319,28 @@ def test_export_checks_its_input(saved_run: pathlib.Path, tmp_path: pathlib.Path
         assert re.search(message, capsys.readouterr().err), message
 
 
-@pytest.mark.parametrize("k, timed", [(2, False), (1, True)])
+@pytest.mark.parametrize("k, timed, residual", [(2, False, False), (1, True, False), (1, True, True)])
 def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrappers_do(
-    tmp_path: pathlib.Path, k: int, timed: bool
+    tmp_path: pathlib.Path, k: int, timed: bool, residual: bool
 ) -> None:
     import gymnasium
 
     from chaincart_env.elapsed_time import ElapsedTimeObservation, for_plain_env
     from chaincart_env.history import HistoryObservation
+    from chaincart_env.residual import RESIDUAL_ATTRIBUTE, ResidualAction
 
     folder = tmp_path / "history-run"
     folder.mkdir()
     config = ChainCartConfig(scene="inverted-2", max_episode_steps=12)
-    env: Any = HistoryObservation(gymnasium.make("ChainCart-inverted-2-v0", max_episode_steps=12), k)
+    env: Any = gymnasium.make("ChainCart-inverted-2-v0", max_episode_steps=12)
+    if residual:  # the base's command first, as the recipes lay it out
+        env = ResidualAction(env, scale=0.5)
+    env = HistoryObservation(env, k)
     if timed:  # the elapsed time after the history, as the recipes lay it out
         env = ElapsedTimeObservation(env)
     model = _sb3_model("PPO", dict(net_arch=[16, 16]), env)
+    if residual:  # as compare's training records it
+        setattr(model, RESIDUAL_ATTRIBUTE, {"scale": 0.5, "config": config.to_dict()})
     model.save(folder / "model.zip")
     (folder / "config.json").write_text(json.dumps(config.to_dict()))
     assert main(["export-agent", str(folder), "--name", "hist", "--out-dir", str(tmp_path / "agents"),
@@ -342,7 +348,9 @@ def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrapper
     agent = load_agent(tmp_path / "agents" / "inverted-2" / "hist.npz", tmp_path / "agents" / "inverted-2" / "hist.json")
     assert agent.history == k and agent.record["history"] == k
     assert agent.elapsed_time == agent.record["elapsed_time"] == (12 if timed else 0)
-    assert agent.observation_shape == (8,) and agent.input_shape == (8 + k * 9 + timed,)
+    assert agent.observation_shape == (8,) and agent.input_shape == (8 + residual + k * (9 + residual) + timed,)
+    assert agent.residual == (agent.record["residual"] if residual else None)
+    assert (agent.record["residual"] or {}).get("scale") == (0.5 if residual else None)
     agent.check_config(config)  # acts on the scene's plain observations
     # Two envs over an episode end, against SB3's model behind the package's wrappers.
     reference = for_plain_env(model, env.unwrapped.observation_space, env.action_space, 12)
@@ -368,12 +376,17 @@ def test_a_record_with_a_bad_history_is_refused() -> None:
     model = _sb3_model("PPO", dict(net_arch=[8]))
     record, arrays = _record_and_arrays(model)
     for bad, message in ((-1, "history -1: expected an integer >= 0"), (True, "history True"),
-                         (5, r"input of shape \(8,\) with history 5 and elapsed_time 0: expected obs \+ 5 \* \(obs \+ 1\)")):
+                         (5, r"input of shape \(8,\) with history 5, elapsed_time 0 and residual False: expected obs \+ 5 "
+                             r"\* \(obs \+ 1\)")):
         with pytest.raises(InvalidInputError, match=message):
             PretrainedPolicy({**record, "history": bad}, arrays)
     for bad, message in ((-3, "elapsed_time -3: expected an integer >= 0"), (2.5, "elapsed_time 2.5")):
         with pytest.raises(InvalidInputError, match=message):
             PretrainedPolicy({**record, "elapsed_time": bad}, arrays)
+    for bad, message in (({"scale": 9, "config": {}}, "residual: residual scale = 9"),
+                         ({"scale": 0.2}, "residual: chaincart_residual = ")):
+        with pytest.raises(InvalidInputError, match=message):
+            PretrainedPolicy({**record, "residual": bad}, arrays)
 
 
 def _record_and_arrays(model: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

@@ -80,7 +80,7 @@ def test_the_elapsed_time_wrapper_is_read_after_the_history_only():
     assert (recipe.history, recipe.elapsed_time) == (None, True)
     assert _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10}).elapsed_time is False
     for bad in ([timed, history], [timed, timed], {ELAPSED_TIME_WRAPPER: {"horizon": 5}}, {ELAPSED_TIME_WRAPPER: None}):
-        with pytest.raises(InvalidInputError, match=r"env_wrapper = .*: expected \["):
+        with pytest.raises(InvalidInputError, match=r"env_wrapper = .*: expected some of \["):
             _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": bad})
 
 
@@ -90,7 +90,7 @@ def test_the_history_wrapper_is_read_and_every_other_wrapper_refused():
     for bad in ("gymnasium.wrappers.FrameStackObservation", [{HISTORY_WRAPPER: {"k": 0}}], {HISTORY_WRAPPER: {"k": True}},
                 [{HISTORY_WRAPPER: {"k": 2}}, {HISTORY_WRAPPER: {"k": 2}}], {"my.Wrapper": {"k": 2}},
                 {HISTORY_WRAPPER: {"k": 2, "n": 1}}):
-        with pytest.raises(InvalidInputError, match=r"ppo.yml: ChainCart-x-v0: env_wrapper = .*: expected \["):
+        with pytest.raises(InvalidInputError, match=r"ppo.yml: ChainCart-x-v0: env_wrapper = .*: expected some of \["):
             _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": bad})
 
 
