@@ -196,7 +196,7 @@ def test_the_residual_controller_trains_only_where_it_has_a_recipe() -> None:
 
     recipe = recipe_for("swingup-2", "ppo-residual")
     assert recipe.source == "ppo.yml: ChainCart-swingup-2-residual-v0" and recipe.residual == 0.2
-    assert set(training_conditions("ppo-residual", recipe)) == {"action_delay", "randomize", "start_noise"}  # no robust draws
+    assert set(training_conditions("ppo-residual", recipe)) == {"action_delay", "randomize"}  # no robust draws
     with pytest.raises(NotApplicable, match="ppo-residual has no recipe for inverted-2: .*exist for swingup-2, "):
         recipe_for("inverted-2", "ppo-residual")
     env = gymnasium.make("ChainCart-swingup-2-residual-v0")
