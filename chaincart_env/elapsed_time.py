@@ -36,8 +36,7 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.history import HistoryPolicy, PicklableVecWrapper, check_history, history_space
 
 __all__ = [
-    "ElapsedTimeObservation", "ElapsedTimePolicy", "VecElapsedTimeObservation", "adapted", "check_horizon",
-    "for_plain_env",
+    "ElapsedTimeObservation", "ElapsedTimePolicy", "VecElapsedTimeObservation", "check_horizon", "for_plain_env",
     "observation_extras", "timed_space", "with_adapters", "with_observation_extras",
 ]  # fmt: skip
 
@@ -166,20 +165,8 @@ def for_plain_env(policy: Any, observation_space: Any, action_space: Any, horizo
     """``policy`` acting on an env with these spaces and episodes of ``horizon`` steps:
     itself, or wrapped to append what its observation space holds beyond the env's
     (the elapsed time, :class:`ElapsedTimePolicy`; history,
-    :class:`~chaincart_env.history.HistoryPolicy`); an agent that corrects the planner's
-    controller (:mod:`chaincart_env.residual`) acts through
-    :class:`~chaincart_env.residual.ResidualPolicy`, which adds the base."""
-    from chaincart_env.residual import ResidualPolicy, residual_setting
-
-    setting = residual_setting(policy)
-    if setting is not None:
-        return ResidualPolicy(policy, setting, observation_space, action_space, horizon)
-    return adapted(policy, observation_space, action_space, horizon)
-
-
-def adapted(policy: Any, observation_space: Any, action_space: Any, horizon: int) -> Any:
-    """``policy`` wrapped to append the history and elapsed time its observation space
-    holds beyond an env's with these spaces (itself where it holds neither)."""
+    :class:`~chaincart_env.history.HistoryPolicy`). An agent that corrects the planner's
+    controller needs its base as well: :func:`chaincart_env.residual.on_plain_env`."""
     k, timed = observation_extras(getattr(policy, "observation_space", None), observation_space, action_space)
     return with_adapters(policy, k, horizon if timed else 0, observation_space, action_space)
 

@@ -23,7 +23,7 @@ plan never saw, a model that is not the nominal one).
 
 A trained agent carries its residual setting (:data:`RESIDUAL_ATTRIBUTE`: the scale and
 the configuration its base was designed on) in its saved file, so that every
-evaluation wraps it the same way (:func:`residual_setting`). The history and the
+evaluation wraps it the same way (:func:`residual_setting`, :func:`on_plain_env`). The history and the
 elapsed time (:mod:`chaincart_env.history`, :mod:`chaincart_env.elapsed_time`) are
 appended after the base's command, in that order.
 """
@@ -42,7 +42,7 @@ from chaincart_env.history import PicklableVecWrapper
 
 __all__ = [
     "DEFAULT_SCALE", "RESIDUAL_ATTRIBUTE", "RESIDUAL_VARIANT", "ResidualAction", "ResidualPolicy", "VecResidualAction",
-    "base_controller", "check_scale", "residual_setting", "residual_space",
+    "base_controller", "check_scale", "on_plain_env", "residual_setting", "residual_space",
 ]  # fmt: skip
 
 #: The name of the variant: in env ids (``ChainCart-swingup-2-residual-v0``) and in
@@ -147,11 +147,11 @@ class ResidualPolicy:
     def __init__(self, agent: Any, setting: Mapping[str, Any], observation_space: Any, action_space: Any,
                  horizon: int) -> None:
         from chaincart_env.config import ChainCartConfig
-        from chaincart_env.elapsed_time import adapted
+        from chaincart_env.elapsed_time import for_plain_env
 
         self._base = _Base(ChainCartConfig(**setting["config"]), setting["scale"])
         self.observation_space, self.action_space = observation_space, action_space
-        self.agent = adapted(agent, residual_space(observation_space, action_space), action_space, horizon)
+        self.agent = for_plain_env(agent, residual_space(observation_space, action_space), action_space, horizon)
 
     def predict(
         self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = True
@@ -172,6 +172,19 @@ class ResidualPolicy:
         inner_reset = getattr(self.agent, "reset", None)
         if callable(inner_reset):
             inner_reset()
+
+
+def on_plain_env(policy: Any, observation_space: Any, action_space: Any, horizon: int) -> Any:
+    """``policy`` acting on an env with these spaces and episodes of ``horizon`` steps:
+    through :class:`ResidualPolicy` if it records a residual setting, else adapted for
+    the history and elapsed time its observation space holds
+    (:func:`chaincart_env.elapsed_time.for_plain_env`)."""
+    from chaincart_env.elapsed_time import for_plain_env
+
+    setting = residual_setting(policy)
+    if setting is not None:
+        return ResidualPolicy(policy, setting, observation_space, action_space, horizon)
+    return for_plain_env(policy, observation_space, action_space, horizon)
 
 
 def residual_setting(agent: Any) -> Optional[dict[str, Any]]:

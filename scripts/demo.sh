@@ -15,7 +15,8 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 scripts/setup.sh sb3,plot  # the extras of compare; the test suite needs them all
 .venv/bin/python -m chaincart_env compare --out runs/compare "$@"
 .venv/bin/python -m chaincart_env compare --scene swingup-2 --no-progress \
-    --policies pretrained:swingup-2/ppo,pretrained:swingup-2/ppo-robust,trajectory,mpc,lqr --eval-episodes 10 \
+    --policies pretrained:swingup-2/ppo,pretrained:swingup-2/ppo-robust,pretrained:swingup-2/ppo-residual,trajectory,mpc,lqr \
+    --eval-episodes 10 \
     --sweep delay=0,1,2 --sweep obs_noise=0,0.01 \
     --out runs/compare/swingup-2
 echo "reports: runs/compare/report.md (main job) and runs/compare/swingup-2/report.md (swing-up)"

@@ -7,8 +7,8 @@ label it has in tables and pictures, and where its class lives.
   scene's robust variant (:mod:`chaincart_env.robust_training`: parameters, noise and
   delay drawn per episode, with observation history) and evaluated on the scene;
   ``ppo-residual``, PPO learning a correction of the planner's time-varying LQR
-  (:mod:`chaincart_env.residual`) with its recipe alone (the scene's imitation, plan
-  starts, training reward, shaping and polish are the plain agent's).
+  (:mod:`chaincart_env.residual`) with its recipe and the options given: the scene's
+  own imitation, plan starts, training reward, shaping and polish are the plain agent's.
 * Model-based, designed on the scene's nominal model with their class's ``from_env``:
   ``lqr`` (:class:`~chaincart_env.LQRPolicy`), ``mpc``, ``trajectory`` and ``energy``
   (``MPCPolicy``, ``TrajectoryPolicy``, ``EnergyPolicy`` of ``chaincart_env.policies``).

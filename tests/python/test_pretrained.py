@@ -325,9 +325,9 @@ def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrapper
 ) -> None:
     import gymnasium
 
-    from chaincart_env.elapsed_time import ElapsedTimeObservation, for_plain_env
+    from chaincart_env.elapsed_time import ElapsedTimeObservation
     from chaincart_env.history import HistoryObservation
-    from chaincart_env.residual import RESIDUAL_ATTRIBUTE, ResidualAction
+    from chaincart_env.residual import RESIDUAL_ATTRIBUTE, ResidualAction, on_plain_env
 
     folder = tmp_path / "history-run"
     folder.mkdir()
@@ -353,7 +353,7 @@ def test_an_agent_with_history_is_exported_and_keeps_its_history_as_sb3s_wrapper
     assert (agent.record["residual"] or {}).get("scale") == (0.5 if residual else None)
     agent.check_config(config)  # acts on the scene's plain observations
     # Two envs over an episode end, against SB3's model behind the package's wrappers.
-    reference = for_plain_env(model, env.unwrapped.observation_space, env.action_space, 12)
+    reference = on_plain_env(model, env.unwrapped.observation_space, env.action_space, 12)
     batch = config.replace(start_noise=0.5).make_batch(2, "same_step")  # starts far enough to push
     obs = batch.reset([0, 1], None)
     starts, moved = np.ones(2, dtype=bool), False

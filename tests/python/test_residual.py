@@ -222,7 +222,7 @@ def test_a_residual_agent_refuses_what_would_start_its_base_off_its_plan(tmp_pat
 def test_a_trained_residual_agent_keeps_its_base_through_saving_and_every_evaluation(tmp_path: Any) -> None:
     import torch
 
-    from chaincart_env.elapsed_time import for_plain_env
+    from chaincart_env.residual import on_plain_env
     from chaincart_env.tools.compare.run_files import MODEL_FILE
     from chaincart_env.tools.compare.training import train
 
@@ -242,7 +242,7 @@ def test_a_trained_residual_agent_keeps_its_base_through_saving_and_every_evalua
     saved = residual_setting(loaded)  # through the zip's JSON: the same configuration
     assert saved is not None and saved["scale"] == 0.25 and ChainCartConfig(**saved["config"]) == SHORT
     env = ChainCartEnv(SHORT)
-    policy = for_plain_env(loaded, env.observation_space, env.action_space, SHORT.max_episode_steps)
+    policy = on_plain_env(loaded, env.observation_space, env.action_space, SHORT.max_episode_steps)
     assert isinstance(policy, ResidualPolicy)
     base = tracker()
     obs, _ = env.reset(seed=2)

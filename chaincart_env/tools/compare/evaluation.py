@@ -99,12 +99,13 @@ def _spatial_force(force: np.ndarray) -> np.ndarray:
 
 def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[int]) -> Rollouts:
     """Runs ``policy`` (deterministic) for one episode from each seeded start."""
-    from chaincart_env.elapsed_time import for_plain_env
     from chaincart_env.env import action_space, observation_space
+    from chaincart_env.residual import on_plain_env
 
     n, horizon = len(seeds), config.max_episode_steps
-    # An agent trained with history or the elapsed time: they are appended as it acts.
-    policy = for_plain_env(policy, observation_space(config), action_space(config), horizon)
+    # An agent trained with history or the elapsed time: they are appended as it acts (and
+    # a residual agent's base added).
+    policy = on_plain_env(policy, observation_space(config), action_space(config), horizon)
     model = config.make_model()
     batch = config.make_batch(n, "same_step")
     obs = batch.reset(list(seeds), None)

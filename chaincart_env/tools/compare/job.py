@@ -469,6 +469,9 @@ def _training_settings(
         )
     out = {}
     chosen_curriculum = _chosen_curriculum(config, trainer, curriculum) if learned else None
+    # What a residual agent takes: only what was given, none of the scene's defaults.
+    given_curriculum = chosen_curriculum if curriculum != "scene" else None
+    given_reward = training_reward if training_reward != "scene" else None
     if training_reward == "scene":
         from chaincart_env.tools.compare.curriculum import scene_training_reward
 
@@ -533,10 +536,10 @@ def _training_settings(
                     num_envs=recipe.num_envs if num_envs is None else num_envs,
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
                     imitation=None if warm_start is None else warm_start.record(),
-                    curriculum=chosen_curriculum if scene_methods else None,
-                    training_reward=training_reward if scene_methods else None, history=seen, conditions=conditions,
-                    elapsed_time=recipe.elapsed_time, residual=recipe.residual,
-                    shaping=(chosen_shaping if scene_methods else Shaping()).record(),
+                    curriculum=chosen_curriculum if scene_methods else given_curriculum,
+                    training_reward=training_reward if scene_methods else given_reward, history=seen,
+                    conditions=conditions, elapsed_time=recipe.elapsed_time, residual=recipe.residual,
+                    shaping=(chosen_shaping if scene_methods else given).record(),
                     mirror_weight=float(mirror_weight),
                     warm_start=None if warm_start_from is None else str(warm_start_from))
 
