@@ -251,3 +251,25 @@ def test_a_trained_residual_agent_keeps_its_base_through_saving_and_every_evalua
         sent = policy.predict(obs[None], episode_start=starts)[0][0]
         np.testing.assert_array_equal(sent, base.predict(obs[None], episode_start=starts)[0][0])
         obs, *_ = env.step(sent)
+
+
+TINY = [
+    "--scene", "swingup-2", "--policies", "ppo-residual", "--timesteps", "256", "--num-envs", "2",
+    "--eval-episodes", "2", "--set", "max_episode_steps=40", "--algo-kwarg", "n_steps=64", "--algo-kwarg",
+    "batch_size=64", "--eval-every", "128", "--eval-starts", "2", "--checkpoint-every", "256", "--sweep",
+    "delay=0,2", "--no-progress",
+]  # fmt: skip
+
+
+def test_a_tiny_residual_study_trains_without_the_scenes_methods_and_refuses_plan_starts(tmp_path: Any, capsys) -> None:
+    import json
+
+    from chaincart_env.__main__ import main
+
+    assert main(["compare", *TINY, "--out", str(tmp_path / "run")]) == 0
+    record = json.loads((tmp_path / "run" / "seed-0" / "run.json").read_text())
+    assert record["residual"] == 0.2 and record["curriculum"] is None and record["imitation"] is None
+    assert record["training_reward"] is None and record["conditions"]["action_delay"] == [0, 3]
+    with pytest.raises(SystemExit):
+        main(["compare", *TINY, "--curriculum", "plan", "--out", str(tmp_path / "refused")])
+    assert "residual scale 0.2 with plan starts" in capsys.readouterr().err
