@@ -263,7 +263,7 @@ def test_cli_values_parse_to_config_values() -> None:
         (["--policies", "ppo,dqn"], "--policies 'ppo,dqn': unknown controller 'dqn'"),
         (["--policies", "ppo,lqe"], "unknown controller 'lqe' (did you mean 'lqr'?)"),
         (["--policies", "lqr,ppo,LQR"], "--policies 'lqr,ppo,LQR': lqr given twice"),
-        (["--policies", ","], "--policies ',': expected distinct names among ppo, sac, td3, ppo-robust, lqr"),
+        (["--policies", ","], "--policies ',': expected distinct names among ppo, sac, td3, ppo-robust, ppo-residual, lqr"),
         (["--policies", "ppo,lqr", "--algo", "sac"], "not allowed with argument"),
         (["--policies", "sac,lqr", "--algo-kwarg", "ppo:n_steps=64"], "keywords for ppo: expected a learned algorithm"),
         (["--policies", "ppo,lqr", "--algo-kwarg", "dqn:n_steps=64"], "--algo-kwarg 'dqn:n_steps=64': expected"),

@@ -42,6 +42,8 @@ LOOKS: dict[tuple[str, str], PolicyStyle] = {
     ("td3", "best"): PolicyStyle("tab:pink", (0, (4, 1, 1, 1, 1, 1, 1, 1)), ">", "OO"),
     ("ppo-robust", ""): PolicyStyle("navy", (0, (6, 2)), "d", "\\\\||"),
     ("ppo-robust", "best"): PolicyStyle("darkgoldenrod", (0, (2, 2)), "p", "x."),
+    ("ppo-residual", ""): PolicyStyle("darkgreen", (0, (3, 3)), "8", "//.."),
+    ("ppo-residual", "best"): PolicyStyle("crimson", (0, (1, 1)), "H", "|.."),
     ("lqr", ""): PolicyStyle("black", "--", "s", "\\\\\\\\"),
     ("lqr", "oracle"): PolicyStyle("tab:purple", ":", "D", "...."),
     ("mpc", ""): PolicyStyle("tab:brown", (0, (5, 2, 1, 2)), "X", "++++"),
