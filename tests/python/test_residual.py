@@ -273,3 +273,15 @@ def test_a_tiny_residual_study_trains_without_the_scenes_methods_and_refuses_pla
     with pytest.raises(SystemExit):
         main(["compare", *TINY, "--curriculum", "plan", "--out", str(tmp_path / "refused")])
     assert "residual scale 0.2 with plan starts" in capsys.readouterr().err
+
+
+def test_the_leaderboard_reports_a_residual_agent_without_a_recipe_as_not_scored(tmp_path: Any) -> None:
+    from chaincart_env.tools.leaderboard.run import LeaderboardSettings, _plan
+
+    logged: list[str] = []
+    plan = _plan(LeaderboardSettings(scenes=("inverted-2",), controllers=("ppo-residual", "lqr")), tmp_path,
+                 logged.append, {})
+    assert set(plan.skipped) == {("inverted-2", "ppo-residual")}
+    assert "ChainCart-inverted-2-residual-v0" in plan.skipped[("inverted-2", "ppo-residual")]
+    assert not plan.agents and not plan.training and "inverted-2/lqr" in plan.designs
+    assert any("(not scored)" in line for line in logged)
