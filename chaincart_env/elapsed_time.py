@@ -27,6 +27,7 @@ With observation history (:mod:`chaincart_env.history`) as well, the time comes 
 
 from __future__ import annotations
 
+import functools
 from typing import Any, Optional
 
 import gymnasium
@@ -196,8 +197,9 @@ def with_observation_extras(venv: Any, history: Optional[int], elapsed_time: boo
     return venv
 
 
-def _vec_class() -> type:
-    """:class:`VecElapsedTimeObservation`, made on first use (stable-baselines3 loads then)."""
+@functools.cache
+def _vec_elapsed_time_class() -> type:
+    """:class:`VecElapsedTimeObservation`, made once, on first use (stable-baselines3 loads then)."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
     class VecElapsedTimeObservation(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
@@ -233,16 +235,6 @@ def _vec_class() -> type:
     VecElapsedTimeObservation.__module__ = __name__
     VecElapsedTimeObservation.__qualname__ = "VecElapsedTimeObservation"
     return VecElapsedTimeObservation
-
-
-_VEC_CLASS: list[type] = []
-
-
-def _vec_elapsed_time_class() -> type:
-    """:class:`VecElapsedTimeObservation`, made once."""
-    if not _VEC_CLASS:
-        _VEC_CLASS.append(_vec_class())
-    return _VEC_CLASS[0]
 
 
 def __getattr__(name: str) -> Any:

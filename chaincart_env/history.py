@@ -31,6 +31,7 @@ one.
 
 from __future__ import annotations
 
+import functools
 from typing import Any, Optional
 
 import gymnasium
@@ -216,8 +217,9 @@ def with_history(policy: Any, observation_space: Any, action_space: Any) -> Any:
     return policy if k == 0 else HistoryPolicy(policy, k, observation_space, action_space)
 
 
+@functools.cache
 def _vec_history_class() -> type:
-    """:class:`VecHistoryObservation`, made on first use (stable-baselines3 loads then)."""
+    """:class:`VecHistoryObservation`, made once, on first use (stable-baselines3 loads then)."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
     class VecHistoryObservation(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
@@ -270,13 +272,8 @@ def _vec_history_class() -> type:
     return VecHistoryObservation
 
 
-_VEC_CLASS: list[type] = []
-
-
 def __getattr__(name: str) -> Any:
     # Lazy: stable-baselines3 (and torch) load only when the VecEnv wrapper is used.
     if name == "VecHistoryObservation":
-        if not _VEC_CLASS:
-            _VEC_CLASS.append(_vec_history_class())
-        return _VEC_CLASS[0]
+        return _vec_history_class()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -30,6 +30,7 @@ appended after the base's command, in that order.
 
 from __future__ import annotations
 
+import functools
 import math
 import types
 from typing import Any, Mapping, Optional
@@ -197,8 +198,9 @@ def residual_setting(agent: Any) -> Optional[dict[str, Any]]:
     return {"scale": check_scale(setting["scale"]), "config": dict(setting["config"])}
 
 
-def _vec_class() -> type:
-    """:class:`VecResidualAction`, made on first use (stable-baselines3 loads then)."""
+@functools.cache
+def _vec_residual_class() -> type:
+    """:class:`VecResidualAction`, made once, on first use (stable-baselines3 loads then)."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
     class VecResidualAction(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
@@ -240,15 +242,6 @@ def _vec_class() -> type:
     VecResidualAction.__module__ = __name__
     VecResidualAction.__qualname__ = "VecResidualAction"
     return VecResidualAction
-
-
-_VEC_CLASS: list[type] = []
-
-
-def _vec_residual_class() -> type:
-    if not _VEC_CLASS:
-        _VEC_CLASS.append(_vec_class())
-    return _VEC_CLASS[0]
 
 
 def __getattr__(name: str) -> Any:
