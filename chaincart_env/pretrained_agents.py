@@ -245,15 +245,10 @@ class PretrainedPolicy:
 
     @staticmethod
     def _residual_setting(value: Any, where: str) -> Optional[dict[str, Any]]:
-        from chaincart_env.residual import RESIDUAL_ATTRIBUTE, residual_setting
+        from chaincart_env.residual import checked_setting
 
-        class _Carrier:
-            pass
-
-        carrier = _Carrier()
-        setattr(carrier, RESIDUAL_ATTRIBUTE, value)
         try:
-            return residual_setting(carrier)
+            return checked_setting(value)
         except InvalidInputError as error:
             raise InvalidInputError(f"{where}: residual: {error}") from None
 

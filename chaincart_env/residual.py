@@ -43,7 +43,7 @@ from chaincart_env.history import PicklableVecWrapper
 
 __all__ = [
     "DEFAULT_SCALE", "RESIDUAL_ATTRIBUTE", "RESIDUAL_VARIANT", "ResidualAction", "ResidualPolicy", "VecResidualAction",
-    "base_controller", "check_scale", "on_plain_env", "residual_setting", "residual_space",
+    "base_controller", "check_scale", "checked_setting", "on_plain_env", "residual_setting", "residual_space",
 ]  # fmt: skip
 
 #: The name of the variant: in env ids (``ChainCart-swingup-2-residual-v0``) and in
@@ -89,11 +89,10 @@ def base_controller(config: Any) -> Any:
 
 
 def _config_of(env: Any) -> Any:
-    base = getattr(env, "unwrapped", env)
-    config = getattr(base, "config", None)
-    if config is None:
-        raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
-    return config
+    # Imported here: the package imports this module at start-up, the policies only on use.
+    from chaincart_env.policies.settings import env_config
+
+    return env_config(env)
 
 
 class _Base:
@@ -190,7 +189,12 @@ def on_plain_env(policy: Any, observation_space: Any, action_space: Any, horizon
 
 def residual_setting(agent: Any) -> Optional[dict[str, Any]]:
     """The residual setting an agent records (:data:`RESIDUAL_ATTRIBUTE`), or ``None``."""
-    setting = getattr(agent, RESIDUAL_ATTRIBUTE, None)
+    return checked_setting(getattr(agent, RESIDUAL_ATTRIBUTE, None))
+
+
+def checked_setting(setting: Any) -> Optional[dict[str, Any]]:
+    """``setting`` as a residual setting (``{"scale": s, "config": {...}}``, the scale
+    checked), or ``None`` for ``None``."""
     if setting is None:
         return None
     if not isinstance(setting, Mapping) or set(setting) != {"scale", "config"}:

@@ -13,7 +13,8 @@ from chaincart_env.errors import InvalidInputError
 from chaincart_env.model import ChainCart
 
 __all__ = [
-    "ACTUATION_COMMANDS", "SCENE_PLANS", "EnvSettings", "check_force_actuation", "env_settings", "goal_signs",
+    "ACTUATION_COMMANDS", "SCENE_PLANS", "EnvSettings", "check_force_actuation", "env_config", "env_settings",
+    "goal_signs",
     "nearest_equilibrium", "observation_batch",
 ]
 
@@ -67,6 +68,15 @@ class EnvSettings:
         return self.state_dim + (self.n_links if self.goal_observation else 0)
 
 
+def env_config(env: Any) -> Any:
+    """The ``ChainCartConfig`` of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (read
+    through ``unwrapped`` or ``config``), or an InvalidInputError for another env."""
+    config = getattr(getattr(env, "unwrapped", env), "config", None)
+    if config is None:
+        raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+    return config
+
+
 def env_settings(env: Any, oracle: bool = False, controller: str = "this controller", rig: bool = False) -> EnvSettings:
     """The settings of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (anything that
     exposes the config through ``unwrapped`` or ``config``). ``oracle=True`` takes the
@@ -78,9 +88,7 @@ def env_settings(env: Any, oracle: bool = False, controller: str = "this control
     actions command anything but a force (``actuation``) is refused: ``controller`` (its
     name, for the message) computes forces on the ideal model."""
     base = getattr(env, "unwrapped", env)
-    config = getattr(base, "config", None)
-    if config is None:
-        raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+    config = env_config(env)
     if not rig:
         check_force_actuation(config, controller)
     model = base.model if hasattr(base, "model") else config.make_model()
