@@ -531,7 +531,7 @@ def _training_settings(
         warm_start = scene_imitation(config.scene, algo) if imitation and trainer == "sb3" else None
         if warm_start is not None and isinstance(imitation, Mapping):
             warm_start = replace(warm_start, **imitation)
-        scene_methods = CONTROLLERS[algo].takes_scene_methods if algo in CONTROLLERS else True
+        scene_methods = CONTROLLERS[algo].takes_scene_methods
         return dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                     num_envs=recipe.num_envs if num_envs is None else num_envs,
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
