@@ -1,18 +1,20 @@
-"""Residual learning: an agent that corrects the planner's controller instead of
+"""Residual learning: an agent that corrects a model-based controller instead of
 replacing it.
 
-The base is :class:`~chaincart_env.policies.TrajectoryPolicy`, the planner's
-time-varying LQR, designed on the env's nominal model with one cached plan per pair
-of equilibria (``plan_from="equilibrium"``) and no time limit on the planner, so that
-its commands do not depend on the machine's load. At every step the env applies::
+The base is the scene's model-based controller, designed on the env's nominal model
+(:func:`base_controller`): where each episode starts at its target (the balancing
+scenes), the paper's LQR; where the chain must travel, the planner's time-varying LQR
+(:class:`~chaincart_env.policies.TrajectoryPolicy`) with one cached plan per pair of
+equilibria (``plan_from="equilibrium"``) and no time limit on the planner, so that its
+commands do not depend on the machine's load. At every step the env applies::
 
     u = clip(u_base + scale * clip(a, -1, 1), -1, 1)
 
 ``u_base`` the base's normalised command for the observation and ``a`` the agent's
 action. The agent observes the env's observation followed by ``u_base``: it sees what it
-corrects. An agent whose last layer starts near zero therefore starts as the planner's
+corrects. An agent whose last layer starts near zero therefore starts as its base
 controller, and training moves it only where a correction pays (a control delay the
-plan never saw, a model that is not the nominal one).
+design never saw, a model that is not the nominal one).
 
 * :class:`ResidualAction` wraps one Gymnasium env (the RL Baselines3 Zoo's
   ``env_wrapper``);
@@ -79,11 +81,17 @@ def residual_space(observation_space: Any, action_space: Any) -> gymnasium.space
 
 
 def base_controller(config: Any) -> Any:
-    """The planner's time-varying LQR for ``config`` (a ``ChainCartConfig``): the
-    nominal model, one plan per pair of equilibria, the planner's iteration cap alone
-    bounding its work (no wall-clock limit)."""
-    from chaincart_env.policies import TrajectoryPolicy
+    """The controller an agent on ``config`` (a ``ChainCartConfig``) corrects, designed
+    on the nominal model: the LQR of the target where episodes start at it
+    (``start="target"``: a plan from the target to itself is the LQR's hold, tracked
+    less robustly), else the planner's time-varying LQR, one plan per pair of
+    equilibria, the planner's iteration cap alone bounding its work (no wall-clock limit)."""
+    from chaincart_env.policies import LQRPolicy, TrajectoryPolicy
 
+    if config.start == "target":
+        from chaincart_env.env import ChainCartEnv
+
+        return LQRPolicy.from_env(ChainCartEnv(config))
     return TrajectoryPolicy.from_env(types.SimpleNamespace(config=config), plan_from="equilibrium",
                                      max_time=math.inf)
 
@@ -116,7 +124,7 @@ class _Base:
 
 
 class ResidualAction(gymnasium.Wrapper):
-    """A Gymnasium env whose action corrects the planner's controller (module docstring):
+    """A Gymnasium env whose action corrects a model-based controller (module docstring):
     ``scale`` (in (0, 2]) weighs the agent's action against the force limit."""
 
     def __init__(self, env: gymnasium.Env, scale: float = DEFAULT_SCALE) -> None:
@@ -168,7 +176,9 @@ class ResidualPolicy:
 
     def reset(self) -> None:
         """Forgets every env's episode, the base's and the agent's adapters' alike."""
-        self._base.policy.reset()
+        base_reset = getattr(self._base.policy, "reset", None)
+        if callable(base_reset):  # the LQR keeps nothing from one step to the next
+            base_reset()
         inner_reset = getattr(self.agent, "reset", None)
         if callable(inner_reset):
             inner_reset()
@@ -208,7 +218,7 @@ def _vec_residual_class() -> type:
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
     class VecResidualAction(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
-        """A stable-baselines3 ``VecEnv`` whose actions correct the planner's controller
+        """A stable-baselines3 ``VecEnv`` whose actions correct a model-based controller
         (:mod:`chaincart_env.residual`). An env whose episode ended on this step
         (same-step autoreset) begins a new base episode at its new first observation;
         its ``info["terminal_observation"]`` ends with zeros where the base's command

@@ -1,4 +1,5 @@
-"""Residual agents: the env applies the planner's time-varying LQR plus a scaled
+"""Residual agents: the env applies a model-based controller's command (the planner's
+time-varying LQR, or the LQR where episodes start at their target) plus a scaled
 correction, for one env and an SB3 VecEnv alike; the observation carries the base's
 command; a trained agent records its base and acts through it on the plain env."""
 
@@ -14,7 +15,7 @@ from gymnasium.utils.env_checker import check_env
 
 from chaincart_env import ChainCartConfig, ChainCartEnv
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.policies import TrajectoryPolicy
+from chaincart_env.policies import LQRPolicy, TrajectoryPolicy
 from chaincart_env.residual import (
     RESIDUAL_ATTRIBUTE,
     ResidualAction,
@@ -67,6 +68,31 @@ def test_with_no_correction_the_agent_is_the_planners_controller_and_swings_up()
         if terminated or truncated:
             break
     assert info["is_success"]
+
+
+def test_where_episodes_start_at_the_target_the_base_is_the_lqr_and_no_correction_balances_as_it() -> None:
+    from chaincart_env.residual import base_controller
+
+    config = ChainCartConfig(scene="inverted-2", start_noise=0.2)
+    assert isinstance(base_controller(config), LQRPolicy)
+    assert isinstance(base_controller(ChainCartConfig(scene="swingup-2")), TrajectoryPolicy)
+    env, plain, lqr = ResidualAction(ChainCartEnv(config)), ChainCartEnv(config), LQRPolicy.from_env(ChainCartEnv(config))
+    env.reset(seed=3)
+    obs, _ = plain.reset(seed=3)
+    info: dict[str, Any] = {}
+    for _ in range(config.max_episode_steps):
+        residual_obs, _, terminated, truncated, info = env.step(np.zeros(1, dtype=np.float32))
+        obs, *_ = plain.step(lqr.predict(obs)[0])
+        np.testing.assert_array_equal(env.unwrapped.model_state, plain.unwrapped.model_state)
+        np.testing.assert_array_equal(residual_obs[-1:], lqr.predict(obs)[0])  # the command it would correct next
+        if terminated or truncated:
+            break
+    assert truncated and info["is_success"]
+    agent = Zero(residual_space(plain.observation_space, plain.action_space))
+    policy = ResidualPolicy(agent, {"scale": 0.2, "config": config.to_dict()}, plain.observation_space,
+                            plain.action_space, config.max_episode_steps)
+    policy.reset()  # the LQR base keeps nothing to forget
+    np.testing.assert_array_equal(policy.predict(obs)[0], lqr.predict(obs)[0])
 
 
 def test_the_single_env_wrapper_passes_gymnasiums_checker() -> None:
@@ -197,8 +223,9 @@ def test_the_residual_controller_trains_only_where_it_has_a_recipe() -> None:
     recipe = recipe_for("swingup-2", "ppo-residual")
     assert recipe.source == "ppo.yml: ChainCart-swingup-2-residual-v0" and recipe.residual == 0.2
     assert set(training_conditions("ppo-residual", recipe)) == {"action_delay", "randomize"}  # no robust draws
-    with pytest.raises(NotApplicable, match="ppo-residual has no recipe for inverted-2: .*exist for swingup-2, "):
-        recipe_for("inverted-2", "ppo-residual")
+    with pytest.raises(NotApplicable, match="ppo-residual has no recipe for spatial-inverted-2: .*exist for "
+                                            "inverted-2, swingup-2, "):
+        recipe_for("spatial-inverted-2", "ppo-residual")
     env = gymnasium.make("ChainCart-swingup-2-residual-v0")
     assert env.unwrapped.config == ChainCartConfig(scene="swingup-2")
     assert isinstance(ResidualAction(env).observation_space, type(env.observation_space))
@@ -279,9 +306,9 @@ def test_the_leaderboard_reports_a_residual_agent_without_a_recipe_as_not_scored
     from chaincart_env.tools.leaderboard.run import LeaderboardSettings, _plan
 
     logged: list[str] = []
-    plan = _plan(LeaderboardSettings(scenes=("inverted-2",), controllers=("ppo-residual", "lqr")), tmp_path,
-                 logged.append, {})
-    assert set(plan.skipped) == {("inverted-2", "ppo-residual")}
-    assert "ChainCart-inverted-2-residual-v0" in plan.skipped[("inverted-2", "ppo-residual")]
-    assert not plan.agents and not plan.training and "inverted-2/lqr" in plan.designs
+    scene = "spatial-inverted-2"
+    plan = _plan(LeaderboardSettings(scenes=(scene,), controllers=("ppo-residual", "lqr")), tmp_path, logged.append, {})
+    assert set(plan.skipped) == {(scene, "ppo-residual")}
+    assert f"ChainCart-{scene}-residual-v0" in plan.skipped[(scene, "ppo-residual")]
+    assert not plan.agents and not plan.training and f"{scene}/lqr" in plan.designs
     assert any("(not scored)" in line for line in logged)
