@@ -75,7 +75,9 @@ def test_where_episodes_start_at_the_target_the_base_is_the_lqr_and_no_correctio
 
     config = ChainCartConfig(scene="inverted-2", start_noise=0.2)
     assert isinstance(base_controller(config), LQRPolicy)
-    assert isinstance(base_controller(ChainCartConfig(scene="swingup-2")), TrajectoryPolicy)
+    tracker_base = base_controller(ChainCartConfig(scene="swingup-2"))
+    assert isinstance(tracker_base, TrajectoryPolicy)
+    assert tracker_base.on_failure == "track"  # a missed plan fails its episodes, not the training
     env, plain, lqr = ResidualAction(ChainCartEnv(config)), ChainCartEnv(config), LQRPolicy.from_env(ChainCartEnv(config))
     env.reset(seed=3)
     obs, _ = plain.reset(seed=3)
