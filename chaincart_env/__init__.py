@@ -15,7 +15,8 @@ environments, its physics and RL task in Rust (``chaincart_env._core``).
   fraction of the episode appended to each observation (:mod:`chaincart_env.elapsed_time`),
   for policies that follow a clock, as the planner's time-varying controller does.
 * :class:`ResidualAction`, :class:`VecResidualAction`, :class:`ResidualPolicy`: an agent
-  whose action corrects the planner's time-varying LQR instead of replacing it
+  whose action corrects a model-based controller (the planner's time-varying LQR, or the
+  LQR where episodes start at their target) instead of replacing it
   (:mod:`chaincart_env.residual`).
 * :func:`pretrained`: a shipped pretrained agent (``pretrained("inverted-2", "ppo")``),
   plain arrays acting in numpy: no torch, no unpickling.

@@ -166,7 +166,7 @@ def for_plain_env(policy: Any, observation_space: Any, action_space: Any, horizo
     """``policy`` acting on an env with these spaces and episodes of ``horizon`` steps:
     itself, or wrapped to append what its observation space holds beyond the env's
     (the elapsed time, :class:`ElapsedTimePolicy`; history,
-    :class:`~chaincart_env.history.HistoryPolicy`). An agent that corrects the planner's
+    :class:`~chaincart_env.history.HistoryPolicy`). An agent that corrects a model-based
     controller needs its base as well: :func:`chaincart_env.residual.on_plain_env`."""
     k, timed = observation_extras(getattr(policy, "observation_space", None), observation_space, action_space)
     return with_adapters(policy, k, horizon if timed else 0, observation_space, action_space)

@@ -6,8 +6,9 @@ label it has in tables and pictures, and where its class lives.
   trained on the scene with its packaged recipe; ``ppo-robust``, PPO trained on the
   scene's robust variant (:mod:`chaincart_env.robust_training`: parameters, noise and
   delay drawn per episode, with observation history) and evaluated on the scene;
-  ``ppo-residual``, PPO learning a correction of the planner's time-varying LQR
-  (:mod:`chaincart_env.residual`) with its recipe and the options given: the scene's
+  ``ppo-residual``, PPO learning a correction of a model-based controller (the
+  planner's time-varying LQR, or the LQR where episodes start at their target;
+  :mod:`chaincart_env.residual`) with its recipe and the options given: the scene's
   own imitation, plan starts, training reward, shaping and polish are the plain agent's.
 * Model-based, designed on the scene's nominal model with their class's ``from_env``:
   ``lqr`` (:class:`~chaincart_env.LQRPolicy`), ``mpc``, ``trajectory`` and ``energy``
@@ -80,7 +81,7 @@ class Controller:
     def takes_scene_methods(self) -> bool:
         """Whether it trains with the scene's methods beside its recipe (imitation, plan
         starts, training reward, shaping, polish): all but a residual agent, whose base is
-        the planner's controller already."""
+        a model-based controller already."""
         return self.variant != RESIDUAL_VARIANT
 
 

@@ -85,7 +85,7 @@ class TrainingRecipe:
     #: The agent observes the elapsed fraction of its episode (the zoo's ``env_wrapper``
     #: :data:`ELAPSED_TIME_WRAPPER`).
     elapsed_time: bool = False
-    #: The agent corrects the planner's controller with this weight (the zoo's
+    #: The agent corrects a model-based controller with this weight (the zoo's
     #: ``env_wrapper`` :data:`RESIDUAL_WRAPPER`, :mod:`chaincart_env.residual`), or ``None``.
     residual: Optional[float] = None
 

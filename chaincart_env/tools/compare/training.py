@@ -216,7 +216,7 @@ def _check_residual(
                                    ("the mirror loss", bool(mirror_weight))) if on]
     if given:
         raise InvalidInputError(f"residual scale {residual} with {' and '.join(given)}: expected a residual agent "
-                                "trained without them (its base is the planner's controller already)")
+                                "trained without them (its base is a model-based controller already)")
 
 
 def training_config(
@@ -311,7 +311,7 @@ def train(
     its evaluations).
     ``mirror_weight``: the weight of the mirror loss beside PPO's
     (:mod:`~chaincart_env.tools.compare.mirror_loss`), 0 for none.
-    ``residual``: the agent corrects the planner's controller with this weight
+    ``residual``: the agent corrects a model-based controller with this weight
     (:mod:`chaincart_env.residual`; the model records it, so that its evaluations add
     the same base), ``None`` for a plain agent; it excludes an imitation and plan starts,
     which would start the base's clock away from its plan."""

@@ -85,7 +85,7 @@ def train_agent(
         hyperparameters.update(small)
     imitation = None if tiny else scene_imitation(config.scene, name)
     polish = None if tiny or base != name else chosen_polish(config.scene, "scene", timesteps)
-    methods = scene_methods and not tiny  # a residual agent's base is the planner's controller already
+    methods = scene_methods and not tiny  # a residual agent's base is a model-based controller already
     if polish is not None:  # the recipe's agent first (its own budget given: not polished again)
         from chaincart_env.tools.compare.stages import POLISH_FIRST_STAGE_DIR, first_stage, polish_stage
 
