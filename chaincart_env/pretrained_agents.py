@@ -15,11 +15,11 @@ numpy, with the agent's :attr:`~PretrainedPolicy.record`. Each agent is two file
   observations and actions, :mod:`chaincart_env.history`; with ``elapsed_time`` T > 0
   the elapsed fraction of the episode of T steps last, :mod:`chaincart_env.elapsed_time`;
   with ``residual`` (``{"scale": s, "config": {...}}``) the agent corrects the model-based
-  controller designed on that configuration (:func:`chaincart_env.residual.base_controller`), and the base's command follows the env's
-  observation wherever it appears, :mod:`chaincart_env.residual`), the
-  normalisation's clip and epsilon, the env configuration, how it was trained (command,
-  seed, git commit, steps) and the success it was measured at (which seeded starts,
-  the outcome of each).
+  controller designed on that configuration (:func:`chaincart_env.residual.base_controller`),
+  and the base's command follows the env's observation wherever it appears,
+  :mod:`chaincart_env.residual`), the normalisation's clip and epsilon, the env
+  configuration, how it was trained (command, seed, git commit, steps) and the success
+  it was measured at (which seeded starts, the outcome of each).
 
 An agent with history keeps each env's last observations and actions itself, and an
 agent that observes the elapsed time counts each env's steps: it acts on the env's
