@@ -81,13 +81,14 @@ def test_a_bad_recipe_is_refused_with_its_place_and_value(entry, message):
 
 
 @pytest.mark.parametrize("env_id", ["ChainCart-inverted-2-v0", "ChainCart-swingup-2-robust-v0", "ChainCart-swingup-3-v0",
-                                    "ChainCart-swingup-2-residual-v0"])
+                                    "ChainCart-swingup-2-residual-v0", "ChainCart-inverted-2-residual-v0"])
 def test_the_zoo_trains_a_packaged_recipe(env_id: str, tmp_path: pathlib.Path):
     # swingup-3's recipe normalises observations: the zoo builds its VecNormalize from
     # the same entry that compare reads. The robust swing-up's entry trains in the zoo on
     # its own registered variant (parameters, noise and delay drawn per episode), without
-    # compare's nominal first stage, plan starts and training reward. The residual entry's
-    # first wrapper puts the planner's controller under the agent.
+    # compare's nominal first stage, plan starts and training reward. The residual entries'
+    # first wrapper puts the planner's controller (the swing-up) or the LQR (the inverted
+    # pendulum) under the agent.
     hyperparams = pathlib.Path(str(hyperparameter_file("ppo")))
     command = [
         sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", env_id,
