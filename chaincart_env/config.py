@@ -34,6 +34,8 @@ __all__ = [
     "START_NAMES",
     "CONFIG_KEYS",
     "REALITY_KEYS",
+    "config_of",
+    "nominal_model_of",
     "env_arguments",
     "value_text",
 ]
@@ -387,3 +389,19 @@ class ChainCartConfig:
         if not isinstance(config, ChainCartConfig):
             raise InvalidTypeError(f"config = {config!r}: expected a ChainCartConfig or a dict of keywords")
         return config.replace(**kwargs) if kwargs else config
+
+
+def config_of(env: Any) -> ChainCartConfig:
+    """The ``ChainCartConfig`` of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (read
+    through ``unwrapped`` or ``config``), or an InvalidInputError for another env."""
+    config = getattr(getattr(env, "unwrapped", env), "config", None)
+    if config is None:
+        raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+    return config
+
+
+def nominal_model_of(env: Any) -> Any:
+    """The nominal model of what :func:`config_of` accepts: an env's ``model``, else (a
+    vector env, or anything holding only a ``config``) the config's."""
+    base = getattr(env, "unwrapped", env)
+    return base.model if hasattr(base, "model") else config_of(env).make_model()

@@ -40,6 +40,7 @@ from typing import Any, Mapping, Optional
 import gymnasium
 import numpy as np
 
+from chaincart_env.config import config_of
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.history import PicklableVecWrapper
 
@@ -89,20 +90,11 @@ def base_controller(config: Any) -> Any:
     from chaincart_env.policies import LQRPolicy, TrajectoryPolicy
 
     if config.start == "target":
-        from chaincart_env.env import ChainCartEnv
-
-        return LQRPolicy.from_env(ChainCartEnv(config))
+        return LQRPolicy.from_env(types.SimpleNamespace(config=config))
     # A pair whose plan misses its target is tracked all the same (its episodes fail), so
     # that one such pair among a scene's transitions does not stop a training.
     return TrajectoryPolicy.from_env(types.SimpleNamespace(config=config), plan_from="equilibrium",
                                      max_time=math.inf, on_failure="track")
-
-
-def _config_of(env: Any) -> Any:
-    # Imported here: the package imports this module at start-up, the policies only on use.
-    from chaincart_env.policies.settings import env_config
-
-    return env_config(env)
 
 
 class _Base:
@@ -131,7 +123,7 @@ class ResidualAction(gymnasium.Wrapper):
 
     def __init__(self, env: gymnasium.Env, scale: float = DEFAULT_SCALE) -> None:
         super().__init__(env)
-        self._base = _Base(_config_of(env), scale)
+        self._base = _Base(config_of(env), scale)
         self.scale = self._base.scale
         self.observation_space = residual_space(env.observation_space, env.action_space)
 
@@ -227,7 +219,7 @@ def _vec_residual_class() -> type:
         would be (no command follows a final state)."""
 
         def __init__(self, venv: Any, scale: float = DEFAULT_SCALE) -> None:
-            config = _config_of(venv)
+            config = config_of(venv)
             super().__init__(venv, observation_space=residual_space(venv.observation_space, venv.action_space))
             self._base = _Base(config, scale)
             self.scale = self._base.scale

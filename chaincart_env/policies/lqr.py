@@ -25,6 +25,8 @@ from typing import Any, Callable, Optional, Sequence
 import numpy as np
 import numpy.typing as npt
 
+from chaincart_env.config import config_of, nominal_model_of
+
 __all__ = ["LQRPolicy", "OracleLQRPolicy", "lqr_coordinates"]
 
 
@@ -131,13 +133,10 @@ class LQRPolicy:
         :class:`OracleLQRPolicy` instead, which designs one gain per env on that env's
         true parameters of the current episode (an upper bound no real controller
         reaches)."""
-        base = getattr(env, "unwrapped", env)
-        config = getattr(base, "config", None)
-        if config is None:
-            raise ValueError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
+        config = config_of(env)
         if oracle:
             return OracleLQRPolicy(env, Q, R)
-        designer = config if config.has_rig_effects else base.model
+        designer = config if config.has_rig_effects else nominal_model_of(env)
         policy = cls.from_model(designer, config.target_signs, config.command_scale, Q, R, planar=config.planar)
         return policy.goal_conditioned(designer, Q, R) if config.goal_observation else policy
 

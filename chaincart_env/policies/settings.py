@@ -9,11 +9,12 @@ from typing import Any
 import numpy as np
 
 from chaincart_env import _core
+from chaincart_env.config import config_of, nominal_model_of
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.model import ChainCart
 
 __all__ = [
-    "ACTUATION_COMMANDS", "SCENE_PLANS", "EnvSettings", "check_force_actuation", "env_config", "env_settings",
+    "ACTUATION_COMMANDS", "SCENE_PLANS", "EnvSettings", "check_force_actuation", "env_settings",
     "goal_signs",
     "nearest_equilibrium", "observation_batch",
 ]
@@ -68,15 +69,6 @@ class EnvSettings:
         return self.state_dim + (self.n_links if self.goal_observation else 0)
 
 
-def env_config(env: Any) -> Any:
-    """The ``ChainCartConfig`` of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (read
-    through ``unwrapped`` or ``config``), or an InvalidInputError for another env."""
-    config = getattr(getattr(env, "unwrapped", env), "config", None)
-    if config is None:
-        raise InvalidInputError(f"{type(env).__name__} exposes no chaincart config: expected a ChainCart env")
-    return config
-
-
 def env_settings(env: Any, oracle: bool = False, controller: str = "this controller", rig: bool = False) -> EnvSettings:
     """The settings of a ``ChainCartEnv``, its vector envs or SB3 VecEnv (anything that
     exposes the config through ``unwrapped`` or ``config``). ``oracle=True`` takes the
@@ -87,11 +79,10 @@ def env_settings(env: Any, oracle: bool = False, controller: str = "this control
     limit (:attr:`ChainCartConfig.command_scale`: N, m/s^2 or V). Without it, an env whose
     actions command anything but a force (``actuation``) is refused: ``controller`` (its
     name, for the message) computes forces on the ideal model."""
-    base = getattr(env, "unwrapped", env)
-    config = env_config(env)
+    config = config_of(env)
     if not rig:
         check_force_actuation(config, controller)
-    model = base.model if hasattr(base, "model") else config.make_model()
+    model = nominal_model_of(env)
     if oracle:
         from chaincart_env.policies.lqr import _true_param_rows
 
@@ -115,7 +106,7 @@ def env_settings(env: Any, oracle: bool = False, controller: str = "this control
         goal_observation=bool(getattr(config, "goal_observation", False)),
         scene=str(getattr(config, "scene", None) or ""),
         max_episode_steps=int(getattr(config, "max_episode_steps", 0) or 0),
-        obs_noise=float(np.max(config.obs_noise)) if getattr(config, "obs_noise", None) is not None else 0.0,
+        obs_noise=float(np.max(np.asarray(config.obs_noise))) if config.obs_noise is not None else 0.0,
     )
 
 
