@@ -43,6 +43,7 @@ __all__ = [
     "MAX_FRAME_SIZE",
     "render_frame",
     "check_camera",
+    "check_plan_weights",
     "default_view",
     "CAMERA_DEFAULTS",
     "RENDER_VIEWS",
@@ -540,6 +541,11 @@ def check_camera(
     follow: Optional[bool] = None,
 ) -> dict[str, Any]:
     """Every camera setting (``None``: the default), checked; raises
+    :class:`InvalidInputError` naming the first bad one and what it accepts."""
+
+def check_plan_weights(weights: Optional[dict[str, float]] = None) -> dict[str, float]:
+    """Every cost weight of the planner (``ChainCart.plan``'s ``weights``; the defaults
+    for those not given), checked as a plan checks them; raises
     :class:`InvalidInputError` naming the first bad one and what it accepts."""
 
 def default_view(planar: bool) -> str:

@@ -46,14 +46,16 @@ from chaincart_env.history import PicklableVecWrapper
 
 __all__ = [
     "DEFAULT_SCALE", "RESIDUAL_ATTRIBUTE", "RESIDUAL_VARIANT", "ResidualAction", "ResidualPolicy", "VecResidualAction",
-    "base_controller", "check_scale", "checked_setting", "on_plain_env", "residual_setting", "residual_space",
+    "base_controller", "check_scale", "checked_setting", "on_plain_env", "residual_keywords", "residual_setting",
+    "residual_space",
 ]  # fmt: skip
 
 #: The name of the variant: in env ids (``ChainCart-swingup-2-residual-v0``) and in
 #: controller names (``ppo-residual``).
 RESIDUAL_VARIANT = "residual"
 #: The attribute of an SB3 model that records its residual setting (saved in its zip
-#: file with the model's other attributes): ``{"scale": s, "config": {...}}``.
+#: file with the model's other attributes): ``{"scale": s, "config": {...}}``, and
+#: ``"plan_weights"`` when the base plans with other cost weights than the planner's defaults.
 RESIDUAL_ATTRIBUTE = "chaincart_residual"
 #: The agent's weight against the force limit when none is given: a correction of up to a
 #: fifth of the limit, enough to shift the base's timing under a delay, small enough that
@@ -69,6 +71,22 @@ def check_scale(scale: Any) -> float:
     return float(scale)
 
 
+def residual_keywords(value: Any) -> dict[str, Any]:
+    """``value`` as :class:`ResidualAction`'s keywords, checked: ``{"scale": s}``, with
+    ``"plan_weights"`` (the base planner's cost weights, every one) if given. A bare
+    number is the scale alone, as training records before the weights had it."""
+    if isinstance(value, (int, float, np.floating)) and not isinstance(value, bool):
+        value = {"scale": value}
+    if not isinstance(value, Mapping) or not set(value) <= {"scale", "plan_weights"}:
+        raise InvalidInputError(f"residual = {value!r}: expected {{'scale': s}} and optionally 'plan_weights'")
+    keywords: dict[str, Any] = {"scale": check_scale(value.get("scale", DEFAULT_SCALE))}
+    if value.get("plan_weights") is not None:
+        from chaincart_env.policies.planned import checked_plan_weights
+
+        keywords["plan_weights"] = checked_plan_weights(value["plan_weights"])
+    return keywords
+
+
 def residual_space(observation_space: Any, action_space: Any) -> gymnasium.spaces.Box:
     """The env's observation space followed by the base's normalised command in [-1, 1]."""
     for space, what in ((observation_space, "observation"), (action_space, "action")):
@@ -81,28 +99,34 @@ def residual_space(observation_space: Any, action_space: Any) -> gymnasium.space
     return gymnasium.spaces.Box(low=low.astype(dtype), high=high.astype(dtype), dtype=dtype)
 
 
-def base_controller(config: Any) -> Any:
+def base_controller(config: Any, plan_weights: Optional[Mapping[str, float]] = None) -> Any:
     """The controller an agent on ``config`` (a ``ChainCartConfig``) corrects, designed
     on the nominal model: the LQR of the target where episodes start at it
     (``start="target"``: a plan from the target to itself is the LQR's hold, tracked
     less robustly), else the planner's time-varying LQR, one plan per pair of
-    equilibria, the planner's iteration cap alone bounding its work (no wall-clock limit)."""
+    equilibria, the planner's iteration cap alone bounding its work (no wall-clock
+    limit), with the cost weights ``plan_weights`` (``None``: the planner's defaults)."""
     from chaincart_env.policies import LQRPolicy, TrajectoryPolicy
 
+    holder = types.SimpleNamespace(config=config)
     if config.start == "target":
-        return LQRPolicy.from_env(types.SimpleNamespace(config=config))
+        if plan_weights is not None:
+            raise InvalidInputError(f"plan_weights = {plan_weights!r} on a scene whose episodes start at "
+                                    "their target: expected none (its base is the LQR, which plans nothing)")
+        return LQRPolicy.from_env(holder)
     # A pair whose plan misses its target is tracked all the same (its episodes fail), so
     # that one such pair among a scene's transitions does not stop a training.
-    return TrajectoryPolicy.from_env(types.SimpleNamespace(config=config), plan_from="equilibrium",
-                                     max_time=math.inf, on_failure="track")
+    weights: dict[str, Any] = {} if plan_weights is None else {"weights": plan_weights}
+    return TrajectoryPolicy.from_env(holder, plan_from="equilibrium", max_time=math.inf, on_failure="track",
+                                     **weights)
 
 
 class _Base:
     """The base controller's commands for a batch, each env's episode restarted where told."""
 
-    def __init__(self, config: Any, scale: float) -> None:
+    def __init__(self, config: Any, scale: float, plan_weights: Optional[Mapping[str, float]] = None) -> None:
         self.config, self.scale = config, check_scale(scale)
-        self.policy = base_controller(config)
+        self.policy = base_controller(config, plan_weights)
         self.commands = np.zeros((0, 0), dtype=np.float32)
 
     def observe(self, observations: np.ndarray, starts: Optional[np.ndarray]) -> np.ndarray:
@@ -119,11 +143,14 @@ class _Base:
 
 class ResidualAction(gymnasium.Wrapper):
     """A Gymnasium env whose action corrects a model-based controller (module docstring):
-    ``scale`` (in (0, 2]) weighs the agent's action against the force limit."""
+    ``scale`` (in (0, 2]) weighs the agent's action against the force limit;
+    ``plan_weights`` are the cost weights the base's planner uses (some of
+    ``ChainCart.plan``'s ``weights``; ``None``: its defaults)."""
 
-    def __init__(self, env: gymnasium.Env, scale: float = DEFAULT_SCALE) -> None:
+    def __init__(self, env: gymnasium.Env, scale: float = DEFAULT_SCALE,
+                 plan_weights: Optional[Mapping[str, float]] = None) -> None:
         super().__init__(env)
-        self._base = _Base(config_of(env), scale)
+        self._base = _Base(config_of(env), scale, plan_weights)
         self.scale = self._base.scale
         self.observation_space = residual_space(env.observation_space, env.action_space)
 
@@ -151,7 +178,7 @@ class ResidualPolicy:
         from chaincart_env.config import ChainCartConfig
         from chaincart_env.elapsed_time import for_plain_env
 
-        self._base = _Base(ChainCartConfig(**setting["config"]), setting["scale"])
+        self._base = _Base(ChainCartConfig(**setting["config"]), setting["scale"], setting.get("plan_weights"))
         self.observation_space, self.action_space = observation_space, action_space
         self.agent = for_plain_env(agent, residual_space(observation_space, action_space), action_space, horizon)
 
@@ -197,13 +224,15 @@ def residual_setting(agent: Any) -> Optional[dict[str, Any]]:
 
 
 def checked_setting(setting: Any) -> Optional[dict[str, Any]]:
-    """``setting`` as a residual setting (``{"scale": s, "config": {...}}``, the scale
-    checked), or ``None`` for ``None``."""
+    """``setting`` as a residual setting (``{"scale": s, "config": {...}}``, optionally
+    ``"plan_weights"``; each checked), or ``None`` for ``None``."""
     if setting is None:
         return None
-    if not isinstance(setting, Mapping) or set(setting) != {"scale", "config"}:
-        raise InvalidInputError(f"{RESIDUAL_ATTRIBUTE} = {setting!r}: expected {{'scale': s, 'config': {{...}}}}")
-    return {"scale": check_scale(setting["scale"]), "config": dict(setting["config"])}
+    if not isinstance(setting, Mapping) or not {"scale", "config"} <= set(setting) <= {"scale", "config", "plan_weights"}:
+        raise InvalidInputError(f"{RESIDUAL_ATTRIBUTE} = {setting!r}: expected {{'scale': s, 'config': {{...}}}} "
+                                "and optionally 'plan_weights'")
+    keywords = residual_keywords({key: value for key, value in setting.items() if key != "config"})
+    return {**keywords, "config": dict(setting["config"])}
 
 
 @functools.cache
@@ -218,10 +247,11 @@ def _vec_residual_class() -> type:
         its ``info["terminal_observation"]`` ends with zeros where the base's command
         would be (no command follows a final state)."""
 
-        def __init__(self, venv: Any, scale: float = DEFAULT_SCALE) -> None:
+        def __init__(self, venv: Any, scale: float = DEFAULT_SCALE,
+                     plan_weights: Optional[Mapping[str, float]] = None) -> None:
             config = config_of(venv)
             super().__init__(venv, observation_space=residual_space(venv.observation_space, venv.action_space))
-            self._base = _Base(config, scale)
+            self._base = _Base(config, scale, plan_weights)
             self.scale = self._base.scale
 
         def reset(self) -> np.ndarray:

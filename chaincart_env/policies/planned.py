@@ -5,10 +5,12 @@ read from the observation in goal-conditioned scenes."""
 from __future__ import annotations
 
 import warnings
+from collections.abc import Mapping
 from typing import Any, Optional
 
 import numpy as np
 
+from chaincart_env import _core
 from chaincart_env.errors import ChainCartError, InvalidInputError, PlanningError
 from chaincart_env.policies.settings import (
     SCENE_PLANS,
@@ -19,7 +21,7 @@ from chaincart_env.policies.settings import (
     observation_batch,
 )
 
-__all__ = ["EPISODE_JUMP", "NOISE_MARGIN", "ON_FAILURE", "PLAN_FROM", "PlannedPolicy"]
+__all__ = ["EPISODE_JUMP", "NOISE_MARGIN", "ON_FAILURE", "PLAN_FROM", "PlannedPolicy", "checked_plan_weights"]
 
 Pair = tuple[tuple[int, ...], tuple[int, ...]]
 
@@ -44,6 +46,15 @@ EPISODE_JUMP = 0.3
 #: two noisy observations differ by sqrt(2) of it, and ten of it is never reached.
 NOISE_MARGIN = 10.0
 
+
+
+def checked_plan_weights(weights: Any) -> dict[str, float]:
+    """``weights`` (some of the planner's cost weights, ``ChainCart.plan``'s) as every
+    weight, the defaults for those not given, checked; an InvalidInputError names a bad one."""
+    if not isinstance(weights, Mapping):
+        raise InvalidInputError(f"weights = {weights!r}: expected a dict of the planner's cost weights "
+                                f"(some of {list(_core.check_plan_weights())})")
+    return dict(_core.check_plan_weights(dict(weights)))
 
 class PlannedPolicy:
     """Base class: subclasses say what controller follows a plan (:meth:`_controller`)
@@ -92,6 +103,8 @@ class PlannedPolicy:
         self.failed_pairs: set[Pair] = set()
         #: Where each episode's plan starts (:data:`PLAN_FROM`).
         self.plan_from = plan_from
+        if plan_options.get("weights") is not None:  # checked now, not at the first plan
+            plan_options["weights"] = checked_plan_weights(plan_options["weights"])
         self.plan_options = plan_options
         self._plans: dict[Pair, Any] = {}
         #: Largest gap between observed and predicted positions within one episode

@@ -76,6 +76,32 @@ fn weights_from(dict: Option<&Bound<'_, PyDict>>) -> PyResult<CostWeights> {
     Ok(w)
 }
 
+/// `check_plan_weights`: every cost weight of the planner (the defaults for those not
+/// given), checked as a plan checks them; an error names the first bad one.
+#[pyfunction]
+#[pyo3(signature = (weights=None))]
+pub fn check_plan_weights<'py>(
+    py: Python<'py>,
+    weights: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let w = weights_from(weights)?;
+    w.validate()?;
+    let out = PyDict::new(py);
+    for (name, value) in [
+        ("x", w.x),
+        ("q", w.q),
+        ("v", w.v),
+        ("w", w.w),
+        ("force", w.force),
+        ("track", w.track),
+        ("terminal", w.terminal),
+        ("track_margin", w.track_margin),
+    ] {
+        out.set_item(name, value)?;
+    }
+    Ok(out)
+}
+
 /// The arguments of `ChainCart.plan`.
 pub struct PlanArguments<'py> {
     pub start: Bound<'py, PyAny>,

@@ -99,5 +99,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         config::named_defaults(py, "reward_weights")?,
     )?;
     m.add_function(wrap_pyfunction!(config::resolve_config, m)?)?;
+    m.add_function(wrap_pyfunction!(control::check_plan_weights, m)?)?;
     Ok(())
 }

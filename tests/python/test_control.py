@@ -154,6 +154,25 @@ def test_bad_input_is_named() -> None:
         TrajectoryPolicy.from_env(env, plan_from="start")
 
 
+def test_the_planners_cost_weights_are_checked_when_a_policy_is_built() -> None:
+    defaults = chaincart_env._core.check_plan_weights()
+    assert set(defaults) == {"x", "q", "v", "w", "force", "track", "terminal", "track_margin"}
+    assert chaincart_env._core.check_plan_weights({"q": 2}) == {**defaults, "q": 2.0}
+    env = gym.make("ChainCart-swingup-2-v0")
+    for bad, message in (({"q": -1}, r"weights.q = -1: expected a finite number >= 0"),
+                         ({"force": 0}, r"weights.force = 0"), ({"track_margin": 1.5}, r"weights.track_margin = 1.5"),
+                         ({"qq": 1}, r"cost weight.*qq"), ({"q": "two"}, r"weights\["), (2.0, r"weights = 2.0: expected a dict")):
+        for policy in (TrajectoryPolicy, MPCPolicy):  # refused at construction, before any plan
+            with pytest.raises(InvalidInputError, match=message):
+                policy.from_env(env, weights=bad)
+    softer = TrajectoryPolicy.from_env(env, weights={"q": 2})
+    assert softer.plan_options["weights"] == {**defaults, "q": 2.0}
+    start = ChainCartConfig(scene="swingup-2").make_model().equilibrium("hanging")
+    plans = [policy.plan((1, 1), (-1, -1)) for policy in (softer, TrajectoryPolicy.from_env(env))]  # the swing-up
+    assert all(plan.converged for plan in plans) and np.allclose(plans[0].states[0], start)
+    assert not np.allclose(plans[0].forces, plans[1].forces)  # the weights reach the planner
+
+
 def test_a_scenes_plan_settings_are_the_policies_defaults_and_keywords_override_them() -> None:
     triple = TrajectoryPolicy.from_env(gym.make("ChainCart-transitions-3-v0"))
     assert (triple.duration, triple.plan_from) == (7.0, "state")

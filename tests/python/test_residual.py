@@ -21,6 +21,7 @@ from chaincart_env.residual import (
     ResidualAction,
     ResidualPolicy,
     check_scale,
+    checked_setting,
     residual_setting,
     residual_space,
 )
@@ -32,9 +33,10 @@ def action(step: int, n: int = 1) -> np.ndarray:
     return np.array([[1.5 * np.sin(0.7 * step + i)] for i in range(n)], dtype=np.float32)
 
 
-def tracker(config: ChainCartConfig = SHORT) -> TrajectoryPolicy:
+def tracker(config: ChainCartConfig = SHORT, weights: Any = None) -> TrajectoryPolicy:
     """The base as a plain controller: the planner's tracker from the nearest equilibrium."""
-    return TrajectoryPolicy.from_env(ChainCartEnv(config), plan_from="equilibrium", max_time=math.inf)
+    options = {} if weights is None else {"weights": weights}
+    return TrajectoryPolicy.from_env(ChainCartEnv(config), plan_from="equilibrium", max_time=math.inf, **options)
 
 
 def test_the_env_applies_the_planners_command_plus_the_scaled_clipped_action() -> None:
@@ -196,6 +198,38 @@ def test_the_setting_and_the_scale_are_checked() -> None:
         residual_setting(agent)
 
 
+def test_the_base_plans_with_the_cost_weights_given_and_they_are_checked() -> None:
+    weights = {"q": 2.0}
+    wrapped = ResidualAction(ChainCartEnv(SHORT), plan_weights=weights)
+    plain, softer, default = ChainCartEnv(SHORT), tracker(weights=weights), tracker()
+    obs, _ = wrapped.reset(seed=1)
+    plain_obs, _ = plain.reset(seed=1)
+    differs = False
+    for t in range(SHORT.max_episode_steps):
+        starts = np.array([t == 0])
+        command = softer.predict(plain_obs, episode_start=starts)[0]
+        differs |= not np.array_equal(command, default.predict(plain_obs, episode_start=starts)[0])
+        np.testing.assert_array_equal(obs[-1:], command)
+        obs, _, terminated, truncated, _ = wrapped.step(np.zeros(1, dtype=np.float32))
+        plain_obs, *_ = plain.step(command)
+        if terminated or truncated:
+            break
+    assert differs  # the weights change the base
+    for bad, message in (({"q": -2}, "weights.q = -2"), ({"qq": 1}, "qq"), ("q=2", "weights = 'q=2'")):
+        with pytest.raises(InvalidInputError, match=message):
+            ResidualAction(ChainCartEnv(SHORT), plan_weights=bad)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInputError, match="plan_weights = .* start at their target: expected none"):
+        ResidualAction(ChainCartEnv(ChainCartConfig(scene="inverted-2")), plan_weights=weights)
+    setting = {"scale": 0.2, "config": SHORT.to_dict(), "plan_weights": weights}
+    checked = checked_setting(setting)
+    assert checked is not None and checked["plan_weights"]["q"] == 2.0 and len(checked["plan_weights"]) == 8
+    assert checked_setting({**setting, "plan_weights": None}) == {"scale": 0.2, "config": SHORT.to_dict()}
+    with pytest.raises(InvalidInputError, match="weights.q = -1"):
+        checked_setting({**setting, "plan_weights": {"q": -1}})
+    with pytest.raises(InvalidInputError, match=RESIDUAL_ATTRIBUTE):
+        checked_setting({**setting, "base": "mpc"})
+
+
 def test_the_residual_wrapper_comes_first_in_a_recipe_and_only_there() -> None:
     from chaincart_env.tools.compare.recipes import (
         ELAPSED_TIME_WRAPPER,
@@ -207,11 +241,14 @@ def test_the_residual_wrapper_comes_first_in_a_recipe_and_only_there() -> None:
 
     residual, history, timed = {RESIDUAL_WRAPPER: {"scale": 0.3}}, {HISTORY_WRAPPER: {"k": 1}}, {ELAPSED_TIME_WRAPPER: {}}
     recipe = _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": [residual, history, timed]})
-    assert (recipe.residual, recipe.history, recipe.elapsed_time) == (0.3, 1, True)
-    assert recipe_residual({RESIDUAL_WRAPPER: {}}) == 0.2 and recipe_residual(None) is None
+    assert (recipe.residual, recipe.history, recipe.elapsed_time) == ({"scale": 0.3}, 1, True)
+    assert recipe_residual({RESIDUAL_WRAPPER: {}}) == {"scale": 0.2} and recipe_residual(None) is None
+    weighted = recipe_residual({RESIDUAL_WRAPPER: {"plan_weights": {"q": 2}}})
+    assert weighted is not None and weighted["plan_weights"]["q"] == 2.0 and weighted["scale"] == 0.2
     assert _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": [history]}).residual is None
     for bad in ([history, residual], [residual, residual], {RESIDUAL_WRAPPER: {"scale": 0}},
-                {RESIDUAL_WRAPPER: {"scale": 0.2, "k": 1}}, {RESIDUAL_WRAPPER: None}):
+                {RESIDUAL_WRAPPER: {"scale": 0.2, "k": 1}}, {RESIDUAL_WRAPPER: None},
+                {RESIDUAL_WRAPPER: {"plan_weights": {"q": -2}}}):
         with pytest.raises(InvalidInputError, match=r"env_wrapper = .*: expected some of \["):
             _recipe("ppo", "ChainCart-x-v0", {"n_timesteps": 10, "env_wrapper": bad})
 
@@ -223,7 +260,7 @@ def test_the_residual_controller_trains_only_where_it_has_a_recipe() -> None:
     from chaincart_env.tools.controllers import NotApplicable
 
     recipe = recipe_for("swingup-2", "ppo-residual")
-    assert recipe.source == "ppo.yml: ChainCart-swingup-2-residual-v0" and recipe.residual == 0.2
+    assert recipe.source == "ppo.yml: ChainCart-swingup-2-residual-v0" and recipe.residual == {"scale": 0.2}
     assert set(training_conditions("ppo-residual", recipe)) == {"action_delay", "randomize"}  # no robust draws
     with pytest.raises(NotApplicable, match="ppo-residual has no recipe for spatial-inverted-2: .*exist for "
                                             "inverted-2, swingup-2, "):
@@ -257,9 +294,10 @@ def test_a_trained_residual_agent_keeps_its_base_through_saving_and_every_evalua
 
     result = train(SHORT, timesteps=128, num_envs=2, directory=tmp_path, eval_seeds=[0], eval_every=128,
                    checkpoint_every=128, progress_bar=False, hyperparameters={"n_steps": 64, "batch_size": 64},
-                   history=1, elapsed_time=True, residual=0.25)
+                   history=1, elapsed_time=True, residual={"scale": 0.25, "plan_weights": {"q": 2}})
     setting = residual_setting(result.model)
-    assert setting == {"scale": 0.25, "config": SHORT.to_dict()}
+    assert setting is not None and setting["plan_weights"]["q"] == 2.0
+    assert setting == {"scale": 0.25, "config": SHORT.to_dict(), "plan_weights": setting["plan_weights"]}
     model = result.model
     with torch.no_grad():  # an agent that never corrects: the evaluation is the planner's controller
         model.policy.action_net.weight.zero_()
@@ -270,10 +308,11 @@ def test_a_trained_residual_agent_keeps_its_base_through_saving_and_every_evalua
     loaded = PPO.load(tmp_path / MODEL_FILE, device="cpu")
     saved = residual_setting(loaded)  # through the zip's JSON: the same configuration
     assert saved is not None and saved["scale"] == 0.25 and ChainCartConfig(**saved["config"]) == SHORT
+    assert saved["plan_weights"] == setting["plan_weights"]
     env = ChainCartEnv(SHORT)
     policy = on_plain_env(loaded, env.observation_space, env.action_space, SHORT.max_episode_steps)
     assert isinstance(policy, ResidualPolicy)
-    base = tracker()
+    base = tracker(weights={"q": 2})
     obs, _ = env.reset(seed=2)
     for t in range(SHORT.max_episode_steps):
         starts = np.array([t == 0])
@@ -297,7 +336,7 @@ def test_a_tiny_residual_study_trains_without_the_scenes_methods_and_refuses_pla
 
     assert main(["compare", *TINY, "--out", str(tmp_path / "run")]) == 0
     record = json.loads((tmp_path / "run" / "seed-0" / "run.json").read_text())
-    assert record["residual"] == 0.2 and record["curriculum"] is None and record["imitation"] is None
+    assert record["residual"] == {"scale": 0.2} and record["curriculum"] is None and record["imitation"] is None
     assert record["training_reward"] is None and record["conditions"]["action_delay"] == [0, 3]
     with pytest.raises(SystemExit):
         main(["compare", *TINY, "--curriculum", "plan", "--out", str(tmp_path / "refused")])

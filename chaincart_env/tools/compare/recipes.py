@@ -85,9 +85,10 @@ class TrainingRecipe:
     #: The agent observes the elapsed fraction of its episode (the zoo's ``env_wrapper``
     #: :data:`ELAPSED_TIME_WRAPPER`).
     elapsed_time: bool = False
-    #: The agent corrects a model-based controller with this weight (the zoo's
-    #: ``env_wrapper`` :data:`RESIDUAL_WRAPPER`, :mod:`chaincart_env.residual`), or ``None``.
-    residual: Optional[float] = None
+    #: The agent corrects a model-based controller: :class:`~chaincart_env.residual.ResidualAction`'s
+    #: keywords (the zoo's ``env_wrapper`` :data:`RESIDUAL_WRAPPER`: the scale, and the
+    #: base planner's cost weights if given), or ``None``.
+    residual: Optional[dict[str, Any]] = None
 
 
 #: SB3's defaults on 8 envs: what a scene without a recipe trains with.
@@ -150,12 +151,13 @@ def _wrappers(value: Any, where: str) -> dict[str, Any]:
     (``{scale: S}``, or ``{}`` for its default), :data:`HISTORY_WRAPPER` (``{k: K}``) and
     :data:`ELAPSED_TIME_WRAPPER` (no keywords: ``{}``), alone or in a list in that order;
     anything else is refused, since ``compare`` would not build it."""
-    from chaincart_env.residual import DEFAULT_SCALE, check_scale
+    from chaincart_env.residual import residual_keywords
 
     if value is None:
         return {}
     bad = InvalidInputError(
-        f"{where}: env_wrapper = {value!r}: expected some of [{{{RESIDUAL_WRAPPER}: {{scale: <number in (0, 2]>}}}}, "
+        f"{where}: env_wrapper = {value!r}: expected some of [{{{RESIDUAL_WRAPPER}: {{scale: <number in (0, 2]>, "
+        "plan_weights: <the planner's cost weights> (optional)}}}}, "
         f"{{{HISTORY_WRAPPER}: {{k: <integer >= 1>}}}}, {{{ELAPSED_TIME_WRAPPER}: {{}}}}], in that order: the only "
         "wrappers compare builds"
     )
@@ -175,13 +177,10 @@ def _wrappers(value: Any, where: str) -> dict[str, Any]:
     if ELAPSED_TIME_WRAPPER in found and found[ELAPSED_TIME_WRAPPER] != {}:  # the zoo calls wrapper(env, **keywords)
         raise bad
     if RESIDUAL_WRAPPER in found:
-        residual = found[RESIDUAL_WRAPPER]
-        if not isinstance(residual, Mapping) or not set(residual) <= {"scale"}:
-            raise bad
         try:
-            check_scale(residual.get("scale", DEFAULT_SCALE))
-        except InvalidInputError:
-            raise bad from None
+            residual_keywords(found[RESIDUAL_WRAPPER])
+        except InvalidInputError as error:
+            raise InvalidInputError(f"{bad} ({error})") from None
     return found
 
 
@@ -198,13 +197,13 @@ def elapsed_time_setting(value: Any, where: str = "env_wrapper") -> bool:
     return ELAPSED_TIME_WRAPPER in _wrappers(value, where)
 
 
-def residual_setting(value: Any, where: str = "env_wrapper") -> Optional[float]:
-    """The residual scale of a zoo ``env_wrapper`` naming :data:`RESIDUAL_WRAPPER`, or
-    ``None`` without it."""
-    from chaincart_env.residual import DEFAULT_SCALE
+def residual_setting(value: Any, where: str = "env_wrapper") -> Optional[dict[str, Any]]:
+    """The residual keywords of a zoo ``env_wrapper`` naming :data:`RESIDUAL_WRAPPER`
+    (:func:`chaincart_env.residual.residual_keywords`), or ``None`` without it."""
+    from chaincart_env.residual import residual_keywords
 
     residual = _wrappers(value, where).get(RESIDUAL_WRAPPER)
-    return None if residual is None else float(residual.get("scale", DEFAULT_SCALE))
+    return None if residual is None else residual_keywords(residual)
 
 
 @functools.lru_cache(maxsize=None)

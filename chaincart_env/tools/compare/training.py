@@ -134,7 +134,7 @@ def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
     normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
     history: Optional[int] = None, shaping: Optional[Shaping] = None, elapsed_time: bool = False,
-    residual: Optional[float] = None,
+    residual: Optional[dict[str, Any]] = None,
 ) -> BaseAlgorithm:
     from chaincart_env.tools.compare.normalization import normalized_envs
     from chaincart_env.tools.compare.recipes import sb3_keywords
@@ -148,7 +148,7 @@ def _new_agent(
     if residual is not None:
         from chaincart_env.residual import VecResidualAction
 
-        native = VecResidualAction(native, residual)
+        native = VecResidualAction(native, **residual)
     if history is not None or elapsed_time:
         from chaincart_env.elapsed_time import with_observation_extras
 
@@ -166,7 +166,7 @@ def _new_agent(
     if residual is not None:  # saved with the model: every evaluation then adds the same base
         from chaincart_env.residual import RESIDUAL_ATTRIBUTE
 
-        setattr(model, RESIDUAL_ATTRIBUTE, {"scale": float(residual), "config": config.to_dict()})
+        setattr(model, RESIDUAL_ATTRIBUTE, {**residual, "config": config.to_dict()})
     statistics = model.get_vec_normalize_env()
     if statistics is not None:  # rewards are normalised by their discounted return, with the agent's discount
         statistics.gamma = float(getattr(model, "gamma", statistics.gamma))
@@ -202,21 +202,23 @@ def _mirror_loss(
 
 
 def _check_residual(
-    residual: Optional[float], imitation: Optional[Imitation], curriculum: Optional[PlanStarts], mirror_weight: float
-) -> None:
+    residual: Any, imitation: Optional[Imitation], curriculum: Optional[PlanStarts], mirror_weight: float
+) -> Optional[dict[str, Any]]:
     """Refuses a residual agent with what it cannot take: an imitation (the learner would
     copy the base it already has), plan starts (the base's clock starts at the plan's
-    beginning) and the mirror loss (the base's command in the observation is not mirrored)."""
+    beginning) and the mirror loss (the base's command in the observation is not mirrored).
+    Returns the residual keywords checked (:func:`chaincart_env.residual.residual_keywords`)."""
     if residual is None:
-        return
-    from chaincart_env.residual import check_scale
+        return None
+    from chaincart_env.residual import residual_keywords
 
-    check_scale(residual)
+    keywords = residual_keywords(residual)
     given = [what for what, on in (("an imitation", imitation is not None), ("plan starts", curriculum is not None),
                                    ("the mirror loss", bool(mirror_weight))) if on]
     if given:
-        raise InvalidInputError(f"residual scale {residual} with {' and '.join(given)}: expected a residual agent "
+        raise InvalidInputError(f"residual scale {keywords['scale']} with {' and '.join(given)}: expected a residual agent "
                                 "trained without them (its base is a model-based controller already)")
+    return keywords
 
 
 def training_config(
@@ -276,7 +278,7 @@ def train(
     warm_start_from: Optional[Path] = None,
     mirror_weight: float = 0.0,
     elapsed_time: bool = False,
-    residual: Optional[float] = None,
+    residual: Any = None,
 ) -> TrainingResult:
     """Trains ``algo`` for ``timesteps`` env steps on ``num_envs`` envs of ``config``
     (env i seeded ``seed + i``, the agent seeded ``seed``) into ``directory``: every
@@ -311,9 +313,10 @@ def train(
     its evaluations).
     ``mirror_weight``: the weight of the mirror loss beside PPO's
     (:mod:`~chaincart_env.tools.compare.mirror_loss`), 0 for none.
-    ``residual``: the agent corrects a model-based controller with this weight
-    (:mod:`chaincart_env.residual`; the model records it, so that its evaluations add
-    the same base), ``None`` for a plain agent; it excludes an imitation and plan starts,
+    ``residual``: the agent corrects a model-based controller, with these
+    :class:`~chaincart_env.residual.ResidualAction` keywords (the scale, and the base
+    planner's cost weights if given; a bare number is the scale) (the model records
+    them, so that its evaluations add the same base), ``None`` for a plain agent; it excludes an imitation and plan starts,
     which would start the base's clock away from its plan."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
@@ -321,7 +324,7 @@ def train(
     from chaincart_env.tools.compare.run_files import settled_directory
 
     cls = algorithm_class(algo)
-    _check_residual(residual, imitation, curriculum, mirror_weight)
+    residual = _check_residual(residual, imitation, curriculum, mirror_weight)
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
