@@ -6,6 +6,7 @@ LQR, and clear errors."""
 from __future__ import annotations
 
 import csv
+import math
 
 import gymnasium as gym
 import numpy as np
@@ -239,6 +240,26 @@ def test_a_plan_that_misses_raises_or_is_tracked_to_a_failed_episode() -> None:
     assert any("tracking it all the same" in str(w.message) for w in caught)
     # The study's registry tracks missed plans, so a run counts them as failures.
     assert build_model_based("trajectory", env.config).on_failure == "track"
+
+
+def test_the_soft_trajectory_controller_is_the_planners_with_its_own_weights_in_every_build() -> None:
+    from chaincart_env import _core
+    from chaincart_env.tools.controllers import SOFT_PLAN_WEIGHTS, build_model_based, parse_controllers
+    from chaincart_env.tools.leaderboard.contestants import DesignSource
+
+    config = ChainCartConfig(scene="swingup-2", max_episode_steps=60)
+    soft_weights = _core.check_plan_weights(dict(SOFT_PLAN_WEIGHTS))
+    assert parse_controllers("Trajectory-Soft,trajectory") == ["trajectory-soft", "trajectory"]
+    study = build_model_based("trajectory-soft", config)
+    fixed, timed = (DesignSource.of("trajectory-soft", config, wall_clock=w).build() for w in (False, True))
+    for policy in (study, fixed, timed):  # the study's build and the leaderboard's, with and without time limits
+        assert policy.plan_options["weights"] == soft_weights and policy.on_failure == "track"
+    assert fixed.plan_options["max_time"] == math.inf and "max_time" not in timed.plan_options
+    assert "weights" not in build_model_based("trajectory", config).plan_options
+    env = ChainCartEnv(config)
+    obs, _ = env.reset(seed=0)
+    soft, plain = study.predict(obs)[0], build_model_based("trajectory", config).predict(obs)[0]
+    assert not np.array_equal(soft, plain)  # another plan, another command
 
 
 def test_a_rendering_goal_conditioned_env_pickles_with_its_episode_target() -> None:

@@ -48,6 +48,7 @@ LOOKS: dict[tuple[str, str], PolicyStyle] = {
     ("lqr", "oracle"): PolicyStyle("tab:purple", ":", "D", "...."),
     ("mpc", ""): PolicyStyle("tab:brown", (0, (5, 2, 1, 2)), "X", "++++"),
     ("trajectory", ""): PolicyStyle("tab:cyan", (0, (8, 3)), "h", "**"),
+    ("trajectory-soft", ""): PolicyStyle("teal", (0, (8, 2, 2, 2)), "1", "*|"),
     ("energy", ""): PolicyStyle("tab:gray", (0, (1, 3)), "*", "-\\\\"),
 }
 #: Anything that is no controller of the table (a policy a user passes in).

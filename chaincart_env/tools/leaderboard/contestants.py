@@ -119,9 +119,11 @@ def fixed_iteration_options(name: str) -> dict[str, float]:
     limit on the planner (``max_time``) nor on MPC's step (``budget``), so that their
     iteration caps alone bound it and the same episodes give the same forces whatever
     the machine's load."""
+    from chaincart_env.tools.controllers import CONTROLLERS
+
     if name == "mpc":
         return {"max_time": math.inf, "budget": math.inf}
-    if name == "trajectory":
+    if name in CONTROLLERS and CONTROLLERS[name].plans:
         return {"max_time": math.inf}
     return {}
 
@@ -149,17 +151,10 @@ class DesignSource:
 
     def build(self) -> Any:
         """A new controller."""
-        from chaincart_env.env import ChainCartEnv
-        from chaincart_env.tools.controllers import NotApplicable, build_model_based, controller_class
+        from chaincart_env.tools.controllers import build_model_based
 
         config = ChainCartConfig(**json.loads(self.config))
-        if self.wall_clock or not fixed_iteration_options(self.name):
-            return build_model_based(self.name, config)
-        options = {"on_failure": "track", **fixed_iteration_options(self.name)}
-        try:
-            return controller_class(self.name).from_env(ChainCartEnv(config), **options)
-        except (ValueError, NotImplementedError) as error:
-            raise NotApplicable(f"{self.name} cannot serve scene {config.scene!r}: {error}") from None
+        return build_model_based(self.name, config, **({} if self.wall_clock else fixed_iteration_options(self.name)))
 
     def load(self) -> Any:
         """The controller, built once per process."""
