@@ -154,7 +154,8 @@ class DesignSource:
         from chaincart_env.tools.controllers import build_model_based
 
         config = ChainCartConfig(**json.loads(self.config))
-        return build_model_based(self.name, config, **({} if self.wall_clock else fixed_iteration_options(self.name)))
+        options: dict[str, Any] = {} if self.wall_clock else dict(fixed_iteration_options(self.name))
+        return build_model_based(self.name, config, **options)
 
     def load(self) -> Any:
         """The controller, built once per process."""
