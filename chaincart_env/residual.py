@@ -23,8 +23,9 @@ design never saw, a model that is not the nominal one).
 * :class:`ResidualPolicy` lets an agent trained so act on the plain env: it computes the
   base's command, asks the agent and returns the sum.
 
-A trained agent carries its residual setting (:data:`RESIDUAL_ATTRIBUTE`: the scale and
-the configuration its base was designed on) in its saved file, so that every
+A trained agent carries its residual setting (:data:`RESIDUAL_ATTRIBUTE`: the scale,
+the configuration its base was designed on and, if given, the base planner's cost
+weights ``plan_weights``) in its saved file, so that every
 evaluation wraps it the same way (:func:`residual_setting`, :func:`on_plain_env`). The history and the
 elapsed time (:mod:`chaincart_env.history`, :mod:`chaincart_env.elapsed_time`) are
 appended after the base's command, in that order.
