@@ -483,9 +483,9 @@ def _training_settings(
         from chaincart_env.tools.compare.training import training_config
 
         training_config(config, training_reward)  # an unknown reward fails before training
-    given = Shaping().with_overrides(**(shaping or {}))
-    if given and trainer != "sb3" and learned:
-        raise InvalidInputError(f"{' '.join(given.given())} with --trainer {trainer}: expected the sb3 trainer")
+    given_shaping = Shaping().with_overrides(**(shaping or {}))
+    if given_shaping and trainer != "sb3" and learned:
+        raise InvalidInputError(f"{' '.join(given_shaping.given())} with --trainer {trainer}: expected the sb3 trainer")
     chosen_shaping = scene_shaping(config.scene).with_overrides(**(shaping or {})) if trainer == "sb3" else Shaping()
     if chosen_shaping.plan_bonus and learned:
         from chaincart_env.tools.compare.curriculum import check_plan_scene
@@ -539,7 +539,7 @@ def _training_settings(
                     curriculum=chosen_curriculum if scene_methods else given_curriculum,
                     training_reward=training_reward if scene_methods else given_reward, history=seen,
                     conditions=conditions, elapsed_time=recipe.elapsed_time, residual=recipe.residual,
-                    shaping=(chosen_shaping if scene_methods else given).record(),
+                    shaping=(chosen_shaping if scene_methods else given_shaping).record(),
                     mirror_weight=float(mirror_weight),
                     warm_start=None if warm_start_from is None else str(warm_start_from))
 

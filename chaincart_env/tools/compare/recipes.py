@@ -40,7 +40,7 @@ import functools
 import json
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Any, Callable, Mapping, Optional
+from typing import Any, Callable, Mapping, NamedTuple, Optional
 
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.registration import scene_env_id
@@ -49,7 +49,7 @@ __all__ = [
     "ELAPSED_TIME_WRAPPER", "GENERIC", "HISTORY_WRAPPER", "NORMALIZE_KEYS", "RESIDUAL_WRAPPER", "TrainingRecipe",
     "conditions_setting", "elapsed_time_setting", "history_setting", "hyperparameter_file", "residual_scenes", "residual_setting",
     "load_recipes", "normalize_setting", "recipe_for", "sb3_keywords", "schedule_start",
-    "training_conditions",
+    "training_conditions", "WrapperSettings", "wrapper_settings",
 ]  # fmt: skip
 
 #: Zoo keys a recipe may hold besides the algorithm's keywords.
@@ -115,10 +115,10 @@ def _recipe(algo: str, env_id: str, entry: Any) -> TrainingRecipe:
         raise InvalidInputError(f"{where}: expected an integer n_envs and a number n_timesteps") from None
     keywords = {key: value for key, value in entry.items() if key not in ZOO_KEYS}
     sb3_keywords(keywords, where)  # checked now, so a bad file fails before any training
-    wrappers = entry.get("env_wrapper")
+    wrappers = wrapper_settings(entry.get("env_wrapper"), where)
     return TrainingRecipe(num_envs, timesteps, keywords, where, normalize_setting(entry.get("normalize"), where),
-                          history_setting(wrappers, where), conditions_setting(entry.get("env_kwargs"), where),
-                          elapsed_time_setting(wrappers, where), residual_setting(wrappers, where))
+                          wrappers.history, conditions_setting(entry.get("env_kwargs"), where),
+                          wrappers.elapsed_time, wrappers.residual)
 
 
 def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
@@ -146,15 +146,24 @@ def conditions_setting(value: Any, where: str = "env_kwargs") -> dict[str, Any]:
 _WRAPPER_ORDER = (RESIDUAL_WRAPPER, HISTORY_WRAPPER, ELAPSED_TIME_WRAPPER)
 
 
-def _wrappers(value: Any, where: str) -> dict[str, Any]:
-    """A zoo ``env_wrapper`` as ``{wrapper: keywords}``: some of :data:`RESIDUAL_WRAPPER`
-    (``{scale: S}``, or ``{}`` for its default), :data:`HISTORY_WRAPPER` (``{k: K}``) and
-    :data:`ELAPSED_TIME_WRAPPER` (no keywords: ``{}``), alone or in a list in that order;
-    anything else is refused, since ``compare`` would not build it."""
+class WrapperSettings(NamedTuple):
+    """What a recipe's ``env_wrapper`` asks for: steps of history (``None``: none), the
+    elapsed time, and the residual's keywords (``None``: a plain agent)."""
+
+    history: Optional[int] = None
+    elapsed_time: bool = False
+    residual: Optional[dict[str, Any]] = None
+
+
+def wrapper_settings(value: Any, where: str = "env_wrapper") -> WrapperSettings:
+    """A zoo ``env_wrapper``, checked once: some of :data:`RESIDUAL_WRAPPER`
+    (``{scale: S, plan_weights: {...}}``, each optional), :data:`HISTORY_WRAPPER`
+    (``{k: K}``) and :data:`ELAPSED_TIME_WRAPPER` (no keywords: ``{}``), alone or in a list
+    in that order; anything else is refused, since ``compare`` would not build it."""
     from chaincart_env.residual import residual_keywords
 
     if value is None:
-        return {}
+        return WrapperSettings()
     bad = InvalidInputError(
         f"{where}: env_wrapper = {value!r}: expected some of [{{{RESIDUAL_WRAPPER}: {{scale: <number in (0, 2]>, "
         "plan_weights: <the planner's cost weights> (optional)}}}}, "
@@ -176,34 +185,30 @@ def _wrappers(value: Any, where: str) -> dict[str, Any]:
             raise bad
     if ELAPSED_TIME_WRAPPER in found and found[ELAPSED_TIME_WRAPPER] != {}:  # the zoo calls wrapper(env, **keywords)
         raise bad
+    residual = None
     if RESIDUAL_WRAPPER in found:
         try:
-            residual_keywords(found[RESIDUAL_WRAPPER])
+            residual = residual_keywords(found[RESIDUAL_WRAPPER])
         except InvalidInputError as error:
             raise InvalidInputError(f"{bad} ({error})") from None
-    return found
+    return WrapperSettings(None if history is None else int(history["k"]), ELAPSED_TIME_WRAPPER in found, residual)
 
 
 def history_setting(value: Any, where: str = "env_wrapper") -> Optional[int]:
     """The history length of a zoo ``env_wrapper`` naming :data:`HISTORY_WRAPPER`
-    (``{wrapper: {k: K}}``), or ``None`` without it (see :func:`_wrappers` for what is
-    accepted)."""
-    history = _wrappers(value, where).get(HISTORY_WRAPPER)
-    return None if history is None else int(history["k"])
+    (``{wrapper: {k: K}}``), or ``None`` without it (see :func:`wrapper_settings`)."""
+    return wrapper_settings(value, where).history
 
 
 def elapsed_time_setting(value: Any, where: str = "env_wrapper") -> bool:
     """Whether a zoo ``env_wrapper`` names :data:`ELAPSED_TIME_WRAPPER`."""
-    return ELAPSED_TIME_WRAPPER in _wrappers(value, where)
+    return wrapper_settings(value, where).elapsed_time
 
 
 def residual_setting(value: Any, where: str = "env_wrapper") -> Optional[dict[str, Any]]:
     """The residual keywords of a zoo ``env_wrapper`` naming :data:`RESIDUAL_WRAPPER`
     (:func:`chaincart_env.residual.residual_keywords`), or ``None`` without it."""
-    from chaincart_env.residual import residual_keywords
-
-    residual = _wrappers(value, where).get(RESIDUAL_WRAPPER)
-    return None if residual is None else residual_keywords(residual)
+    return wrapper_settings(value, where).residual
 
 
 @functools.lru_cache(maxsize=None)
