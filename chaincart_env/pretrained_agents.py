@@ -14,8 +14,9 @@ numpy, with the agent's :attr:`~PretrainedPolicy.record`. Each agent is two file
   network's input: with ``history`` k > 0 the env's observation and its last k
   observations and actions, :mod:`chaincart_env.history`; with ``elapsed_time`` T > 0
   the elapsed fraction of the episode of T steps last, :mod:`chaincart_env.elapsed_time`;
-  with ``residual`` (``{"scale": s, "config": {...}}``) the agent corrects the model-based
-  controller designed on that configuration (:func:`chaincart_env.residual.base_controller`),
+  with ``residual`` (``{"scale": s, "config": {...}}``, and ``"plan_weights"`` if its base
+  plans with other cost weights) the agent corrects the model-based controller designed
+  on that configuration (:func:`chaincart_env.residual.base_controller`),
   and the base's command follows the env's observation wherever it appears,
   :mod:`chaincart_env.residual`), the normalisation's clip and epsilon, the env
   configuration, how it was trained (command, seed, git commit, steps) and the success

@@ -47,7 +47,6 @@ EPISODE_JUMP = 0.3
 NOISE_MARGIN = 10.0
 
 
-
 def checked_plan_weights(weights: Any) -> dict[str, float]:
     """``weights`` (some of the planner's cost weights, ``ChainCart.plan``'s) as every
     weight, the defaults for those not given, checked; an InvalidInputError names a bad one."""
@@ -55,6 +54,7 @@ def checked_plan_weights(weights: Any) -> dict[str, float]:
         raise InvalidInputError(f"weights = {weights!r}: expected a dict of the planner's cost weights "
                                 f"(some of {list(_core.check_plan_weights())})")
     return dict(_core.check_plan_weights(dict(weights)))
+
 
 class PlannedPolicy:
     """Base class: subclasses say what controller follows a plan (:meth:`_controller`)

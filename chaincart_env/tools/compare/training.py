@@ -216,8 +216,8 @@ def _check_residual(
     given = [what for what, on in (("an imitation", imitation is not None), ("plan starts", curriculum is not None),
                                    ("the mirror loss", bool(mirror_weight))) if on]
     if given:
-        raise InvalidInputError(f"residual scale {keywords['scale']} with {' and '.join(given)}: expected a residual agent "
-                                "trained without them (its base is a model-based controller already)")
+        raise InvalidInputError(f"residual scale {keywords['scale']} with {' and '.join(given)}: expected a "
+                                "residual agent trained without them (its base is a model-based controller already)")
     return keywords
 
 
@@ -314,10 +314,11 @@ def train(
     ``mirror_weight``: the weight of the mirror loss beside PPO's
     (:mod:`~chaincart_env.tools.compare.mirror_loss`), 0 for none.
     ``residual``: the agent corrects a model-based controller, with these
-    :class:`~chaincart_env.residual.ResidualAction` keywords (the scale, and the base
-    planner's cost weights if given; a bare number is the scale) (the model records
-    them, so that its evaluations add the same base), ``None`` for a plain agent; it excludes an imitation and plan starts,
-    which would start the base's clock away from its plan."""
+    :class:`~chaincart_env.residual.ResidualAction` keywords: the scale, and the base
+    planner's cost weights if given (a bare number is the scale). The model records
+    them, so that its evaluations add the same base. ``None`` for a plain agent. It
+    excludes an imitation and plan starts, which would start the base's clock away from
+    its plan."""
     from chaincart_env.tools.compare.checkpoints import CHECKPOINT_DIR, Checkpointer, restore
     from chaincart_env.tools.compare.normalization import normalization_file
     from chaincart_env.tools.compare.periodic_eval import BEST_MODEL_FILE, EVALUATIONS_FILE, PeriodicEvaluation
