@@ -1,8 +1,8 @@
 """``python -m chaincart_env animate``: a GIF (Pillow) or MP4 (imageio with
 imageio-ffmpeg) of one episode of any scene under one or several policies side by
 side from the same start, or a PNG still of chosen moments. Each ``--policy`` is, on
-its own, a built-in one (``random``, ``zero``, ``lqr``, ``trajectory``, ``mpc``,
-``energy``) or a saved stable-baselines3 model (a ``.zip``, or a run folder written by
+its own, a built-in one (``random``, ``zero``, ``lqr``, ``trajectory``,
+``trajectory-soft``, ``mpc``, ``energy``) or a saved stable-baselines3 model (a ``.zip``, or a run folder written by
 ``compare`` holding ``model.zip``, ``config.json`` and ``run.json``) or a shipped agent
 (``pretrained:<scene>/<name>``), so built-in policies and saved models mix in any
 order. Without ``--scene`` the scene is the saved models' and shipped agents' (they
@@ -38,7 +38,7 @@ from chaincart_env.rendering import RENDER_VIEWS, Camera, default_frame_size
 __all__ = ["Animation", "animate", "add_animate_command", "load_sb3_model", "parse_settings", "make_policy"]
 
 #: Policies by name; anything else is a path to a saved SB3 model.
-POLICY_NAMES = ("random", "zero", "lqr", "trajectory", "mpc", "energy")
+POLICY_NAMES = ("random", "zero", "lqr", "trajectory", "trajectory-soft", "mpc", "energy")
 #: Frame rate asked for unless ``--fps`` says otherwise.
 DEFAULT_FPS = 25.0
 #: Fastest GIF: frame delays are whole centiseconds and browsers slow anything under 2.
@@ -183,9 +183,10 @@ def _sb3_policy(name: str, model: Any, env: ChainCartEnv) -> Policy:
 def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> Policy:
     """``obs -> action`` for ``random`` (seeded), ``zero``, ``lqr`` (the paper's
     controller for the env's target), the large-motion controllers ``trajectory``,
-    ``mpc`` and ``energy`` (designed on the env's model; the episode starts at the first
-    call), a loaded SB3 ``model``, a shipped agent ``pretrained:<scene>/<name>``, or else
-    the SB3 model saved at the path ``name`` (see :func:`load_sb3_model`)."""
+    ``trajectory-soft``, ``mpc`` and ``energy`` (designed on the env's model; the episode
+    starts at the first call), a loaded SB3 ``model``, a shipped agent
+    ``pretrained:<scene>/<name>``, or else the SB3 model saved at the path ``name`` (see
+    :func:`load_sb3_model`)."""
     if model is not None:
         return _sb3_policy(name, model, env)
     if is_pretrained_slot(name):
@@ -210,7 +211,7 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
 
         lqr = LQRPolicy.from_env(env)
         return lambda obs: lqr.predict(obs)[0]
-    if name in ("trajectory", "mpc", "energy"):
+    if name in ("trajectory", "trajectory-soft", "mpc", "energy"):
         from chaincart_env.tools.controllers import NotApplicable, build_model_based
 
         try:
@@ -526,7 +527,8 @@ def add_animate_command(commands: "argparse._SubParsersAction[argparse.ArgumentP
     )
     parser.add_argument(
         "--policy", dest="policies", action="append", default=None, metavar="POLICY",
-        help="random, zero, lqr (default), trajectory, mpc, energy (the large-motion controllers), a shipped agent "
+        help="random, zero, lqr (default), trajectory, trajectory-soft, mpc, energy (the large-motion controllers), "
+             "a shipped agent "
              "pretrained:<scene>/<name>, or a saved SB3 model: a .zip or a compare run folder; "
              "repeat it to show several side by side from the same start (each a built-in policy or a saved "
              "model, in any order)",

@@ -194,6 +194,9 @@ def test_animate_draws_a_swing_up_by_the_planners_controller(tmp_path) -> None:
     still = animate(ChainCartConfig(scene="swingup-2"), tmp_path / "swingup.png", policy="trajectory",
                     times=[0.0, 2.5], width=120, height=160)
     assert still.path.is_file() and still.endings == ("step limit",) and still.policies == ("trajectory",)
+    soft = animate(ChainCartConfig(scene="swingup-2"), tmp_path / "soft.png", policy="trajectory-soft",
+                   times=[0.0, 2.5], width=120, height=160)
+    assert soft.endings == ("step limit",) and soft.policies == ("trajectory-soft",)
     with pytest.raises(InvalidInputError, match="energy cannot serve scene 'swingup-2'"):
         animate(ChainCartConfig(scene="swingup-2"), tmp_path / "x.png", policy="energy", times=[0.0])
 
