@@ -562,7 +562,7 @@ def test_animate_refuses_saved_models_of_different_configs_and_bad_later_slots(
     out = tmp_path / "x.gif"
     cases = [
         ([str(one), str(two)], f"policies {str(one)!r} and {str(two)!r} were saved with different configs"),
-        (["lqr", "smart"], "policy 'smart': expected one of ['random', 'zero', 'lqr', 'trajectory', 'mpc', 'energy']"),
+        (["lqr", "smart"], "policy 'smart': expected one of ['random', 'zero', 'lqr', 'trajectory', 'trajectory-soft', 'mpc', 'energy']"),
         (["lqr", str(tmp_path / "none.zip")], f"policy {str(tmp_path / 'none.zip')!r}: expected one of"),
     ]
     for policies, message in cases:
@@ -602,7 +602,7 @@ def test_animate_bad_input_is_a_usage_error(
         (["--elevation", "95"], "elevation = 95"),
         (["--fov", "0.5"], "fov = 0.5"),
         (["--times", "0,x"], "expected seconds separated by commas"),
-        (["--policy", "smart"], "expected one of ['random', 'zero', 'lqr', 'trajectory', 'mpc', 'energy'], an SB3 model .zip"),
+        (["--policy", "smart"], "expected one of ['random', 'zero', 'lqr', 'trajectory', 'trajectory-soft', 'mpc', 'energy'], an SB3 model .zip"),
         (["--scene", "paper-fig1", "--policy", "lqr"], "use --policy zero"),
         (["--width", "4"], "render_width = 4"),
         (["--set", "n_links"], "expected KEY=VALUE"),
