@@ -63,6 +63,48 @@ impl Default for CostWeights {
 }
 
 impl CostWeights {
+    /// The weights' names, in the order of the fields.
+    pub const NAMES: [&'static str; 8] = [
+        "x",
+        "q",
+        "v",
+        "w",
+        "force",
+        "track",
+        "terminal",
+        "track_margin",
+    ];
+
+    /// Every weight with its name, in the order of [`Self::NAMES`].
+    pub fn named(&self) -> [(&'static str, f64); 8] {
+        let values = [
+            self.x,
+            self.q,
+            self.v,
+            self.w,
+            self.force,
+            self.track,
+            self.terminal,
+            self.track_margin,
+        ];
+        std::array::from_fn(|i| (Self::NAMES[i], values[i]))
+    }
+
+    /// The weight called `name`, to set it; `None` for a name not in [`Self::NAMES`].
+    pub fn by_name_mut(&mut self, name: &str) -> Option<&mut f64> {
+        Some(match name {
+            "x" => &mut self.x,
+            "q" => &mut self.q,
+            "v" => &mut self.v,
+            "w" => &mut self.w,
+            "force" => &mut self.force,
+            "track" => &mut self.track,
+            "terminal" => &mut self.terminal,
+            "track_margin" => &mut self.track_margin,
+            _ => return None,
+        })
+    }
+
     /// Checks every weight: finite and >= 0, `force` > 0, `track_margin` in (0, 1].
     pub fn validate(&self) -> Result<()> {
         for (name, value) in [
@@ -320,5 +362,31 @@ impl<G: ScalarGeometry> Cost<G> {
         let rr: f64 = r.iter().map(|v| v * v).sum();
         let uu: f64 = u.iter().map(|v| v * v).sum();
         0.5 * self.dt * (rr + self.weights.force * uu)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::CostWeights;
+
+    #[test]
+    fn each_weight_is_set_and_read_under_its_own_name() {
+        for (i, name) in CostWeights::NAMES.iter().enumerate() {
+            let mut w = CostWeights::default();
+            *w.by_name_mut(name).unwrap() = 100.0 + i as f64;
+            let named = w.named();
+            let defaults = CostWeights::default().named();
+            for (j, (other, value)) in named.iter().enumerate() {
+                assert_eq!(other, &CostWeights::NAMES[j]);
+                let expected = if j == i {
+                    100.0 + i as f64
+                } else {
+                    defaults[j].1
+                };
+                assert_eq!(*value, expected, "{name} set, {other} read");
+            }
+        }
+        assert_eq!(CostWeights::default().named()[1], ("q", 10.0));
+        assert!(CostWeights::default().by_name_mut("qq").is_none());
     }
 }

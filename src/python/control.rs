@@ -44,32 +44,13 @@ fn weights_from(dict: Option<&Bound<'_, PyDict>>) -> PyResult<CostWeights> {
         let value: f64 = value
             .extract()
             .map_err(|_| error(format!("weights[{key:?}] = {value}: expected a number")))?;
-        let slot = match key.as_str() {
-            "x" => &mut w.x,
-            "q" => &mut w.q,
-            "v" => &mut w.v,
-            "w" => &mut w.w,
-            "force" => &mut w.force,
-            "track" => &mut w.track,
-            "terminal" => &mut w.terminal,
-            "track_margin" => &mut w.track_margin,
-            _ => {
-                return Err(InputError::UnknownName {
-                    kind: "cost weight",
-                    name: key,
-                    expected: &[
-                        "x",
-                        "q",
-                        "v",
-                        "w",
-                        "force",
-                        "track",
-                        "terminal",
-                        "track_margin",
-                    ],
-                }
-                .into())
+        let Some(slot) = w.by_name_mut(&key) else {
+            return Err(InputError::UnknownName {
+                kind: "cost weight",
+                name: key,
+                expected: &CostWeights::NAMES,
             }
+            .into());
         };
         *slot = value;
     }
@@ -87,16 +68,7 @@ pub fn check_plan_weights<'py>(
     let w = weights_from(weights)?;
     w.validate()?;
     let out = PyDict::new(py);
-    for (name, value) in [
-        ("x", w.x),
-        ("q", w.q),
-        ("v", w.v),
-        ("w", w.w),
-        ("force", w.force),
-        ("track", w.track),
-        ("terminal", w.terminal),
-        ("track_margin", w.track_margin),
-    ] {
+    for (name, value) in w.named() {
         out.set_item(name, value)?;
     }
     Ok(out)
