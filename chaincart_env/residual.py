@@ -117,9 +117,8 @@ def base_controller(config: Any, plan_weights: Optional[Mapping[str, float]] = N
         return LQRPolicy.from_env(holder)
     # A pair whose plan misses its target is tracked all the same (its episodes fail), so
     # that one such pair among a scene's transitions does not stop a training.
-    weights: dict[str, Any] = {} if plan_weights is None else {"weights": plan_weights}
     return TrajectoryPolicy.from_env(holder, plan_from="equilibrium", max_time=math.inf, on_failure="track",
-                                     **weights)
+                                     weights=plan_weights)
 
 
 class _Base:

@@ -211,15 +211,14 @@ def make_policy(name: str, env: ChainCartEnv, seed: int, model: Any = None) -> P
 
         lqr = LQRPolicy.from_env(env)
         return lambda obs: lqr.predict(obs)[0]
-    if name in ("trajectory", "trajectory-soft", "mpc", "energy"):
-        from chaincart_env.tools.controllers import NotApplicable, build_model_based
+    # The other built-in names are the large-motion controllers of the controller table.
+    from chaincart_env.tools.controllers import NotApplicable, build_model_based
 
-        try:
-            controller = build_model_based(name, env.config)
-        except NotApplicable as error:
-            raise InvalidInputError(f"--policy {name}: {error}") from None
-        return lambda obs: controller.predict(obs)[0]
-    raise AssertionError(f"policy {name!r} is in POLICY_NAMES but has no branch")  # unreachable
+    try:
+        controller = build_model_based(name, env.config)
+    except NotApplicable as error:
+        raise InvalidInputError(f"--policy {name}: {error}") from None
+    return lambda obs: controller.predict(obs)[0]
 
 
 # -- writing ---------------------------------------------------------------------------
