@@ -54,6 +54,7 @@ __all__ = [
     "EVENT_ENDED",
     "EVENT_SUCCESS",
     "EVENT_OUT_OF_TRACK",
+    "EVENT_FELL",
     "EVENT_NUMERICAL_FAILURE",
     "EVENT_RESET",
     "RNG_BYTES",
@@ -80,6 +81,8 @@ EVENT_ENDED: int
 EVENT_SUCCESS: int
 #: Event bit: terminated because the cart left the track.
 EVENT_OUT_OF_TRACK: int
+#: Event bit: terminated by a fall (``e_q`` left ``fall_limit`` after coming within it).
+EVENT_FELL: int
 #: Event bit: terminated because the integration failed (last good state kept).
 EVENT_NUMERICAL_FAILURE: int
 #: Event bit: next-step autoreset reset the env instead of stepping it.
@@ -475,10 +478,11 @@ class EnvBatch:
         npt.NDArray[np.bool_],
         npt.NDArray[np.bool_],
         npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
         npt.NDArray[np.float64],
         npt.NDArray[np.float64],
     ]:
-        """``(ended, is_success, numerical_failure, out_of_track, e_q, e_w)`` of the last step."""
+        """``(ended, is_success, numerical_failure, out_of_track, fell, e_q, e_w)`` of the last step."""
     def errors(self) -> npt.NDArray[np.float64]:
         """``(e_q, e_w)`` per env of the state the last step reached, shape ``(num_envs, 2)``."""
     def final_observations(self) -> npt.NDArray[Any]:

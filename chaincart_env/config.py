@@ -199,6 +199,7 @@ class ChainCartConfig:
     success_tolerances: tuple[float, float] = _UNSET
     reward: str = _UNSET
     success_hold: float = _UNSET
+    fall_limit: float = _UNSET
     transitions: Optional[tuple[tuple[Any, Any], ...]] = _UNSET
     goal_observation: bool = _UNSET
     diagnostics: bool = _UNSET

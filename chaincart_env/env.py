@@ -105,13 +105,15 @@ class ChainCartEnv(JsonSpec, EnvOfBatch, FrontEnd, gym.Env[np.ndarray, np.ndarra
       state, ``| |q_i| - 1 | > 1e-6``, an implicit solver gives up, or a link turns
       more than 0.5 rad in one integrator step, where the result would be finite but wrong;
       ``info["numerical_failure"]``): the observation is then the last good state,
-      never NaN.
+      never NaN. With ``fall_limit > 0``, also a fall: ``e_q`` beyond ``fall_limit``
+      after an earlier step of the episode came within it (``info["fell"]``), so that
+      a lost balance ends the episode instead of running on.
     * Truncation: ``max_episode_steps`` steps.
 
     On the last step ``info`` holds ``is_success`` (truncated, not terminated, and the
     paper's ``e_q = sum |q_i - s_i e3|`` and ``e_w = sum |w_i|`` at most
     ``success_tolerances``), ``numerical_failure``,
-    ``out_of_track``, ``e_q`` and ``e_w``; other steps' info is empty unless
+    ``out_of_track``, ``fell``, ``e_q`` and ``e_w``; other steps' info is empty unless
     ``diagnostics=True``, which adds ``energy``, ``kinetic_energy``,
     ``potential_energy``, ``residual_unit_length``, ``residual_tangency``, ``e_q``,
     ``e_w`` to every step. Stepping after the episode ended raises ``ResetNeeded``.

@@ -102,6 +102,7 @@ def episode_info(events: int, e_q: float, e_w: float) -> dict[str, Any]:
         "is_success": bool(events & _core.EVENT_SUCCESS),
         "numerical_failure": bool(events & _core.EVENT_NUMERICAL_FAILURE),
         "out_of_track": bool(events & _core.EVENT_OUT_OF_TRACK),
+        "fell": bool(events & _core.EVENT_FELL),
         "e_q": float(e_q),
         "e_w": float(e_w),
     }

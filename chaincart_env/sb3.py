@@ -98,7 +98,7 @@ class ChainCartVecEnv(BatchFrontEnd, VecEnv):
     reset; ``seed()`` does the same for the next reset). Autoreset is same-step, as
     SB3 expects: a done env's ``info`` holds ``terminal_observation``,
     ``TimeLimit.truncated`` (truncated and not terminated) and the episode-end keys
-    ``is_success``, ``numerical_failure``, ``out_of_track``, ``e_q``, ``e_w``.
+    ``is_success``, ``numerical_failure``, ``out_of_track``, ``fell``, ``e_q``, ``e_w``.
     Rewards are float32. Works with ``VecMonitor`` and ``VecNormalize``.
 
     ``get_attr``, ``set_attr`` and ``env_method`` take every index form SB3 takes

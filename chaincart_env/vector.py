@@ -37,7 +37,7 @@ _NATIVE_MODE = {
     AutoresetMode.DISABLED: "disabled",
 }
 
-_EPISODE_KEYS = ("is_success", "numerical_failure", "out_of_track", "e_q", "e_w")
+_EPISODE_KEYS = ("is_success", "numerical_failure", "out_of_track", "fell", "e_q", "e_w")
 
 
 def autoreset_mode_of(mode: Union[AutoresetMode, str]) -> AutoresetMode:
@@ -100,8 +100,8 @@ class ChainCartVectorEnv(JsonSpec, BatchFrontEnd, VectorEnv):
     and with every step in which some env started a new episode; ``true_params``
     reads them at any time.
 
-    Episode-end keys (``is_success``, ``numerical_failure``, ``out_of_track``, ``e_q``,
-    ``e_w``) come batched with ``_key`` masks, like Gymnasium's vector envs.
+    Episode-end keys (``is_success``, ``numerical_failure``, ``out_of_track``, ``fell``,
+    ``e_q``, ``e_w``) come batched with ``_key`` masks, like Gymnasium's vector envs.
     ``reset(seed=s)`` seeds env i with ``s + i`` (or a list of per-env seeds): env i
     then reproduces the single env reset with ``seed=s + i`` bit for bit. A bad action
     in any env (wrong shape, NaN, inf) raises before any env moves; a scalar (``step(0)``)

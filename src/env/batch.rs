@@ -44,6 +44,8 @@ pub struct Snapshot {
     pub ended: Vec<bool>,
     /// Per env: consecutive steps within the success tolerances.
     pub held: Vec<u32>,
+    /// Per env: a step of the episode came within `fall_limit`.
+    pub caught: Vec<bool>,
     /// Per env: the episode's (start, target) pair of a goal-conditioned task.
     pub goal: Vec<u16>,
     /// Per env: the episode's control delay (control periods).
@@ -618,6 +620,7 @@ impl<G: LaneScene> EnvBatch<G> {
             steps: d.slots.iter().map(|s| s.steps).collect(),
             ended: d.slots.iter().map(|s| s.ended).collect(),
             held: d.slots.iter().map(|s| s.held).collect(),
+            caught: d.slots.iter().map(|s| s.caught).collect(),
             goal: d.slots.iter().map(|s| s.goal).collect(),
             action_delays: d.slots.iter().map(|s| s.delay).collect(),
             param_rng: d.param_rngs.iter().map(rng_to_bytes).collect(),
@@ -638,12 +641,13 @@ impl<G: LaneScene> EnvBatch<G> {
         // Each part of the snapshot against the batch: name, length given, length
         // expected (one line each, which rustfmt would spread over five).
         #[rustfmt::skip]
-        let sizes: [(&'static str, usize, usize); 17] = [
+        let sizes: [(&'static str, usize, usize); 18] = [
             ("snapshot states", snap.states.len(), d.states.len()),
             ("snapshot rng", snap.rng.len(), n),
             ("snapshot steps", snap.steps.len(), n),
             ("snapshot ended", snap.ended.len(), n),
             ("snapshot held", snap.held.len(), n),
+            ("snapshot caught", snap.caught.len(), n),
             ("snapshot goal", snap.goal.len(), n),
             ("snapshot action_delays", snap.action_delays.len(), n),
             ("snapshot param_rng", snap.param_rng.len(), d.param_rngs.len()),
@@ -680,6 +684,7 @@ impl<G: LaneScene> EnvBatch<G> {
             slot.steps = snap.steps[k];
             slot.ended = snap.ended[k];
             slot.held = snap.held[k];
+            slot.caught = snap.caught[k];
             slot.goal = snap.goal[k];
             slot.delay = snap.action_delays[k];
         }

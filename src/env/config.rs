@@ -368,6 +368,10 @@ pub struct TaskConfig {
     /// Seconds the errors must have stayed within the tolerances at the end of an
     /// episode for a success (0: the last step alone).
     pub success_hold: f64,
+    /// An episode whose `e_q` has come within this bound ends (terminated, "fell") at
+    /// the first later step beyond it: a balance or a caught swing-up that is lost
+    /// ends there instead of running on (0: never).
+    pub fall_limit: f64,
     /// Goal-conditioned tasks: the (start, target) pairs every reset draws from (the
     /// `target` and `start` fields then hold the first pair's).
     pub transitions: Option<Transitions>,
@@ -412,6 +416,7 @@ impl TaskConfig {
             guard: Guard::default(),
             success: SuccessTolerances::default(),
             success_hold: 0.0,
+            fall_limit: 0.0,
             transitions: None,
             goal_observation: false,
             reality: RealityGap::default(),
@@ -484,6 +489,7 @@ impl TaskConfig {
         check_positive("success_tolerances.e_q", self.success.e_q)?;
         check_positive("success_tolerances.e_w", self.success.e_w)?;
         check_non_negative("success_hold", self.success_hold)?;
+        check_non_negative("fall_limit", self.fall_limit)?;
         check_precision(self.precision, self.step_options.method, &self.guard)?;
         check_non_negative("max_acceleration", self.max_acceleration)?;
         check_non_negative("max_voltage", self.max_voltage)?;

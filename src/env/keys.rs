@@ -515,6 +515,19 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         }),
     },
     ConfigKey {
+        name: "fall_limit",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(0.0),
+        expected: "a finite number >= 0",
+        help: "e_q bound of a fall: an episode whose e_q came within it terminates at the \
+               first later step beyond it (info fell), so that a lost balance or a lost catch \
+               ends the episode (0: never)",
+        goes_to: Destination::Task(|t, s| {
+            t.fall_limit = s.number()?;
+            Ok(())
+        }),
+    },
+    ConfigKey {
         name: "transitions",
         kind: KeyKind::Transitions,
         default: KeyValue::None,
@@ -1004,8 +1017,9 @@ mod expected_text {
 
     #[test]
     fn task_checks_say_what_the_table_says() {
-        let cases: [(&str, Spoiler); 6] = [
+        let cases: [(&str, Spoiler); 7] = [
             ("start_noise", Box::new(|t| t.start_noise = -1.0)),
+            ("fall_limit", Box::new(|t| t.fall_limit = -1.0)),
             ("dt", Box::new(|t| t.dt = 0.0)),
             ("max_force", Box::new(|t| t.max_force = -1.0)),
             ("track_limit", Box::new(|t| t.track_limit = 0.0)),

@@ -14,6 +14,8 @@ pub mod event {
     pub const NUMERICAL_FAILURE: u8 = 8;
     /// Next-step autoreset: this call reset the env instead of stepping it.
     pub const RESET: u8 = 16;
+    /// Terminated because `e_q` left `fall_limit` after coming within it.
+    pub const FELL: u8 = 32;
 }
 
 /// Diagnostics per env, in this order, when enabled: total, kinetic and potential
@@ -39,6 +41,8 @@ pub struct EpisodeEnds {
     pub numerical_failure: Vec<bool>,
     /// It was terminated by the cart leaving the track.
     pub out_of_track: Vec<bool>,
+    /// It was terminated by a fall (`fall_limit`).
+    pub fell: Vec<bool>,
     /// `e_q` of the state it ended in.
     pub e_q: Vec<f64>,
     /// `e_w` of the state it ended in.
@@ -57,6 +61,7 @@ impl EpisodeEnds {
             success: vec![false; n],
             numerical_failure: vec![false; n],
             out_of_track: vec![false; n],
+            fell: vec![false; n],
             e_q: vec![0.0; n],
             e_w: vec![0.0; n],
         };
@@ -68,6 +73,7 @@ impl EpisodeEnds {
             ends.success[k] = bits & event::SUCCESS != 0;
             ends.numerical_failure[k] = bits & event::NUMERICAL_FAILURE != 0;
             ends.out_of_track[k] = bits & event::OUT_OF_TRACK != 0;
+            ends.fell[k] = bits & event::FELL != 0;
             ends.e_q[k] = errors[2 * k];
             ends.e_w[k] = errors[2 * k + 1];
         }

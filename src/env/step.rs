@@ -32,6 +32,8 @@ pub(super) struct Slot {
     pub steps: u64,
     /// Consecutive steps up to now within the success tolerances.
     pub held: u32,
+    /// A step of this episode came within `fall_limit` (see [`TaskConfig::fall_limit`]).
+    pub caught: bool,
     /// Goal-conditioned tasks: the episode's (start, target) pair.
     pub goal: u16,
     /// The episode has ended and the env has not been reset since.
@@ -654,6 +656,7 @@ pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
     e.slot.delay = ctx.task.reality.draw_action_delay(e.start_rng) as u32;
     e.slot.steps = 0;
     e.slot.held = 0;
+    e.slot.caught = false;
     e.slot.ended = false;
     if let (Some(p), Some(rng)) = (e.params.as_mut(), e.param_rng.as_deref_mut()) {
         p.sample(&ctx.task.reality.randomize, ctx.truth, ctx.chain.rig(), rng);
@@ -845,7 +848,8 @@ fn score<G: Geometry>(
     let steps = slot.steps;
     let task = ctx.task;
     let off_track = !failed && m.x_max > task.track_limit;
-    let terminated = failed || off_track;
+    let fell = !failed && !off_track && falls(task.fall_limit, m.e_q, slot);
+    let terminated = failed || off_track || fell;
     let truncated = steps >= task.max_episode_steps;
     *o.reward = if failed { 0.0 } else { m.reward };
     *o.terminated = terminated;
@@ -876,7 +880,24 @@ fn score<G: Geometry>(
     if failed {
         ev |= event::NUMERICAL_FAILURE;
     }
+    if fell {
+        ev |= event::FELL;
+    }
     ev
+}
+
+/// Whether a step that reached `e_q` ends its episode by a fall: beyond `limit` after
+/// an earlier step came within it (`limit` 0: never). Marks the slot caught.
+#[inline(always)]
+fn falls(limit: f64, e_q: f64, slot: &mut Slot) -> bool {
+    if limit <= 0.0 {
+        return false;
+    }
+    if e_q <= limit {
+        slot.caught = true;
+        return false;
+    }
+    slot.caught
 }
 
 /// One control period of one env (or its next-step autoreset).

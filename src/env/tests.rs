@@ -649,3 +649,57 @@ fn a_batch_from_a_checked_task_is_the_batch_new_builds_and_a_bad_task_fails_its_
     assert_eq!(by_new.to_string(), by_check.to_string());
     assert!(by_check.to_string().contains("dt"), "{by_check}");
 }
+
+/// Steps two unforced envs of a planar double pendulum from `start` toward the upright
+/// target with `fall_limit` until the first termination (or 300 steps); the step
+/// index, events and `e_q` of each env at its end.
+fn unforced_until_ended(start: Start, fall_limit: f64) -> Vec<(Option<usize>, u8, f64)> {
+    let mut t = task(2);
+    t.start = start;
+    t.start_noise = 0.05;
+    t.max_episode_steps = 1000;
+    t.track_limit = 1e300;
+    t.fall_limit = fall_limit;
+    let mut b = EnvBatch::new(
+        Chain::<Planar>::new(params(2)),
+        t,
+        2,
+        0,
+        AutoresetMode::NextStep,
+        false,
+    )
+    .unwrap();
+    let mut out = Out::<f64>::new(2, b.state_dim());
+    let mut ends = vec![(None, 0, 0.0); 2];
+    for k in 0..300 {
+        b.step(&[0.0, 0.0], out.buffers()).unwrap();
+        for (i, end) in ends.iter_mut().enumerate() {
+            if end.0.is_none() && out.terminated[i] {
+                *end = (Some(k), b.events()[i], b.errors()[2 * i]);
+            }
+        }
+    }
+    ends
+}
+
+#[test]
+fn a_lost_balance_ends_the_episode_as_a_fall() {
+    for (k, events, e_q) in unforced_until_ended(Start::Target, 0.5) {
+        assert!(k.is_some_and(|k| k > 0), "fell at {k:?}");
+        assert_eq!(events, event::ENDED | event::FELL);
+        // The first state beyond the limit ends it: the falling chain is still near it.
+        assert!(e_q > 0.5 && e_q < 1.0, "e_q {e_q}");
+    }
+    // Without the limit the same chains fall over and the episodes run on.
+    for (k, ..) in unforced_until_ended(Start::Target, 0.0) {
+        assert_eq!(k, None);
+    }
+}
+
+#[test]
+fn a_chain_that_never_came_within_the_fall_limit_does_not_fall() {
+    // Hanging, the upright target's e_q is about 4: far outside, never caught.
+    for (k, ..) in unforced_until_ended(Start::Equilibrium(vec![1.0, 1.0]), 0.5) {
+        assert_eq!(k, None);
+    }
+}

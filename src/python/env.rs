@@ -411,7 +411,7 @@ impl PyEnvBatch {
         PyArray1::from_slice(py, scene!(&self.batch, b => b.events()))
     }
     /// The episode-end info of the last step as arrays of shape `(num_envs,)`:
-    /// `(ended, is_success, numerical_failure, out_of_track, e_q, e_w)`, the last five
+    /// `(ended, is_success, numerical_failure, out_of_track, fell, e_q, e_w)`, the last six
     /// false / zero where the episode did not end.
     fn episode_arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
         let ends = EpisodeEnds::from_events(
@@ -423,6 +423,7 @@ impl PyEnvBatch {
             PyArray1::from_vec(py, ends.success),
             PyArray1::from_vec(py, ends.numerical_failure),
             PyArray1::from_vec(py, ends.out_of_track),
+            PyArray1::from_vec(py, ends.fell),
             PyArray1::from_vec(py, ends.e_q),
             PyArray1::from_vec(py, ends.e_w),
         )
@@ -519,6 +520,7 @@ impl PyEnvBatch {
         d.set_item("steps", PyArray1::from_vec(py, s.steps))?;
         d.set_item("ended", PyArray1::from_vec(py, s.ended))?;
         d.set_item("held", PyArray1::from_vec(py, s.held))?;
+        d.set_item("caught", PyArray1::from_vec(py, s.caught))?;
         d.set_item("goal", PyArray1::from_vec(py, s.goal))?;
         d.set_item("action_delays", PyArray1::from_vec(py, s.action_delays))?;
         let rng_array = |rows: &[[u8; RNG_BYTES]]| {
@@ -557,6 +559,7 @@ impl PyEnvBatch {
         let steps: PyReadonlyArray1<'_, u64> = get("steps")?.extract()?;
         let ended: PyReadonlyArray1<'_, bool> = get("ended")?.extract()?;
         let held: PyReadonlyArray1<'_, u32> = get("held")?.extract()?;
+        let caught: PyReadonlyArray1<'_, bool> = get("caught")?.extract()?;
         let goal: PyReadonlyArray1<'_, u16> = get("goal")?.extract()?;
         // A snapshot taken before per-episode delays existed has none: the fixed delay.
         let action_delays = match snapshot.get_item("action_delays")? {
@@ -612,6 +615,7 @@ impl PyEnvBatch {
             steps: steps.as_array().to_vec(),
             ended: ended.as_array().to_vec(),
             held: held.as_array().to_vec(),
+            caught: caught.as_array().to_vec(),
             goal: goal.as_array().to_vec(),
             action_delays,
             param_rng: rng_rows(&param_rng),

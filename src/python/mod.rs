@@ -81,6 +81,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("EVENT_ENDED", crate::env::event::ENDED)?;
     m.add("EVENT_SUCCESS", crate::env::event::SUCCESS)?;
     m.add("EVENT_OUT_OF_TRACK", crate::env::event::OUT_OF_TRACK)?;
+    m.add("EVENT_FELL", crate::env::event::FELL)?;
     m.add(
         "EVENT_NUMERICAL_FAILURE",
         crate::env::event::NUMERICAL_FAILURE,

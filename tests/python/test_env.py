@@ -171,7 +171,7 @@ def test_truncation_success_and_reset_needed() -> None:
     infos = [env.step(np.zeros(1, np.float32)) for _ in range(3)]
     assert [s[3] for s in infos] == [False, False, True] and not any(s[2] for s in infos)
     assert infos[0][4] == {} and infos[2][4] == dict(
-        is_success=True, numerical_failure=False, out_of_track=False, e_q=0.0, e_w=0.0
+        is_success=True, numerical_failure=False, out_of_track=False, fell=False, e_q=0.0, e_w=0.0
     )
     with pytest.raises(ResetNeeded):
         env.step(np.zeros(1))
@@ -188,6 +188,39 @@ def test_leaving_the_track_terminates() -> None:
             break
     assert terminated and info["out_of_track"] and not info["is_success"] and not info["numerical_failure"]
     assert abs(obs[0]) > 0.2 and 0.0 < reward < 1.0
+
+
+def test_a_lost_balance_ends_the_episode_as_a_fall_with_fall_limit() -> None:
+    def unforced_episode(**keywords: float) -> tuple[int, bool, dict]:
+        env = ChainCartEnv(n_links=2, start_noise=0.05, track_limit=1e300, **keywords)
+        env.reset(seed=3)
+        for steps in range(1, 501):
+            _, _, terminated, truncated, info = env.step(np.zeros(1, np.float32))
+            if terminated or truncated:
+                return steps, terminated, info
+        raise AssertionError("the episode did not end")
+
+    steps, terminated, info = unforced_episode(fall_limit=0.5)
+    assert terminated and info["fell"] and not info["out_of_track"] and not info["is_success"]
+    assert 0.5 < info["e_q"] < 1.0 and steps < 100
+    # Without a limit the fallen chain runs on to the time limit.
+    steps, terminated, info = unforced_episode()
+    assert not terminated and steps == 500 and not info["fell"]
+
+
+def test_a_copy_taken_after_the_catch_falls_where_the_original_falls() -> None:
+    env = ChainCartEnv(n_links=2, start_noise=0.05, track_limit=1e300, fall_limit=0.5)
+    env.reset(seed=3)
+    env.step(np.zeros(1, np.float32))  # within the limit: caught
+    twin = pickle.loads(pickle.dumps(env))
+    ends = []
+    for e in (env, twin):
+        for steps in range(1, 500):
+            _, _, terminated, _, info = e.step(np.zeros(1, np.float32))
+            if terminated:
+                ends.append((steps, info["fell"], info["e_q"]))
+                break
+    assert len(ends) == 2 and ends[0] == ends[1] and ends[0][1]
 
 
 def test_a_numerical_failure_ends_the_episode_with_finite_observations() -> None:

@@ -51,7 +51,7 @@ def test_it_is_a_vecenv_with_same_step_autoreset_matching_the_gymnasium_vector_e
             info = infos[i]
             assert np.array_equal(info["terminal_observation"], r_info["final_obs"][i])
             assert info["TimeLimit.truncated"] == bool(r_trunc[i] and not r_term[i])
-            for key in ("is_success", "numerical_failure", "out_of_track", "e_q", "e_w"):
+            for key in ("is_success", "numerical_failure", "out_of_track", "fell", "e_q", "e_w"):
                 assert info[key] == r_info["final_info"][key][i]
     assert dones_seen > n
 

@@ -151,6 +151,7 @@ def test_the_lqr_reads_the_target_from_the_observation() -> None:
         (dict(transitions=[(1, 1)]), "transitions start = 1: expected a name or a sequence"),
         (dict(transitions=[((1, 1),)]), "(start, target) pair"),
         (dict(success_hold=-1.0), "success_hold"),
+        (dict(fall_limit=-0.5), "fall_limit = -0.5: expected a finite number >= 0"),
         (dict(reward="quadratic"), "tolerance"),
     ],
 )

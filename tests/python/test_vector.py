@@ -13,8 +13,8 @@ from gymnasium.vector import AutoresetMode
 
 from chaincart_env import ChainCartEnv, ChainCartError, ChainCartVectorEnv
 
-# Short episodes that end both ways (track and time limit), several chunks of envs.
-CONFIG = dict(n_links=2, start_noise=0.25, max_episode_steps=15, track_limit=0.3, max_force=20.0)
+# Short episodes that end every way (track, fall and time limit), several chunks of envs.
+CONFIG = dict(n_links=2, start_noise=0.25, max_episode_steps=15, track_limit=0.3, max_force=20.0, fall_limit=0.6)
 N = 37
 SEED = 1000
 STEPS = 45
@@ -80,7 +80,7 @@ def check_episode_info(info: dict, i: int, expected: dict) -> None:
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED])
 def test_env_i_of_the_vector_env_is_the_single_env_seeded_seed_plus_i(mode: AutoresetMode) -> None:
     obs0, steps = vector_run(mode)
-    episode_ends = 0
+    episode_ends = falls = 0
     for i in range(N):
         assert np.array_equal(obs0[i], ChainCartEnv(**CONFIG).reset(seed=SEED + i)[0])
         for k, (want, got) in enumerate(zip(single_run(i, mode), steps)):
@@ -95,6 +95,7 @@ def test_env_i_of_the_vector_env_is_the_single_env_seeded_seed_plus_i(mode: Auto
                     assert mask not in info or not info[mask][i], where
                 continue
             episode_ends += 1
+            falls += want["end"]["fell"]
             if mode == AutoresetMode.SAME_STEP:
                 assert info["_final_obs"][i] and info["_final_info"][i]
                 assert np.array_equal(info["final_obs"][i], want["final_obs"]), where
@@ -104,6 +105,7 @@ def test_env_i_of_the_vector_env_is_the_single_env_seeded_seed_plus_i(mode: Auto
             if mode == AutoresetMode.DISABLED:
                 assert np.array_equal(got["after_reset"][i], want["after_reset"]), where
     assert episode_ends > N  # every env ended at least once, most several times
+    assert 0 < falls < episode_ends
 
 
 def test_infos_are_empty_while_nothing_ends_and_batched_when_something_does() -> None:
@@ -115,7 +117,7 @@ def test_infos_are_empty_while_nothing_ends_and_batched_when_something_does() ->
     assert truncated.all() and not terminated.any() and rewards.dtype == np.float64
     assert set(info) == {
         "is_success", "_is_success", "numerical_failure", "_numerical_failure",
-        "out_of_track", "_out_of_track", "e_q", "_e_q", "e_w", "_e_w",
+        "out_of_track", "_out_of_track", "fell", "_fell", "e_q", "_e_q", "e_w", "_e_w",
     }  # fmt: skip
     assert info["is_success"].all() and info["_is_success"].all()
     # Next step: the reset step.

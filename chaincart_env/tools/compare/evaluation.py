@@ -138,7 +138,7 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
         errors = batch.errors()
         ended = is_success = np.zeros(n, dtype=bool)
         if n_ended:
-            ended, is_success, _, _, end_e_q, end_e_w = batch.episode_arrays()
+            ended, is_success, *_, end_e_q, end_e_w = batch.episode_arrays()
             errors = np.where(ended[:, None], np.stack([end_e_q, end_e_w], axis=1), errors)
         returns[active] += rewards[active]
         force[active, k] = np.linalg.norm(applied[active], axis=1)
