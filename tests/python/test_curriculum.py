@@ -31,6 +31,7 @@ def test_bad_fractions_are_named(fraction) -> None:
         (dict(judged=0), "plan-start judged = 0"),
         (dict(judged=2.5), "plan-start judged = 2.5"),
         (dict(reverse="yes"), "plan-start reverse = 'yes'"),
+        (dict(judge="upright"), "plan-start judge = 'upright': expected one of success, held"),
     ],
 )
 def test_bad_reverse_settings_are_named(changes, named) -> None:
@@ -42,6 +43,8 @@ def test_settings_round_trip_through_their_record() -> None:
     assert PlanStarts.from_record(PlanStarts(0.3).record()) == PlanStarts(0.3)
     reverse = PlanStarts(0.8, reverse=True, window=0.2, threshold=0.4, judged=10)
     assert PlanStarts.from_record(json.loads(json.dumps(reverse.record()))) == reverse
+    held = PlanStarts(reverse=True, judge="held")
+    assert PlanStarts.from_record(json.loads(json.dumps(held.record()))) == held
     with pytest.raises(InvalidInputError, match="expected kind 'plan'"):
         PlanStarts.from_record({"kind": "reverse", "fraction": 0.3})
 
@@ -159,6 +162,8 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
         (["--curriculum", "none", "--plan-fraction", "0.3"], "without --curriculum plan or reverse"),
         (["--curriculum", "plan", "--plan-fraction", "1.5"], "plan-start fraction = 1.5"),
         (["--curriculum", "plan", "--scene", "transitions-2"], "no single plan"),
+        (["--curriculum", "plan", "--curriculum-judge", "held"], "--curriculum-judge held without --curriculum reverse"),
+        (["--curriculum", "reverse", "--curriculum-judge", "best"], "invalid choice: 'best'"),
     ],
 )
 def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_path) -> None:
@@ -187,6 +192,26 @@ def test_the_reverse_window_starts_at_the_end_and_widens_on_success(states) -> N
     for _ in range(3):
         venv._judge(np.arange(8), succeeded)
     assert venv.window == 1.0 and venv._first_index() == 0
+
+
+def test_a_held_judge_counts_the_episodes_that_end_at_the_time_limit_within_the_fall_limit(states) -> None:
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
+
+    curriculum = PlanStarts(1.0, reverse=True, window=0.25, judged=4, judge="held")
+    with pytest.raises(InvalidInputError, match="judge 'held' with the scene's fall_limit = 0: expected fall_limit > 0"):
+        PlanStartEnvs(ChainCartVecEnv(4, SWINGUP, seed=3), states, curriculum, seed=2)
+    falls = SWINGUP.replace(fall_limit=0.6)
+    venv = PlanStartEnvs(ChainCartVecEnv(4, falls, seed=3), states, curriculum, seed=2)
+    venv.reset()
+    held = {"TimeLimit.truncated": True, "e_q": 0.3, "is_success": False}  # up, outside the success tolerance
+    fell = {"TimeLimit.truncated": False, "e_q": 0.7, "is_success": False}
+    down = {"TimeLimit.truncated": True, "e_q": 2.0, "is_success": False}  # never caught
+    assert [venv._passed(info) for info in (held, fell, down)] == [True, False, False]
+    venv._judge(np.arange(4), [held, held, fell, down])  # 2 of 4: the threshold
+    assert venv.window == 0.5
+    venv._judge(np.arange(4), [held, fell, fell, down])
+    assert venv.window == 0.5
 
 
 def test_a_curriculum_log_is_written_beside_the_training(tmp_path) -> None:

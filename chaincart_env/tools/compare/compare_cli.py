@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
+from chaincart_env.tools.compare.curriculum import JUDGES
 from chaincart_env.tools.compare.imitation import SCENE_IMITATIONS
 from chaincart_env.tools.compare.recipes import GENERIC
 from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options, parse_value
@@ -109,6 +110,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "at first from the last tenth of the plan, a tenth more each time half of 256 such episodes "
                         "succeed; none = the scene's starts only (default: the scene's curriculum, none on most "
                         "scenes)")
+    parser.add_argument("--curriculum-judge", choices=JUDGES, default=None,
+                        help="with --curriculum reverse: what a plan-start episode must do for the window to widen: "
+                        "success = the scene's success; held = reach the time limit within the scene's fall_limit "
+                        "(--fall-limit, required), which a policy still exploring can do where its noise keeps it "
+                        "outside the success tolerances (default: success)")
     parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
                         help="with --curriculum plan or reverse: the share of training episodes that start on the plan, in "
                         "(0, 1] (default: 0.5)")
@@ -252,19 +258,27 @@ def _algo_kwargs(texts: Sequence[str]) -> tuple[dict[str, Any], dict[str, dict[s
     return shared, per_algo
 
 
-def _curriculum(name: Optional[str], fraction: Optional[float]) -> Any:
-    """``--curriculum`` and ``--plan-fraction`` as ``run_compare``'s ``curriculum``."""
+def _curriculum(name: Optional[str], fraction: Optional[float], judge: Optional[str] = None) -> Any:
+    """``--curriculum``, ``--plan-fraction`` and ``--curriculum-judge`` as ``run_compare``'s
+    ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
 
     if fraction is not None and name not in ("plan", "reverse"):
         raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan or reverse: expected "
                                 "--curriculum plan or reverse with it")
+    if judge is not None and name != "reverse":
+        raise InvalidInputError(f"--curriculum-judge {judge} without --curriculum reverse: expected "
+                                "--curriculum reverse with it")
     if name is None:
         return "scene"
     if name == "none":
         return None
-    reverse = name == "reverse"
-    return PlanStarts(reverse=reverse) if fraction is None else PlanStarts(fraction=fraction, reverse=reverse)
+    settings: dict[str, Any] = {"reverse": name == "reverse"}
+    if fraction is not None:
+        settings["fraction"] = fraction
+    if judge is not None:
+        settings["judge"] = judge
+    return PlanStarts(**settings)
 
 
 def _sweeps(texts: Sequence[str]) -> Optional[dict[str, list[float]]]:
@@ -290,7 +304,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         config = config_from_options(args)
         hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
         sweeps = _sweeps(args.sweeps)
-        curriculum = _curriculum(args.curriculum, args.plan_fraction)
+        curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     if args.policies is not None:

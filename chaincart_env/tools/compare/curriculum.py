@@ -34,12 +34,14 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "CURRICULA", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_states",
+    "CURRICULA", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_states",
     "scene_curriculum", "scene_training_reward",
 ]  # fmt: skip
 
 #: The curricula ``compare --curriculum`` offers.
 CURRICULA = ("none", "plan", "reverse")
+#: What a reverse curriculum counts as a passed plan-start episode (:class:`PlanStarts`).
+JUDGES = ("success", "held")
 #: Offset of the curriculum's generator seed from the run's seed (apart from the envs' seeds).
 SEED_OFFSET = 300_000
 
@@ -51,13 +53,18 @@ class PlanStarts:
     curriculum (Florensa et al., 2017): the draw starts from the last ``window`` of the
     plan (a share of its steps, the part nearest the target), and whenever ``judged``
     episodes started on the plan since the last change and at least ``threshold`` of
-    them succeeded, the window grows by ``window`` towards the plan's start."""
+    them passed, the window grows by ``window`` towards the plan's start. ``judge``
+    says what passes: ``success`` (the scene's success, ``is_success``) or ``held``
+    (the episode reached its time limit within the scene's ``fall_limit``, which must
+    be set: the chain was caught and never fell). ``held`` serves exploring policies,
+    whose noise keeps a held chain outside the tight success tolerances."""
 
     fraction: float = 0.5
     reverse: bool = False
     window: float = 0.1
     threshold: float = 0.5
     judged: int = 256
+    judge: str = "success"
 
     def __post_init__(self) -> None:
         for name in ("fraction", "window", "threshold"):
@@ -70,6 +77,8 @@ class PlanStarts:
             raise InvalidInputError(f"plan-start reverse = {self.reverse!r}: expected true or false")
         if isinstance(self.judged, bool) or not isinstance(self.judged, int) or self.judged < 1:
             raise InvalidInputError(f"plan-start judged = {self.judged!r}: expected an integer >= 1 (episodes)")
+        if self.judge not in JUDGES:
+            raise InvalidInputError(f"plan-start judge = {self.judge!r}: expected one of {', '.join(JUDGES)}")
 
     @property
     def name(self) -> str:

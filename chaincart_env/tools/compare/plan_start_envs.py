@@ -37,6 +37,10 @@ class PlanStartEnvs(VecEnvWrapper):
 
         if not isinstance(venv, ChainCartVecEnv):
             raise InvalidInputError(f"plan starts wrap the native ChainCartVecEnv: got {type(venv).__name__}")
+        self.fall_limit = float(venv.config.fall_limit)
+        if curriculum.judge == "held" and self.fall_limit <= 0.0:
+            raise InvalidInputError(f"plan-start judge 'held' with the scene's fall_limit = {self.fall_limit:g}: "
+                                    "expected fall_limit > 0 (a held episode ends within it)")
         super().__init__(venv)
         self.states, self.curriculum = states, curriculum
         self.rng = np.random.default_rng(seed + SEED_OFFSET)
@@ -70,18 +74,24 @@ class PlanStartEnvs(VecEnvWrapper):
         self.plan_episodes += len(chosen)
 
     def _judge(self, ended: np.ndarray, infos: list[dict[str, Any]]) -> None:
-        """Counts the ended plan-start episodes; widens the window when enough succeeded."""
+        """Counts the ended plan-start episodes; widens the window when enough passed."""
         for i in ended[self._on_plan[ended]]:
             self._judged += 1
-            self._successes += int(bool(infos[i].get("is_success", False)))
+            self._successes += int(self._passed(infos[i]))
         curriculum = self.curriculum
         if self.window < 1.0 and self._judged >= curriculum.judged:
             if self._successes >= curriculum.threshold * self._judged:
                 self.window = min(1.0, self.window + curriculum.window)
                 self.windows.append((self.steps, self.window))
-                print(f"curriculum: {self._successes} of {self._judged} plan-start episodes succeeded; starts now "
+                print(f"curriculum: {self._successes} of {self._judged} plan-start episodes passed; starts now "
                       f"drawn from the last {self.window:.0%} of the plan ({self.steps} env steps)", flush=True)
             self._judged = self._successes = 0
+
+    def _passed(self, info: dict[str, Any]) -> bool:
+        """Whether an ended plan-start episode passes the curriculum's judge."""
+        if self.curriculum.judge == "held":
+            return bool(info.get("TimeLimit.truncated", False)) and float(info.get("e_q", np.inf)) <= self.fall_limit
+        return bool(info.get("is_success", False))
 
     def reset(self) -> VecEnvObs:
         """Resets every env; each then starts on the plan with the share's probability."""
