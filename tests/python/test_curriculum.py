@@ -164,6 +164,8 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
         (["--curriculum", "plan", "--scene", "transitions-2"], "no single plan"),
         (["--curriculum", "plan", "--curriculum-judge", "held"], "--curriculum-judge held without --curriculum reverse"),
         (["--curriculum", "reverse", "--curriculum-judge", "best"], "invalid choice: 'best'"),
+        (["--curriculum-window", "0.05"], "--curriculum-window 0.05 without --curriculum reverse"),
+        (["--curriculum", "reverse", "--curriculum-window", "0"], "plan-start window = 0.0"),
     ],
 )
 def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_path) -> None:
@@ -172,6 +174,14 @@ def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_
     with pytest.raises(SystemExit):
         compare_main(["--scene", "swingup-2", "--out", str(tmp_path), *argv])
     assert named in capsys.readouterr().err
+
+
+def test_the_command_line_options_become_the_curriculum_settings() -> None:
+    from chaincart_env.tools.compare.compare_cli import _curriculum
+
+    assert _curriculum("reverse", 0.75, "held", 0.02) == PlanStarts(0.75, reverse=True, window=0.02, judge="held")
+    assert _curriculum("reverse", None) == PlanStarts(reverse=True)
+    assert _curriculum(None, None) == "scene" and _curriculum("none", None) is None
 
 
 def test_the_reverse_window_starts_at_the_end_and_widens_on_success(states) -> None:

@@ -115,6 +115,9 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         "success = the scene's success; held = reach the time limit within the scene's fall_limit "
                         "(--fall-limit, required), which a policy still exploring can do where its noise keeps it "
                         "outside the success tolerances (default: success)")
+    parser.add_argument("--curriculum-window", type=float, default=None, metavar="W",
+                        help="with --curriculum reverse: the share of the plan, from its end, drawn from at first and "
+                        "added at each widening, in (0, 1] (default: 0.1)")
     parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
                         help="with --curriculum plan or reverse: the share of training episodes that start on the plan, in "
                         "(0, 1] (default: 0.5)")
@@ -258,9 +261,11 @@ def _algo_kwargs(texts: Sequence[str]) -> tuple[dict[str, Any], dict[str, dict[s
     return shared, per_algo
 
 
-def _curriculum(name: Optional[str], fraction: Optional[float], judge: Optional[str] = None) -> Any:
-    """``--curriculum``, ``--plan-fraction`` and ``--curriculum-judge`` as ``run_compare``'s
-    ``curriculum``."""
+def _curriculum(
+    name: Optional[str], fraction: Optional[float], judge: Optional[str] = None, window: Optional[float] = None
+) -> Any:
+    """``--curriculum``, ``--plan-fraction``, ``--curriculum-judge`` and ``--curriculum-window``
+    as ``run_compare``'s ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
 
     if fraction is not None and name not in ("plan", "reverse"):
@@ -268,6 +273,9 @@ def _curriculum(name: Optional[str], fraction: Optional[float], judge: Optional[
                                 "--curriculum plan or reverse with it")
     if judge is not None and name != "reverse":
         raise InvalidInputError(f"--curriculum-judge {judge} without --curriculum reverse: expected "
+                                "--curriculum reverse with it")
+    if window is not None and name != "reverse":
+        raise InvalidInputError(f"--curriculum-window {window:g} without --curriculum reverse: expected "
                                 "--curriculum reverse with it")
     if name is None:
         return "scene"
@@ -278,6 +286,8 @@ def _curriculum(name: Optional[str], fraction: Optional[float], judge: Optional[
         settings["fraction"] = fraction
     if judge is not None:
         settings["judge"] = judge
+    if window is not None:
+        settings["window"] = window
     return PlanStarts(**settings)
 
 
@@ -304,7 +314,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         config = config_from_options(args)
         hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
         sweeps = _sweeps(args.sweeps)
-        curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge)
+        curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge, args.curriculum_window)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     if args.policies is not None:
