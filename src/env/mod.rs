@@ -28,8 +28,9 @@
 //!
 //! **Episode end.** Terminated when `max_k |x_k| > track_limit` (out of track) or when
 //! the integration fails (non-finite state, `| |q_i| - 1 | > 1e-6`, or an implicit
-//! solver gives up; the env keeps its last good state, so observations stay finite).
-//! Truncated when the episode reaches `max_episode_steps` (both flags may be set
+//! solver gives up; the env keeps its last good state, so observations stay finite),
+//! and, with `fall_limit > 0`, at a fall: `e_q` beyond the limit after an earlier step
+//! of the episode came within it. Truncated when the episode reaches `max_episode_steps` (both flags may be set
 //! together). A success is an episode that is truncated without being terminated with
 //! the paper's `e_q <= tol_q` and `e_w <= tol_w` ([`SuccessTolerances`], defaults 0.1 and
 //! 0.5).
