@@ -166,6 +166,8 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
         (["--curriculum", "reverse", "--curriculum-judge", "best"], "invalid choice: 'best'"),
         (["--curriculum-window", "0.05"], "--curriculum-window 0.05 without --curriculum reverse"),
         (["--curriculum", "reverse", "--curriculum-window", "0"], "plan-start window = 0.0"),
+        (["--curriculum", "plan", "--curriculum-threshold", "0.3"], "--curriculum-threshold 0.3 without"),
+        (["--curriculum", "reverse", "--curriculum-threshold", "1.5"], "plan-start threshold = 1.5"),
     ],
 )
 def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_path) -> None:
@@ -180,6 +182,7 @@ def test_the_command_line_options_become_the_curriculum_settings() -> None:
     from chaincart_env.tools.compare.compare_cli import _curriculum
 
     assert _curriculum("reverse", 0.75, "held", 0.02) == PlanStarts(0.75, reverse=True, window=0.02, judge="held")
+    assert _curriculum("reverse", None, threshold=0.25) == PlanStarts(reverse=True, threshold=0.25)
     assert _curriculum("reverse", None) == PlanStarts(reverse=True)
     assert _curriculum(None, None) == "scene" and _curriculum("none", None) is None
 

@@ -118,6 +118,9 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--curriculum-window", type=float, default=None, metavar="W",
                         help="with --curriculum reverse: the share of the plan, from its end, drawn from at first and "
                         "added at each widening, in (0, 1] (default: 0.1)")
+    parser.add_argument("--curriculum-threshold", type=float, default=None, metavar="T",
+                        help="with --curriculum reverse: the share of 256 plan-start episodes that must pass for the "
+                        "window to widen, in (0, 1] (default: 0.5)")
     parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
                         help="with --curriculum plan or reverse: the share of training episodes that start on the plan, in "
                         "(0, 1] (default: 0.5)")
@@ -262,21 +265,25 @@ def _algo_kwargs(texts: Sequence[str]) -> tuple[dict[str, Any], dict[str, dict[s
 
 
 def _curriculum(
-    name: Optional[str], fraction: Optional[float], judge: Optional[str] = None, window: Optional[float] = None
+    name: Optional[str],
+    fraction: Optional[float],
+    judge: Optional[str] = None,
+    window: Optional[float] = None,
+    threshold: Optional[float] = None,
 ) -> Any:
-    """``--curriculum``, ``--plan-fraction``, ``--curriculum-judge`` and ``--curriculum-window``
-    as ``run_compare``'s ``curriculum``."""
+    """``--curriculum``, ``--plan-fraction`` and the reverse curriculum's ``--curriculum-judge``,
+    ``--curriculum-window`` and ``--curriculum-threshold`` as ``run_compare``'s ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
 
     if fraction is not None and name not in ("plan", "reverse"):
         raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan or reverse: expected "
                                 "--curriculum plan or reverse with it")
-    if judge is not None and name != "reverse":
-        raise InvalidInputError(f"--curriculum-judge {judge} without --curriculum reverse: expected "
-                                "--curriculum reverse with it")
-    if window is not None and name != "reverse":
-        raise InvalidInputError(f"--curriculum-window {window:g} without --curriculum reverse: expected "
-                                "--curriculum reverse with it")
+    reverse_only = {"--curriculum-judge": judge, "--curriculum-window": window, "--curriculum-threshold": threshold}
+    for option, value in reverse_only.items():
+        if value is not None and name != "reverse":
+            shown = value if isinstance(value, str) else f"{value:g}"
+            raise InvalidInputError(f"{option} {shown} without --curriculum reverse: expected "
+                                    "--curriculum reverse with it")
     if name is None:
         return "scene"
     if name == "none":
@@ -288,6 +295,8 @@ def _curriculum(
         settings["judge"] = judge
     if window is not None:
         settings["window"] = window
+    if threshold is not None:
+        settings["threshold"] = threshold
     return PlanStarts(**settings)
 
 
@@ -314,7 +323,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         config = config_from_options(args)
         hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
         sweeps = _sweeps(args.sweeps)
-        curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge, args.curriculum_window)
+        curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge, args.curriculum_window,
+                                 args.curriculum_threshold)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     if args.policies is not None:
