@@ -311,6 +311,7 @@ class _Run:
                 self.over = True
                 self.ended = (
                     "out of track" if info.get("out_of_track")
+                    else "fell" if info.get("fell")
                     else "numerical failure" if info.get("numerical_failure")
                     else "time limit"
                 )

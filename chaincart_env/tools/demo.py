@@ -51,6 +51,7 @@ def run_demo(
     every = max(1, round(0.5 / config.dt))
     total, k = 0.0, 0
     info: dict[str, Any] = {}
+    terminated = False
     limit = config.max_episode_steps if max_steps is None else max_steps
     while k < limit:
         action = act(obs)
@@ -66,7 +67,7 @@ def run_demo(
             break
     print()
     print(f"steps {k}, return {total:.2f} (max {k}), "
-          f"ended by {'termination' if info.get('out_of_track') or info.get('numerical_failure') else 'time limit' if info else 'step limit'}, "
+          f"ended by {'termination' if terminated else 'time limit' if info else 'step limit'}, "
           f"success {info.get('is_success', False)}")
     env.close()
     return 0 if math.isfinite(total) else 1

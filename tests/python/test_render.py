@@ -437,6 +437,12 @@ def test_animate_api_counts_and_stops_at_the_episode_end(tmp_path: Path) -> None
     assert result.frames == 1 + 2 + 1 == len(decoded_frames(result.path))
 
 
+def test_animate_names_a_fall_as_the_episode_end(tmp_path: Path) -> None:
+    config = ChainCartConfig(scene="inverted-2", fall_limit=0.5, start_noise=0.05)
+    result = animate(config, tmp_path / "f.gif", "zero", seconds=4.0, fps=10, width=40, height=20)
+    assert result.ended == "fell" and result.steps < 200
+
+
 def test_animate_a_scene_with_config_keywords(tmp_path: Path) -> None:
     out = tmp_path / "folded.gif"
     assert main(["animate", "--scene", "inverted-1", "--set", "n_links=3", "--set", "planar=False",
