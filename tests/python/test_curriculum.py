@@ -12,7 +12,7 @@ import pytest
 
 from chaincart_env import ChainCartConfig
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.curriculum import PlanStarts, plan_states, scene_curriculum
+from chaincart_env.tools.compare.curriculum import FROZEN_CLIP, PlanStarts, plan_states, scene_curriculum
 
 SWINGUP = ChainCartConfig(scene="swingup-2")
 
@@ -32,6 +32,8 @@ def test_bad_fractions_are_named(fraction) -> None:
         (dict(judged=2.5), "plan-start judged = 2.5"),
         (dict(reverse="yes"), "plan-start reverse = 'yes'"),
         (dict(judge="upright"), "plan-start judge = 'upright': expected one of success, held"),
+        (dict(reverse=True, freeze_statistics=1), "plan-start freeze_statistics = 1: expected true or false"),
+        (dict(freeze_statistics=True), "plan-start freeze_statistics = True without reverse"),
     ],
 )
 def test_bad_reverse_settings_are_named(changes, named) -> None:
@@ -43,8 +45,10 @@ def test_settings_round_trip_through_their_record() -> None:
     assert PlanStarts.from_record(PlanStarts(0.3).record()) == PlanStarts(0.3)
     reverse = PlanStarts(0.8, reverse=True, window=0.2, threshold=0.4, judged=10)
     assert PlanStarts.from_record(json.loads(json.dumps(reverse.record()))) == reverse
-    held = PlanStarts(reverse=True, judge="held")
+    held = PlanStarts(reverse=True, judge="held", freeze_statistics=True)
     assert PlanStarts.from_record(json.loads(json.dumps(held.record()))) == held
+    older = {key: value for key, value in PlanStarts(reverse=True).record().items() if key != "freeze_statistics"}
+    assert PlanStarts.from_record(older) == PlanStarts(reverse=True)  # a record written before the setting existed
     with pytest.raises(InvalidInputError, match="expected kind 'plan'"):
         PlanStarts.from_record({"kind": "reverse", "fraction": 0.3})
 
@@ -168,6 +172,10 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
         (["--curriculum", "reverse", "--curriculum-window", "0"], "plan-start window = 0.0"),
         (["--curriculum", "plan", "--curriculum-threshold", "0.3"], "--curriculum-threshold 0.3 without"),
         (["--curriculum", "reverse", "--curriculum-threshold", "1.5"], "plan-start threshold = 1.5"),
+        (["--curriculum", "plan", "--curriculum-freeze-statistics"],
+         "--curriculum-freeze-statistics without --curriculum reverse"),
+        (["--curriculum", "reverse", "--curriculum-freeze-statistics", "--policies", "ppo"],
+         "--curriculum-freeze-statistics for ppo, whose recipe (ppo.yml: ChainCart-swingup-2-v0) does not normalise"),
     ],
 )
 def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_path) -> None:
@@ -184,6 +192,7 @@ def test_the_command_line_options_become_the_curriculum_settings() -> None:
     assert _curriculum("reverse", 0.75, "held", 0.02) == PlanStarts(0.75, reverse=True, window=0.02, judge="held")
     assert _curriculum("reverse", None, threshold=0.25) == PlanStarts(reverse=True, threshold=0.25)
     assert _curriculum("reverse", None) == PlanStarts(reverse=True)
+    assert _curriculum("reverse", None, freeze_statistics=True) == PlanStarts(reverse=True, freeze_statistics=True)
     assert _curriculum(None, None) == "scene" and _curriculum("none", None) is None
 
 
@@ -290,3 +299,86 @@ def test_plan_starts_wrap_only_the_native_envs(states) -> None:
         PlanStartEnvs(VecMonitor(ChainCartVecEnv(2, SWINGUP)), states, PlanStarts(), seed=0)
     with pytest.raises(InvalidInputError, match=r"plan states of shape \(8,\)"):
         PlanStartEnvs(ChainCartVecEnv(2, SWINGUP), states[0], PlanStarts(), seed=0)
+
+
+def _freezing_agent(states):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import FreezeStatisticsOnWidening, PlanStartEnvs
+
+    curriculum = PlanStarts(1.0, reverse=True, window=0.25, judged=4, freeze_statistics=True)
+    plan = PlanStartEnvs(ChainCartVecEnv(4, SWINGUP, seed=3), states, curriculum, seed=2)
+    envs = VecNormalize(VecMonitor(plan), norm_reward=False)
+    model = PPO("MlpPolicy", envs, n_steps=16, batch_size=32, seed=0, device="cpu")
+    callback = FreezeStatisticsOnWidening()
+    callback.init_callback(model)
+    return model, plan, envs, callback
+
+
+def test_the_statistics_count_until_the_first_widening_and_then_hold(states) -> None:
+    model, plan, envs, callback = _freezing_agent(states)
+    rng = np.random.default_rng(0)
+    envs.reset()
+    for _ in range(5):
+        envs.step(rng.uniform(-1, 1, (4, 1)).astype(np.float32))
+        assert callback.on_step()
+    assert envs.training and envs.clip_obs == 10.0  # still counting: the window has not widened
+    plan._judge(np.arange(4), [{"is_success": True}] * 4)  # 4 of 4 passed: the window widens
+    assert plan.window == 0.5
+    callback.on_step()
+    assert not envs.training and envs.clip_obs == FROZEN_CLIP
+    mean, var, counted = envs.obs_rms.mean.copy(), envs.obs_rms.var.copy(), envs.obs_rms.count
+    for _ in range(5):
+        envs.step(rng.uniform(-1, 1, (4, 1)).astype(np.float32))
+    np.testing.assert_array_equal(envs.obs_rms.mean, mean)
+    np.testing.assert_array_equal(envs.obs_rms.var, var)
+    assert envs.obs_rms.count == counted
+
+
+def test_frozen_statistics_clip_far_observations_at_the_frozen_clip(states) -> None:
+    _, plan, envs, callback = _freezing_agent(states)
+    envs.reset()
+    plan._judge(np.arange(4), [{"is_success": True}] * 4)
+    callback.on_step()
+    far = envs.obs_rms.mean + 50.0 * np.sqrt(envs.obs_rms.var + envs.epsilon)
+    np.testing.assert_allclose(envs.normalize_obs(far[None])[0], 50.0, rtol=1e-9)  # beyond SB3's 10, within 100
+    farther = envs.obs_rms.mean + 500.0 * np.sqrt(envs.obs_rms.var + envs.epsilon)
+    np.testing.assert_array_equal(envs.normalize_obs(farther[None])[0], FROZEN_CLIP)
+
+
+def test_a_run_freezing_its_statistics_trains_and_saves_them_frozen(tmp_path) -> None:
+    from chaincart_env.tools.compare.normalization import load_statistics, save_agent
+    from chaincart_env.tools.compare.plan_start_envs import plan_start_envs_of
+    from chaincart_env.tools.compare.training import train
+
+    # Short episodes that never fall (no e_q exceeds 7): every plan-start episode is held, so the window widens.
+    always_held = SWINGUP.replace(max_episode_steps=16, fall_limit=7.0)
+
+    def run(directory, freeze):
+        curriculum = PlanStarts(1.0, reverse=True, window=0.25, judged=4, judge="held", freeze_statistics=freeze)
+        return train(always_held, timesteps=256, num_envs=4, seed=5, directory=directory, eval_seeds=[1_000_000],
+                     eval_every=128, checkpoint_every=10_000, progress_bar=False,
+                     hyperparameters={"n_steps": 32, "batch_size": 64, "policy_kwargs": "dict(net_arch=[16])"},
+                     normalize={"norm_obs": True, "norm_reward": False}, curriculum=curriculum)
+
+    result = run(tmp_path, True)
+    assert len(plan_start_envs_of(result.model.get_env()).windows) > 1  # the window widened
+    statistics = result.model.get_vec_normalize_env()
+    assert not statistics.training and statistics.clip_obs == FROZEN_CLIP
+    save_agent(result.model, tmp_path / "agent.zip")
+    saved = load_statistics(tmp_path / "agent.zip")  # a saved agent normalises as it trained
+    assert saved is not None and not saved.training and saved.clip_obs == FROZEN_CLIP
+    without = run(tmp_path / "running", False)
+    assert len(plan_start_envs_of(without.model.get_env()).windows) > 1
+    assert without.model.get_vec_normalize_env().training  # without the setting the statistics keep counting
+
+
+def test_freezing_needs_a_recipe_that_normalises(tmp_path) -> None:
+    from chaincart_env.tools.compare.training import train
+
+    with pytest.raises(InvalidInputError, match="freezing the observation statistics with ppo's recipe, which does not"):
+        train(SWINGUP, timesteps=64, num_envs=2, seed=5, directory=tmp_path, eval_seeds=[1_000_000],
+              eval_every=64, checkpoint_every=10_000, progress_bar=False,
+              curriculum=PlanStarts(1.0, reverse=True, freeze_statistics=True))

@@ -121,6 +121,10 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--curriculum-threshold", type=float, default=None, metavar="T",
                         help="with --curriculum reverse: the share of 256 plan-start episodes that must pass for the "
                         "window to widen, in (0, 1] (default: 0.5)")
+    parser.add_argument("--curriculum-freeze-statistics", action="store_true",
+                        help="with --curriculum reverse and a recipe that normalises observations: stop counting the "
+                        "normalisation statistics at the first widening and clip at 100 standard deviations, so that "
+                        "the wider starts do not rescale what the policy learned to balance on (default: off)")
     parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
                         help="with --curriculum plan or reverse: the share of training episodes that start on the plan, in "
                         "(0, 1] (default: 0.5)")
@@ -270,19 +274,22 @@ def _curriculum(
     judge: Optional[str] = None,
     window: Optional[float] = None,
     threshold: Optional[float] = None,
+    freeze_statistics: bool = False,
 ) -> Any:
     """``--curriculum``, ``--plan-fraction`` and the reverse curriculum's ``--curriculum-judge``,
-    ``--curriculum-window`` and ``--curriculum-threshold`` as ``run_compare``'s ``curriculum``."""
+    ``--curriculum-window``, ``--curriculum-threshold`` and ``--curriculum-freeze-statistics``
+    as ``run_compare``'s ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
 
     if fraction is not None and name not in ("plan", "reverse"):
         raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan or reverse: expected "
                                 "--curriculum plan or reverse with it")
-    reverse_only = {"--curriculum-judge": judge, "--curriculum-window": window, "--curriculum-threshold": threshold}
+    reverse_only = {"--curriculum-judge": judge, "--curriculum-window": window, "--curriculum-threshold": threshold,
+                    "--curriculum-freeze-statistics": True if freeze_statistics else None}
     for option, value in reverse_only.items():
         if value is not None and name != "reverse":
-            shown = value if isinstance(value, str) else f"{value:g}"
-            raise InvalidInputError(f"{option} {shown} without --curriculum reverse: expected "
+            shown = "" if value is True else f" {value}" if isinstance(value, str) else f" {value:g}"
+            raise InvalidInputError(f"{option}{shown} without --curriculum reverse: expected "
                                     "--curriculum reverse with it")
     if name is None:
         return "scene"
@@ -297,6 +304,8 @@ def _curriculum(
         settings["window"] = window
     if threshold is not None:
         settings["threshold"] = threshold
+    if freeze_statistics:
+        settings["freeze_statistics"] = True
     return PlanStarts(**settings)
 
 
@@ -324,7 +333,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
         sweeps = _sweeps(args.sweeps)
         curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge, args.curriculum_window,
-                                 args.curriculum_threshold)
+                                 args.curriculum_threshold, args.curriculum_freeze_statistics)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     if args.policies is not None:

@@ -34,14 +34,18 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "CURRICULA", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_states",
-    "scene_curriculum", "scene_training_reward",
+    "CURRICULA", "FROZEN_CLIP", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene",
+    "plan_states", "scene_curriculum", "scene_training_reward",
 ]  # fmt: skip
 
 #: The curricula ``compare --curriculum`` offers.
 CURRICULA = ("none", "plan", "reverse")
 #: What a reverse curriculum counts as a passed plan-start episode (:class:`PlanStarts`).
 JUDGES = ("success", "held")
+#: How many standard deviations frozen statistics let an observation reach (SB3's
+#: ``VecNormalize`` clips at 10): the starts of the widened windows lie far outside the
+#: balance's spread, and clipped they would all read alike.
+FROZEN_CLIP = 100.0
 #: Offset of the curriculum's generator seed from the run's seed (apart from the envs' seeds).
 SEED_OFFSET = 300_000
 
@@ -57,7 +61,16 @@ class PlanStarts:
     says what passes: ``success`` (the scene's success, ``is_success``) or ``held``
     (the episode reached its time limit within the scene's ``fall_limit``, which must
     be set: the chain was caught and never fell). ``held`` serves exploring policies,
-    whose noise keeps a held chain outside the tight success tolerances."""
+    whose noise keeps a held chain outside the tight success tolerances.
+
+    ``freeze_statistics`` (reverse curricula of agents whose recipe normalises
+    observations): the normalisation statistics stop counting at the first widening and
+    clip at :data:`FROZEN_CLIP` standard deviations. Until then every start lies near the
+    target, so the statistics' spread is the balance's, small; the wider starts of the
+    next windows would lift it many times over within a few rollouts, which rescales
+    what the policy sees near the target and undoes the balance it learned (seen on
+    ``swingup-3``). Frozen, the balance's inputs stay as learned and the new starts read
+    as large inputs, not clipped ones."""
 
     fraction: float = 0.5
     reverse: bool = False
@@ -65,6 +78,7 @@ class PlanStarts:
     threshold: float = 0.5
     judged: int = 256
     judge: str = "success"
+    freeze_statistics: bool = False
 
     def __post_init__(self) -> None:
         for name in ("fraction", "window", "threshold"):
@@ -73,8 +87,12 @@ class PlanStarts:
                 math.isfinite(value) and 0.0 < value <= 1.0
             ):
                 raise InvalidInputError(f"plan-start {name} = {value!r}: expected a number in (0, 1]")
-        if not isinstance(self.reverse, bool):
-            raise InvalidInputError(f"plan-start reverse = {self.reverse!r}: expected true or false")
+        for name in ("reverse", "freeze_statistics"):
+            if not isinstance(getattr(self, name), bool):
+                raise InvalidInputError(f"plan-start {name} = {getattr(self, name)!r}: expected true or false")
+        if self.freeze_statistics and not self.reverse:
+            raise InvalidInputError("plan-start freeze_statistics = True without reverse: expected a reverse "
+                                    "curriculum, whose first widening is when the statistics freeze")
         if isinstance(self.judged, bool) or not isinstance(self.judged, int) or self.judged < 1:
             raise InvalidInputError(f"plan-start judged = {self.judged!r}: expected an integer >= 1 (episodes)")
         if self.judge not in JUDGES:

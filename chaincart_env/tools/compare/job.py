@@ -532,11 +532,15 @@ def _training_settings(
         if warm_start is not None and isinstance(imitation, Mapping):
             warm_start = replace(warm_start, **imitation)
         scene_methods = CONTROLLERS[algo].takes_scene_methods
+        starts = chosen_curriculum if scene_methods else given_curriculum
+        if starts is not None and starts.get("freeze_statistics") and recipe.normalize is None:
+            raise InvalidInputError(f"--curriculum-freeze-statistics for {algo}, whose recipe ({recipe.source}) does "
+                                    "not normalise observations: expected a recipe with normalize")
         return dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                     num_envs=recipe.num_envs if num_envs is None else num_envs,
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,
                     imitation=None if warm_start is None else warm_start.record(),
-                    curriculum=chosen_curriculum if scene_methods else given_curriculum,
+                    curriculum=starts,
                     training_reward=training_reward if scene_methods else given_reward, history=seen,
                     conditions=conditions, elapsed_time=recipe.elapsed_time, residual=recipe.residual,
                     shaping=(chosen_shaping if scene_methods else given_shaping).record(),

@@ -5,16 +5,17 @@ plan: the curriculum of :mod:`chaincart_env.tools.compare.curriculum` as an SB3
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.curriculum import SEED_OFFSET, PlanStarts
+from chaincart_env.tools.compare.curriculum import FROZEN_CLIP, SEED_OFFSET, PlanStarts
 
-__all__ = ["CURRICULUM_FILE", "PlanStartEnvs", "write_curriculum_log"]
+__all__ = ["CURRICULUM_FILE", "FreezeStatisticsOnWidening", "PlanStartEnvs", "plan_start_envs_of", "write_curriculum_log"]
 
 #: The curriculum's windows over training, in the training directory.
 CURRICULUM_FILE = "curriculum.csv"
@@ -127,14 +128,38 @@ class PlanStartEnvs(VecEnvWrapper):
             setattr(self, name, state[name])
 
 
+def plan_start_envs_of(envs: Any) -> Optional[PlanStartEnvs]:
+    """The :class:`PlanStartEnvs` inside the wrapped training ``envs``, or ``None``."""
+    while envs is not None and not isinstance(envs, PlanStartEnvs):
+        envs = getattr(envs, "venv", None)
+    return envs
+
+
+class FreezeStatisticsOnWidening(BaseCallback):
+    """Stops the agent's normalisation statistics counting once its reverse curriculum
+    first widens, and lets them clip at :data:`FROZEN_CLIP` standard deviations
+    (:class:`~chaincart_env.tools.compare.curriculum.PlanStarts`' ``freeze_statistics``
+    says why). The frozen flag and clip are the ``VecNormalize``'s own, so checkpoints and
+    saved agents keep them."""
+
+    def _on_step(self) -> bool:
+        statistics = self.model.get_vec_normalize_env()
+        plan = plan_start_envs_of(self.model.get_env())
+        if statistics is not None and statistics.training and plan is not None and len(plan.windows) > 1:
+            statistics.training = False
+            statistics.clip_obs = FROZEN_CLIP
+            print(f"curriculum: observation statistics frozen at the first widening ({plan.steps} env steps)",
+                  flush=True)
+        return True
+
+
 def write_curriculum_log(envs: Any, path: Any) -> bool:
     """Writes the windows of the :class:`PlanStartEnvs` inside the wrapped training
     ``envs`` (``env_steps,window,plan_episodes`` rows; the last row the end of training) to
     ``path``; ``False`` when the envs have no plan starts."""
     import csv
 
-    while envs is not None and not isinstance(envs, PlanStartEnvs):
-        envs = getattr(envs, "venv", None)
+    envs = plan_start_envs_of(envs)
     if envs is None:
         return False
     with open(path, "w", newline="") as file:

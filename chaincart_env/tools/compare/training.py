@@ -187,6 +187,14 @@ def _anchoring(imitation: Optional[Imitation], directory: Path) -> list[BaseCall
     return kept
 
 
+def _statistics_freeze(curriculum: Optional[PlanStarts]) -> list[BaseCallback]:
+    """What freezes the observation statistics at the curriculum's first widening (none
+    unless it asks)."""
+    from chaincart_env.tools.compare.plan_start_envs import FreezeStatisticsOnWidening
+
+    return [FreezeStatisticsOnWidening()] if curriculum is not None and curriculum.freeze_statistics else []
+
+
 def _mirror_loss(
     algo: str, config: ChainCartConfig, weight: float, history: Optional[int], elapsed_time: bool = False
 ) -> list[BaseCallback]:
@@ -326,6 +334,9 @@ def train(
 
     cls = algorithm_class(algo)
     residual = _check_residual(residual, imitation, curriculum, mirror_weight)
+    if curriculum is not None and curriculum.freeze_statistics and normalize is None:
+        raise InvalidInputError(f"a curriculum freezing the observation statistics with {algo}'s recipe, which does "
+                                "not normalise observations: expected a recipe with normalize")
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
@@ -358,7 +369,8 @@ def train(
     checkpoints = Checkpointer(directory, checkpoint_every, logs=(EPISODES_FILE, EVALUATIONS_FILE),
                                keep=(BEST_MODEL_FILE, normalization_file(directory / BEST_MODEL_FILE).name))
     start = time.perf_counter()
-    callbacks = [logger, evaluation, checkpoints, *_anchoring(imitation, directory), *mirror]
+    callbacks = [logger, evaluation, checkpoints, *_anchoring(imitation, directory), *mirror,
+                 *_statistics_freeze(curriculum)]
     model.learn(total_timesteps=max(0, planned - resumed_from), callback=callbacks,
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)
     write_curriculum_log(model.get_env(), directory / CURRICULUM_FILE)
