@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
-from chaincart_env.tools.compare.curriculum import JUDGES
+from chaincart_env.tools.compare.curriculum import CURRICULA, JUDGES
 from chaincart_env.tools.compare.imitation import SCENE_IMITATIONS
 from chaincart_env.tools.compare.recipes import GENERIC
 from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options, parse_value
@@ -104,7 +104,7 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="training only: a second loss of weight C beside PPO's asking the policy to act "
                         "mirror-symmetrically (the mirrored observation's action is the mirrored action; "
                         "chaincart_env.tools.compare.mirror_loss); PPO agents; 0 turns it off (default: 0)")
-    parser.add_argument("--curriculum", choices=("none", "plan", "reverse"), default=None,
+    parser.add_argument("--curriculum", choices=CURRICULA, default=None,
                         help="where the training episodes start: plan = a share of them (--plan-fraction) at states "
                         "drawn along the planner's swing-up, the rest at the scene's starts; reverse = the same, drawn "
                         "at first from the last tenth of the plan, a tenth more each time half of 256 such episodes "
