@@ -443,3 +443,31 @@ def test_a_zoo_dict_keyword_stays_one_string_on_the_command_line() -> None:
     assert shared == {"policy_kwargs": "dict(net_arch=[64, 64])"}
     assert sb3_keywords(shared)["policy_kwargs"] == {"net_arch": [64, 64]}
     assert per_algo == {"ppo": {"n_steps": (128,)}}  # other values with commas are still lists
+
+
+def test_the_training_log_counts_falls(tmp_path) -> None:
+    from chaincart_env.tools.compare.training import train
+
+    # An untrained agent lets the double's balance go: with a fall limit its episodes end at the fall.
+    falls = ChainCartConfig(scene="inverted-2", start_noise=0.05, fall_limit=0.3)
+    train(falls, timesteps=512, num_envs=4, seed=1, directory=tmp_path, eval_seeds=[1_000_000], eval_every=512,
+          checkpoint_every=10_000, progress_bar=False, hyperparameters={"n_steps": 64, "batch_size": 64})
+    columns, rows = read_csv(tmp_path / "training_episodes.csv")
+    assert columns == list(TRAINING_EPISODE_COLUMNS) and rows
+    fell = [row for row in rows if row["fell"] == "1"]
+    assert fell and all(int(row["length"]) < falls.max_episode_steps for row in fell)
+    assert all(row["out_of_track"] == row["numerical_failure"] == row["is_success"] == "0" for row in fell)
+
+
+def test_a_resumed_training_log_keeps_the_columns_it_began_with(tmp_path) -> None:
+    from chaincart_env.tools.compare.learning_curve import episode_ends, episode_log_columns, episode_row
+
+    older = TRAINING_EPISODE_COLUMNS[:-1]  # a log begun before the fall had its column
+    log = tmp_path / "training_episodes.csv"
+    log.write_text(",".join(older) + "\n")
+    assert episode_log_columns(log) == older
+    ends = episode_ends({"fell": True, "e_q": 0.7})
+    assert ends == (0, 0, 0, 1)
+    start = [64, "0.100", 1, "3.5", 12]
+    assert episode_row(older, start, ends) == [*start, 0, 0, 0]
+    assert episode_row(TRAINING_EPISODE_COLUMNS, start, ends) == [*start, 0, 0, 0, 1]

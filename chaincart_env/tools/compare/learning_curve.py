@@ -10,16 +10,38 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "EPISODES_FILE", "LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "learning_curve", "read_learning_curve",
-    "read_training_episodes",
+    "EPISODES_FILE", "EPISODE_END_COLUMNS", "LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "episode_ends",
+    "episode_log_columns", "episode_row", "learning_curve", "read_learning_curve", "read_training_episodes",
 ]
 
 #: A training run's log of every training episode (written by either trainer).
 EPISODES_FILE = "training_episodes.csv"
 #: Columns of ``training_episodes.csv``.
 TRAINING_EPISODE_COLUMNS = (
-    "timesteps", "wall_time_s", "episode", "return", "length", "is_success", "out_of_track", "numerical_failure"
+    "timesteps", "wall_time_s", "episode", "return", "length", "is_success", "out_of_track", "numerical_failure",
+    "fell",
 )
+#: How an episode ended: the columns after ``length``, each 0 or 1 from the episode's last info.
+EPISODE_END_COLUMNS = ("is_success", "out_of_track", "numerical_failure", "fell")
+
+
+def episode_ends(info: Any) -> tuple[int, ...]:
+    """The :data:`EPISODE_END_COLUMNS` of an episode whose last step's info is ``info``."""
+    return tuple(int(bool(info.get(key, False))) for key in EPISODE_END_COLUMNS)
+
+
+def episode_log_columns(path: Path) -> tuple[str, ...]:
+    """The columns of the episode log at ``path`` that a resumed run appends to: its
+    header (a log begun before a column existed goes on without it)."""
+    with Path(path).open(newline="") as file:
+        return tuple(next(csv.reader(file), TRAINING_EPISODE_COLUMNS))
+
+
+def episode_row(columns: tuple[str, ...], start: list[Any], ends: tuple[int, ...]) -> list[Any]:
+    """An episode log row in ``columns``: ``start`` (timesteps, wall time, episode, return,
+    length), then how the episode ended (``ends``, :func:`episode_ends`)."""
+    values = dict(zip(TRAINING_EPISODE_COLUMNS, [*start, *ends]))
+    return [values[column] for column in columns]
 
 #: Columns of ``learning_curve.csv``.
 LEARNING_CURVE_COLUMNS = ("timesteps", "episodes", "return_mean", "return_std", "success_rate")

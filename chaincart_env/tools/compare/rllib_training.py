@@ -24,7 +24,13 @@ import numpy as np
 from chaincart_env._core import ChainCartError
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.tools.compare.cell_runner import ray_cluster
-from chaincart_env.tools.compare.learning_curve import EPISODES_FILE, TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.learning_curve import (
+    EPISODES_FILE,
+    TRAINING_EPISODE_COLUMNS,
+    episode_ends,
+    episode_log_columns,
+    episode_row,
+)
 from chaincart_env.tools.compare.run_files import CHECKPOINT_DIR, replace_directory, settled_directory, truncate_csv
 
 __all__ = [
@@ -103,16 +109,14 @@ def record_episode(*, episode: Any, env_runner: Any, prev_episode_chunks: Any = 
     record = (
         float(sum(chunk.get_return() for chunk in chunks)),
         int(sum(len(chunk) for chunk in chunks)),
-        int(bool(info.get("is_success", False))),
-        int(bool(info.get("out_of_track", False))),
-        int(bool(info.get("numerical_failure", False))),
+        episode_ends(info),
     )
     if not hasattr(env_runner, _RECORDS):
         setattr(env_runner, _RECORDS, [])
     getattr(env_runner, _RECORDS).append(record)
 
 
-def take_episode_records(env_runner: Any) -> list[tuple[float, int, int, int, int]]:
+def take_episode_records(env_runner: Any) -> list[tuple[float, int, tuple[int, ...]]]:
     """The episodes a runner finished since the last call (run via ``foreach_env_runner``)."""
     records = getattr(env_runner, _RECORDS, [])
     setattr(env_runner, _RECORDS, [])
@@ -295,10 +299,12 @@ def _train_loop(
     every = checkpoint_every or math.inf
     next_checkpoint = (steps // every + 1) * every
     resumed = start != TrainingProgress()
-    with (directory / EPISODES_FILE).open("a" if resumed else "w", newline="") as file:
+    log = directory / EPISODES_FILE
+    columns = episode_log_columns(log) if resumed and log.is_file() else TRAINING_EPISODE_COLUMNS
+    with log.open("a" if resumed else "w", newline="") as file:
         writer = csv.writer(file)
         if not resumed:
-            writer.writerow(TRAINING_EPISODE_COLUMNS)
+            writer.writerow(columns)
         while steps < timesteps:
             result = algo.train()
             iterations += 1
@@ -311,7 +317,8 @@ def _train_loop(
             for record in (r for batch in batches for r in batch):
                 episodes += 1
                 returns.append(record[0])
-                writer.writerow([steps, f"{elapsed:.3f}", episodes, repr(record[0]), *record[1:]])
+                writer.writerow(episode_row(columns, [steps, f"{elapsed:.3f}", episodes, repr(record[0]), record[1]],
+                                            record[2]))
             file.flush()
             if progress:
                 mean = f"{np.mean(returns):.1f}" if returns else "-"

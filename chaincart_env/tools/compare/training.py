@@ -20,7 +20,13 @@ from chaincart_env.sb3 import ChainCartVecEnv
 from chaincart_env.tools.compare.algorithms import algorithm_class
 from chaincart_env.tools.compare.curriculum import PlanStarts, plan_states
 from chaincart_env.tools.compare.imitation import Imitation, imitate
-from chaincart_env.tools.compare.learning_curve import EPISODES_FILE, TRAINING_EPISODE_COLUMNS
+from chaincart_env.tools.compare.learning_curve import (
+    EPISODES_FILE,
+    TRAINING_EPISODE_COLUMNS,
+    episode_ends,
+    episode_log_columns,
+    episode_row,
+)
 from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, PlanStartEnvs, write_curriculum_log
 from chaincart_env.tools.compare.shaping import Shaping
 from chaincart_env.tools.controllers import label_of
@@ -46,6 +52,7 @@ class EpisodeCsvLogger(BaseCallback):
         self.episodes = 0
         self._file: Optional[TextIO] = None
         self._writer: Any = None
+        self._columns: tuple[str, ...] = TRAINING_EPISODE_COLUMNS
         self._start = 0.0
 
     def _on_training_start(self) -> None:
@@ -55,6 +62,7 @@ class EpisodeCsvLogger(BaseCallback):
                 rows = list(csv.DictReader(file))
             self.episodes = len(rows)
             self._start -= float(rows[-1]["wall_time_s"]) if rows else 0.0
+            self._columns = episode_log_columns(self.path)
             self._file = self.path.open("a", newline="")
             self._writer = csv.writer(self._file)
             return
@@ -68,16 +76,9 @@ class EpisodeCsvLogger(BaseCallback):
             if episode is None:
                 continue
             self.episodes += 1
-            self._writer.writerow([
-                self.num_timesteps,
-                f"{time.perf_counter() - self._start:.3f}",
-                self.episodes,
-                repr(float(episode["r"])),
-                int(episode["l"]),
-                int(bool(info.get("is_success", False))),
-                int(bool(info.get("out_of_track", False))),
-                int(bool(info.get("numerical_failure", False))),
-            ])
+            start = [self.num_timesteps, f"{time.perf_counter() - self._start:.3f}", self.episodes,
+                     repr(float(episode["r"])), int(episode["l"])]
+            self._writer.writerow(episode_row(self._columns, start, episode_ends(info)))
         return True
 
     def _on_rollout_end(self) -> None:
