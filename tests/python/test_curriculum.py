@@ -382,3 +382,14 @@ def test_freezing_needs_a_recipe_that_normalises(tmp_path) -> None:
         train(SWINGUP, timesteps=64, num_envs=2, seed=5, directory=tmp_path, eval_seeds=[1_000_000],
               eval_every=64, checkpoint_every=10_000, progress_bar=False,
               curriculum=PlanStarts(1.0, reverse=True, freeze_statistics=True))
+
+
+def test_statistics_fixed_before_the_widening_still_take_the_frozen_clip(states) -> None:
+    _, plan, envs, callback = _freezing_agent(states)
+    envs.reset()
+    envs.training = False  # fixed from the start, as after an imitation
+    callback.on_step()
+    assert envs.clip_obs == 10.0  # nothing changes before the first widening
+    plan._judge(np.arange(4), [{"is_success": True}] * 4)
+    callback.on_step()
+    assert not envs.training and envs.clip_obs == FROZEN_CLIP

@@ -66,10 +66,9 @@ class PlanStarts:
     ``freeze_statistics`` (reverse curricula of agents whose recipe normalises
     observations): the normalisation statistics stop counting at the first widening and
     clip at :data:`FROZEN_CLIP` standard deviations. Until then every start lies near the
-    target, so the statistics' spread is the balance's, small; the wider starts of the
-    next windows would lift it many times over within a few rollouts, which rescales
-    what the policy sees near the target and undoes the balance it learned (seen on
-    ``swingup-3``). Frozen, the balance's inputs stay as learned and the new starts read
+    target, so the statistics' spread is the balance's, small; counting the wider starts
+    of the next windows lifts it many times over, which rescales what the policy sees
+    near the target and undid the balance it learned on ``swingup-3``. Frozen, the balance's inputs stay as learned and the new starts read
     as large inputs, not clipped ones."""
 
     fraction: float = 0.5

@@ -43,6 +43,7 @@ def episode_row(columns: tuple[str, ...], start: list[Any], ends: tuple[int, ...
     values = dict(zip(TRAINING_EPISODE_COLUMNS, [*start, *ends]))
     return [values[column] for column in columns]
 
+
 #: Columns of ``learning_curve.csv``.
 LEARNING_CURVE_COLUMNS = ("timesteps", "episodes", "return_mean", "return_std", "success_rate")
 

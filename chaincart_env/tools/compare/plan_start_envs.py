@@ -145,7 +145,9 @@ class FreezeStatisticsOnWidening(BaseCallback):
     def _on_step(self) -> bool:
         statistics = self.model.get_vec_normalize_env()
         plan = plan_start_envs_of(self.model.get_env())
-        if statistics is not None and statistics.training and plan is not None and len(plan.windows) > 1:
+        if statistics is None or plan is None or len(plan.windows) < 2:
+            return True
+        if statistics.training or statistics.clip_obs != FROZEN_CLIP:  # statistics an imitation fixed clip here too
             statistics.training = False
             statistics.clip_obs = FROZEN_CLIP
             print(f"curriculum: observation statistics frozen at the first widening ({plan.steps} env steps)",
