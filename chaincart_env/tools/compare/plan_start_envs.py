@@ -9,7 +9,7 @@ from typing import Any, Optional
 
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.vec_env import VecEnvWrapper
+from stable_baselines3.common.vec_env import VecEnvWrapper, unwrap_vec_wrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
 from chaincart_env.errors import InvalidInputError
@@ -130,9 +130,7 @@ class PlanStartEnvs(VecEnvWrapper):
 
 def plan_start_envs_of(envs: Any) -> Optional[PlanStartEnvs]:
     """The :class:`PlanStartEnvs` inside the wrapped training ``envs``, or ``None``."""
-    while envs is not None and not isinstance(envs, PlanStartEnvs):
-        envs = getattr(envs, "venv", None)
-    return envs
+    return unwrap_vec_wrapper(envs, PlanStartEnvs)
 
 
 class FreezeStatisticsOnWidening(BaseCallback):
@@ -142,9 +140,12 @@ class FreezeStatisticsOnWidening(BaseCallback):
     says why). The frozen flag and clip are the ``VecNormalize``'s own, so checkpoints and
     saved agents keep them."""
 
+    def _init_callback(self) -> None:  # the training envs, found once rather than at every step
+        self._statistics = self.model.get_vec_normalize_env()
+        self._plan = plan_start_envs_of(self.model.get_env())
+
     def _on_step(self) -> bool:
-        statistics = self.model.get_vec_normalize_env()
-        plan = plan_start_envs_of(self.model.get_env())
+        statistics, plan = self._statistics, self._plan
         if statistics is None or plan is None or len(plan.windows) < 2:
             return True
         if statistics.training or statistics.clip_obs != FROZEN_CLIP:  # statistics an imitation fixed clip here too
