@@ -471,3 +471,21 @@ def test_a_resumed_training_log_keeps_the_columns_it_began_with(tmp_path) -> Non
     start = [64, "0.100", 1, "3.5", 12]
     assert episode_row(older, start, ends) == [*start, 0, 0, 0]
     assert episode_row(TRAINING_EPISODE_COLUMNS, start, ends) == [*start, 0, 0, 0, 1]
+
+
+def test_a_resumed_logger_appends_in_the_older_columns(tmp_path) -> None:
+    from chaincart_env.tools.compare.training import EpisodeCsvLogger
+
+    older = TRAINING_EPISODE_COLUMNS[:-1]
+    log = tmp_path / "training_episodes.csv"
+    log.write_text(",".join(older) + "\n" + "64,0.100,1,3.5,12,0,0,0\n")
+    logger = EpisodeCsvLogger(log, append=True)
+    logger._on_training_start()
+    logger.num_timesteps = 128
+    logger.locals = {"infos": [{"episode": {"r": 2.0, "l": 7}, "fell": True}, {}]}
+    logger._on_step()
+    logger._on_training_end()
+    columns, rows = read_csv(log)
+    assert columns == list(older) and len(rows) == 2
+    assert rows[1]["episode"] == "2" and rows[1]["length"] == "7" and rows[1]["timesteps"] == "128"
+    assert None not in rows[1]  # no value beyond the header's columns

@@ -24,7 +24,6 @@ from chaincart_env.tools.compare.learning_curve import (
     EPISODES_FILE,
     TRAINING_EPISODE_COLUMNS,
     episode_ends,
-    episode_log_columns,
     episode_row,
 )
 from chaincart_env.tools.compare.plan_start_envs import CURRICULUM_FILE, PlanStartEnvs, write_curriculum_log
@@ -59,10 +58,12 @@ class EpisodeCsvLogger(BaseCallback):
         self._start = time.perf_counter()
         if self.append:  # a resumed run: continue the episode count and the clock
             with self.path.open(newline="") as file:
-                rows = list(csv.DictReader(file))
+                reader = csv.DictReader(file)
+                rows = list(reader)
             self.episodes = len(rows)
             self._start -= float(rows[-1]["wall_time_s"]) if rows else 0.0
-            self._columns = episode_log_columns(self.path)
+            # Appended in the columns the log began with (one begun before a column existed goes on without it).
+            self._columns = tuple(reader.fieldnames or TRAINING_EPISODE_COLUMNS)
             self._file = self.path.open("a", newline="")
             self._writer = csv.writer(self._file)
             return
