@@ -10,6 +10,7 @@ from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from chaincart_env.errors import InvalidInputError
 from chaincart_env.history import PicklableVecWrapper
+from chaincart_env.tools.compare.plan_path import PlanPath
 from chaincart_env.tools.compare.shaping import (
     Shaping,
     check_action_change_penalty,
@@ -45,28 +46,19 @@ class PlanProgress(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
     """chaincart's SB3 ``VecEnv`` (possibly wrapped) with the plan bonus
     ``scale * max_k (k / K) exp(-d_k^2 / width^2)`` added to the reward of each step that
     did not end its episode (an ended env already holds its next start). ``d_k``: the
-    distance of the chain's state (link directions, and angular velocities times
-    ``rate_weight``; the cart left out, so that the path may run anywhere on the track)
-    to state ``k`` of the ``K + 1`` of ``plan`` (model layout)."""
+    distance of the chain's state to state ``k`` of the ``K + 1`` of ``plan`` (model
+    layout), as :class:`~chaincart_env.tools.compare.plan_path.PlanPath` measures it."""
 
-    def __init__(self, venv: Any, scale: float, plan: np.ndarray, width: float = 0.5, rate_weight: float = 0.1) -> None:
+    def __init__(self, venv: Any, scale: float, plan: np.ndarray, width: float = 0.5) -> None:
         super().__init__(venv)
         self.scale = check_plan_bonus(scale)
-        plan = np.asarray(plan, dtype=np.float64)
-        layout = venv.unwrapped.model.state_layout
-        if plan.ndim != 2 or plan.shape[0] < 2 or plan.shape[1] != venv.unwrapped.model.state_dim:
-            raise InvalidInputError(f"plan of shape {plan.shape}: expected (K + 1, state_dim) states with K >= 1")
-        (q_start, q_stop), (w_start, w_stop) = layout["q"], layout["w"]
-        self._columns = np.r_[q_start:q_stop, w_start:w_stop]
-        self._weights = np.r_[np.ones(q_stop - q_start), np.full(w_stop - w_start, rate_weight)]
-        self._plan = plan[:, self._columns] * self._weights
-        self._progress = np.linspace(0.0, 1.0, plan.shape[0])
+        self._path = PlanPath(venv.unwrapped.model, plan)
+        self._progress = np.linspace(0.0, 1.0, self._path.knots)
         self._inverse_width2 = 1.0 / (width * width)
 
     def bonus(self, states: np.ndarray) -> np.ndarray:
         """The bonus of each of ``states`` (model layout, one per row)."""
-        chain = np.asarray(states, dtype=np.float64)[:, self._columns] * self._weights
-        distance2 = ((chain[:, None, :] - self._plan[None, :, :]) ** 2).sum(axis=2)
+        distance2 = self._path.squared_distances(states)
         return self.scale * (self._progress * np.exp(-distance2 * self._inverse_width2)).max(axis=1)
 
     def reset(self) -> Any:
