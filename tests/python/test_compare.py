@@ -462,21 +462,22 @@ def test_the_training_log_counts_falls(tmp_path) -> None:
 def test_a_resumed_training_log_keeps_the_columns_it_began_with(tmp_path) -> None:
     from chaincart_env.tools.compare.learning_curve import episode_ends, episode_log_columns, episode_row
 
-    older = TRAINING_EPISODE_COLUMNS[:-1]  # a log begun before the fall had its column
+    older = TRAINING_EPISODE_COLUMNS[:-2]  # a log begun before the fall and the plan tube had their columns
     log = tmp_path / "training_episodes.csv"
     log.write_text(",".join(older) + "\n")
     assert episode_log_columns(log) == older
     ends = episode_ends({"fell": True, "e_q": 0.7})
-    assert ends == (0, 0, 0, 1)
+    assert ends == (0, 0, 0, 1, 0)
     start = [64, "0.100", 1, "3.5", 12]
     assert episode_row(older, start, ends) == [*start, 0, 0, 0]
-    assert episode_row(TRAINING_EPISODE_COLUMNS, start, ends) == [*start, 0, 0, 0, 1]
+    assert episode_row(TRAINING_EPISODE_COLUMNS, start, ends) == [*start, 0, 0, 0, 1, 0]
+    assert episode_row(TRAINING_EPISODE_COLUMNS, start, episode_ends({"left_plan": True})) == [*start, 0, 0, 0, 0, 1]
 
 
 def test_a_resumed_logger_appends_in_the_older_columns(tmp_path) -> None:
     from chaincart_env.tools.compare.training import EpisodeCsvLogger
 
-    older = TRAINING_EPISODE_COLUMNS[:-1]
+    older = TRAINING_EPISODE_COLUMNS[:-2]
     log = tmp_path / "training_episodes.csv"
     log.write_text(",".join(older) + "\n" + "64,0.100,1,3.5,12,0,0,0\n")
     logger = EpisodeCsvLogger(log, append=True)

@@ -295,7 +295,7 @@ def test_plan_starts_wrap_only_the_native_envs(states) -> None:
     from chaincart_env.sb3 import ChainCartVecEnv
     from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
 
-    with pytest.raises(InvalidInputError, match="wrap the native ChainCartVecEnv: got VecMonitor"):
+    with pytest.raises(InvalidInputError, match=r"wrap the native ChainCartVecEnv \(or its plan tube\): got VecMonitor"):
         PlanStartEnvs(VecMonitor(ChainCartVecEnv(2, SWINGUP)), states, PlanStarts(), seed=0)
     with pytest.raises(InvalidInputError, match=r"plan states of shape \(8,\)"):
         PlanStartEnvs(ChainCartVecEnv(2, SWINGUP), states[0], PlanStarts(), seed=0)

@@ -78,7 +78,7 @@ def test_the_scene_default_and_given_terms_are_recorded():
                                       imitation=False, curriculum=None, training_reward=None, shaping=given)
         return settings["ppo"]["shaping"]
 
-    none = {"off_track_penalty": 0.0, "plan_bonus": 0.0, "action_change_penalty": 0.0}
+    none = {"off_track_penalty": 0.0, "plan_bonus": 0.0, "action_change_penalty": 0.0, "plan_tube": 0.0}
     assert shaping("swingup-2") == {**none, "plan_bonus": 0.3}
     assert shaping("inverted-2") == none
     assert shaping("swingup-2", off_track_penalty=3.0, plan_bonus=None) == {**none, "off_track_penalty": 3.0,

@@ -157,6 +157,12 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="training only: subtract C times the mean squared change of the action (in [-1, 1] "
                         "units) from each step's reward, for a smooth force (chaincart_env.tools.compare.shaping); "
                         "evaluations keep the scene's reward (default: 0)")
+    parser.add_argument("--plan-tube", type=_scale("plan_tube"), default=None, metavar="R",
+                        help="training only: end an episode at the first step where the chain lies farther than R "
+                        "from every state of the planner's swing-up (link directions, and angular velocities in "
+                        "tenths of rad/s; the cart left out), as motion imitation ends a motion that left its "
+                        "reference (chaincart_env.tools.compare.plan_tube); 0 turns it off; evaluations end episodes "
+                        "as the scene does (default: 0)")
     parser.add_argument("--history", type=_integer(1, "history"), default=None, metavar="K",
                         help="the learned agents observe the last K observations and actions too (oldest first, zeros "
                         "before an episode's start; chaincart_env.history), in training and in every evaluation, for "
@@ -355,7 +361,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
                     training_reward="scene" if args.training_reward is None else args.training_reward,
                     history=args.history,
                     shaping=dict(off_track_penalty=args.off_track_penalty, plan_bonus=args.plan_bonus,
-                                 action_change_penalty=args.action_change_penalty),
+                                 action_change_penalty=args.action_change_penalty, plan_tube=args.plan_tube),
                     warm_start_from=args.warm_start, polish=_polish(args, parser), mirror_weight=args.mirror_weight)
     except ChainCartError as error:
         parser.error(str(error))

@@ -487,7 +487,7 @@ def _training_settings(
     if given_shaping and trainer != "sb3" and learned:
         raise InvalidInputError(f"{' '.join(given_shaping.given())} with --trainer {trainer}: expected the sb3 trainer")
     chosen_shaping = scene_shaping(config.scene).with_overrides(**(shaping or {})) if trainer == "sb3" else Shaping()
-    if chosen_shaping.plan_bonus and learned:
+    if chosen_shaping.follows_plan and learned:
         from chaincart_env.tools.compare.curriculum import check_plan_scene
 
         check_plan_scene(config)  # a scene without one plan fails before training

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from chaincart_env.tools.compare.shaping import LEFT_PLAN
+
 __all__ = [
     "EPISODES_FILE", "EPISODE_END_COLUMNS", "LEARNING_CURVE_COLUMNS", "TRAINING_EPISODE_COLUMNS", "episode_ends",
     "episode_log_columns", "episode_row", "learning_curve", "read_learning_curve", "read_training_episodes",
@@ -19,10 +21,11 @@ EPISODES_FILE = "training_episodes.csv"
 #: Columns of ``training_episodes.csv``.
 TRAINING_EPISODE_COLUMNS = (
     "timesteps", "wall_time_s", "episode", "return", "length", "is_success", "out_of_track", "numerical_failure",
-    "fell",
+    "fell", LEFT_PLAN,
 )
-#: How an episode ended: the columns after ``length``, each 0 or 1 from the episode's last info.
-EPISODE_END_COLUMNS = ("is_success", "out_of_track", "numerical_failure", "fell")
+#: How an episode ended: the columns after ``length``, each 0 or 1 from the episode's last
+#: info (``left_plan``: the training's plan tube ended it).
+EPISODE_END_COLUMNS = ("is_success", "out_of_track", "numerical_failure", "fell", LEFT_PLAN)
 
 
 def episode_ends(info: Any) -> tuple[int, ...]:

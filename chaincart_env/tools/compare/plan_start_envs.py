@@ -22,9 +22,10 @@ CURRICULUM_FILE = "curriculum.csv"
 
 
 class PlanStartEnvs(VecEnvWrapper):
-    """The native ``ChainCartVecEnv`` ``venv`` with a share of its episodes starting at
-    one of ``states`` as ``curriculum`` says, the draws seeded by ``seed``. Place it
-    directly around the native envs (inside ``VecMonitor``). ``windows`` lists each
+    """The native ``ChainCartVecEnv`` ``venv`` (or its
+    :class:`~chaincart_env.tools.compare.plan_tube.PlanTube`) with a share of its
+    episodes starting at one of ``states`` as ``curriculum`` says, the draws seeded by
+    ``seed``. Place it directly around them (inside ``VecMonitor``). ``windows`` lists each
     window the draw used, with the env steps at which it began (a reverse curriculum's
     progress)."""
 
@@ -35,10 +36,13 @@ class PlanStartEnvs(VecEnvWrapper):
         if not isinstance(curriculum, PlanStarts):
             raise InvalidInputError(f"curriculum = {curriculum!r}: expected PlanStarts(...)")
         from chaincart_env.sb3 import ChainCartVecEnv
+        from chaincart_env.tools.compare.plan_tube import PlanTube
 
-        if not isinstance(venv, ChainCartVecEnv):
-            raise InvalidInputError(f"plan starts wrap the native ChainCartVecEnv: got {type(venv).__name__}")
-        self.fall_limit = float(venv.config.fall_limit)
+        if not isinstance(venv, (ChainCartVecEnv, PlanTube)):
+            raise InvalidInputError(f"plan starts wrap the native ChainCartVecEnv (or its plan tube): got "
+                                    f"{type(venv).__name__}")
+        native: Any = venv.unwrapped
+        self.fall_limit = float(native.config.fall_limit)
         if curriculum.judge == "held" and self.fall_limit <= 0.0:
             raise InvalidInputError(f"plan-start judge 'held' with the scene's fall_limit = {self.fall_limit:g}: "
                                     "expected fall_limit > 0 (a held episode ends within it)")
@@ -65,7 +69,7 @@ class PlanStartEnvs(VecEnvWrapper):
         self._on_plan[envs] = False
         if not chosen:
             return
-        native: Any = self.venv  # the native envs: their observations after set_state are the new starts
+        native: Any = self.venv.unwrapped  # their observations after set_state are the new starts
         for i, k in chosen:
             native.env_method("set_state", self.states[k], indices=i)
             self._on_plan[i] = True

@@ -1,5 +1,6 @@
-"""Training-only reward shaping: a penalty on the step that leaves the track, a bonus
-for following the planner's swing-up, and a penalty on sudden changes of the force.
+"""Training-only shaping: a penalty on the step that leaves the track, a bonus for
+following the planner's swing-up, a penalty on sudden changes of the force, and a tube
+around the planner's path whose leaving ends the episode.
 
 The swing-ups train on the sharp ``exp`` reward, which is almost zero anywhere far from
 the target. Two consequences, and a term for each:
@@ -16,7 +17,11 @@ the target. Two consequences, and a term for each:
   beginning of the swing-up pays too. It has no clock: any state on the path earns its
   progress, whenever it is reached.
 
-Evaluations keep the scene's reward and success, and the training log
+The plan tube shapes where episodes end rather than the reward: an episode ends once
+the chain lies farther than its radius from every state of the plan
+(:mod:`~chaincart_env.tools.compare.plan_tube` says why).
+
+Evaluations keep the scene's reward, success and episode ends, and the training log
 (``training_episodes.csv``) records returns with the shaping in them. The settings live
 here; the SB3 wrappers that apply them, in :mod:`~chaincart_env.tools.compare.shaped_rewards`.
 """
@@ -30,9 +35,13 @@ from typing import Any, Mapping, Optional
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "SCENE_SHAPING", "Shaping", "check_action_change_penalty", "check_off_track_penalty", "check_plan_bonus",
-    "check_scale", "scene_shaping",
+    "LEFT_PLAN", "SCENE_SHAPING", "Shaping", "check_action_change_penalty", "check_off_track_penalty", "check_plan_bonus",
+    "check_plan_tube", "check_scale", "scene_shaping",
 ]
+
+
+#: The info key of a training episode the plan tube ended.
+LEFT_PLAN = "left_plan"
 
 
 def check_scale(value: Any, what: str) -> float:
@@ -58,6 +67,12 @@ def check_action_change_penalty(scale: Any) -> float:
     return check_scale(scale, "action-change penalty")
 
 
+def check_plan_tube(radius: Any) -> float:
+    """``radius`` as a float, or an InvalidInputError naming it: a finite number >= 0
+    (0: no tube)."""
+    return check_scale(radius, "plan tube")
+
+
 @dataclass(frozen=True)
 class Shaping:
     """The training-only shaping of a learned agent's reward (0: none of that term):
@@ -65,16 +80,26 @@ class Shaping:
     most a step earns for following the planner's swing-up
     (:class:`~chaincart_env.tools.compare.shaped_rewards.PlanProgress`), and
     ``action_change_penalty``, the cost of a squared change of the action
-    (:class:`~chaincart_env.tools.compare.shaped_rewards.ActionChangePenalty`)."""
+    (:class:`~chaincart_env.tools.compare.shaped_rewards.ActionChangePenalty`), and
+    ``plan_tube``, the radius of the tube around the planner's path whose leaving ends
+    an episode (:class:`~chaincart_env.tools.compare.plan_tube.PlanTube`). A record
+    written before a term existed reads it as 0."""
 
     off_track_penalty: float = 0.0
     plan_bonus: float = 0.0
     action_change_penalty: float = 0.0
+    plan_tube: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "off_track_penalty", check_off_track_penalty(self.off_track_penalty))
         object.__setattr__(self, "plan_bonus", check_plan_bonus(self.plan_bonus))
         object.__setattr__(self, "action_change_penalty", check_action_change_penalty(self.action_change_penalty))
+        object.__setattr__(self, "plan_tube", check_plan_tube(self.plan_tube))
+
+    @property
+    def follows_plan(self) -> bool:
+        """Whether a term needs the planner's plan (the plan bonus or the tube)."""
+        return bool(self.plan_bonus or self.plan_tube)
 
     def __bool__(self) -> bool:
         return any(getattr(self, f.name) for f in fields(self))

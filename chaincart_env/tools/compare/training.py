@@ -143,8 +143,12 @@ def _new_agent(
 
     keywords = sb3_keywords(kwargs)  # checked before the envs are built
     native: Any = ChainCartVecEnv(num_envs, config, seed=seed)
-    # One plan serves the plan starts and the plan bonus: the planner takes seconds.
-    plan: Any = plan_states(config) if curriculum is not None or (shaping and shaping.plan_bonus) else None
+    # One plan serves the plan starts, the plan bonus and the tube: the planner takes seconds.
+    plan: Any = plan_states(config) if curriculum is not None or (shaping and shaping.follows_plan) else None
+    if shaping and shaping.plan_tube:  # innermost: plan starts then place the episodes it ends
+        from chaincart_env.tools.compare.plan_tube import PlanTube
+
+        native = PlanTube(native, plan, shaping.plan_tube)
     if curriculum is not None:
         native = PlanStartEnvs(native, plan, curriculum, seed)
     if residual is not None:
