@@ -116,6 +116,12 @@ def test_a_bad_radius_names_itself(bad) -> None:
         Shaping(plan_tube=bad)
 
 
+def test_the_wrapper_refuses_a_radius_of_zero(plan) -> None:
+    assert not Shaping(plan_tube=0.0)  # the setting's 0 is no tube
+    with pytest.raises(InvalidInputError, match=r"plan tube = 0.0 for the wrapper: expected a radius > 0"):
+        PlanTube(ChainCartVecEnv(2, SWINGUP), plan, 0.0)
+
+
 def test_the_tube_wraps_only_the_native_envs_and_plan_starts_wrap_it(plan) -> None:
     from stable_baselines3.common.vec_env import VecMonitor
 

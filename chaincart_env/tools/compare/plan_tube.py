@@ -46,8 +46,12 @@ class PlanTube(PicklableVecWrapper, VecEnvWrapper):  # type: ignore[misc]
 
         if not isinstance(venv, ChainCartVecEnv):
             raise InvalidInputError(f"the plan tube wraps the native ChainCartVecEnv: got {type(venv).__name__}")
+        radius = check_plan_tube(radius)
+        if radius == 0.0:  # Shaping's 0 means no tube; a tube of radius 0 would end every step
+            raise InvalidInputError("plan tube = 0.0 for the wrapper: expected a radius > 0 (leave the wrapper out "
+                                    "for no tube)")
         super().__init__(venv)
-        self.radius = check_plan_tube(radius)
+        self.radius = radius
         self._path = PlanPath(venv.model, plan)
         #: Episodes the tube ended so far.
         self.episodes_ended = 0
