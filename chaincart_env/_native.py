@@ -11,7 +11,19 @@ __all__ = ["load_native_module"]
 
 def load_native_module() -> ModuleType:
     """``chaincart_env._core``; where it is not built, a ``ModuleNotFoundError`` that
-    says how to build it (in a source checkout) or to reinstall (elsewhere)."""
+    says how to build it (in a source checkout) or to reinstall (elsewhere).
+
+    numpy is imported first: the native module's initialisation reaches Python code
+    that needs it, and without numpy that would end in a Rust panic rather than a
+    Python error naming what is missing."""
+    try:
+        importlib.import_module("numpy")
+    except ImportError as error:
+        raise ModuleNotFoundError(
+            f"chaincart_env needs numpy, a required dependency, and it cannot be imported ({error}): install it "
+            "with `pip install numpy`, or reinstall with `pip install --force-reinstall chaincart-env`",
+            name="numpy",
+        ) from error
     try:
         return importlib.import_module("chaincart_env._core")
     except ModuleNotFoundError as error:

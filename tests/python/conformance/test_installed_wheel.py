@@ -152,3 +152,13 @@ def test_a_source_checkout_without_the_native_module_gives_a_hint(tmp_path: Path
     last = done.stderr.strip().splitlines()[-1]
     assert last.startswith("ModuleNotFoundError: chaincart_env is imported from the source checkout")
     assert "maturin develop --release" in last
+
+
+def test_an_install_whose_numpy_cannot_be_imported_says_so_without_a_panic(installed: Path, tmp_path: Path) -> None:
+    # numpy, a required dependency, made unimportable (as a broken install leaves it).
+    done = run(installed, tmp_path, "-c", "import sys; sys.modules['numpy'] = None; import chaincart_env")
+    assert done.returncode == 1
+    assert "panicked" not in done.stderr and "PanicException" not in done.stderr, done.stderr[-2000:]
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("ModuleNotFoundError: chaincart_env needs numpy, a required dependency"), last
+    assert "pip install numpy" in last
