@@ -34,6 +34,7 @@ def test_bad_fractions_are_named(fraction) -> None:
         (dict(judge="upright"), "plan-start judge = 'upright': expected one of success, held"),
         (dict(reverse=True, freeze_statistics=1), "plan-start freeze_statistics = 1: expected true or false"),
         (dict(freeze_statistics=True), "plan-start freeze_statistics = True without reverse"),
+        (dict(reverse=True, judged_starts="last"), "plan-start judged_starts = 'last': expected one of window, newest"),
     ],
 )
 def test_bad_reverse_settings_are_named(changes, named) -> None:
@@ -47,7 +48,10 @@ def test_settings_round_trip_through_their_record() -> None:
     assert PlanStarts.from_record(json.loads(json.dumps(reverse.record()))) == reverse
     held = PlanStarts(reverse=True, judge="held", freeze_statistics=True)
     assert PlanStarts.from_record(json.loads(json.dumps(held.record()))) == held
-    older = {key: value for key, value in PlanStarts(reverse=True).record().items() if key != "freeze_statistics"}
+    newest = PlanStarts(reverse=True, judge="held", judged_starts="newest")
+    assert PlanStarts.from_record(json.loads(json.dumps(newest.record()))) == newest
+    older = {key: value for key, value in PlanStarts(reverse=True).record().items()
+             if key not in ("freeze_statistics", "judged_starts")}  # fmt: skip
     assert PlanStarts.from_record(older) == PlanStarts(reverse=True)  # a record written before the setting existed
     with pytest.raises(InvalidInputError, match="expected kind 'plan'"):
         PlanStarts.from_record({"kind": "reverse", "fraction": 0.3})
@@ -172,6 +176,9 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
         (["--curriculum", "reverse", "--curriculum-window", "0"], "plan-start window = 0.0"),
         (["--curriculum", "plan", "--curriculum-threshold", "0.3"], "--curriculum-threshold 0.3 without"),
         (["--curriculum", "reverse", "--curriculum-threshold", "1.5"], "plan-start threshold = 1.5"),
+        (["--curriculum", "plan", "--curriculum-judged-starts", "newest"],
+         "--curriculum-judged-starts newest without --curriculum reverse"),
+        (["--curriculum", "reverse", "--curriculum-judged-starts", "last"], "invalid choice: 'last'"),
         (["--curriculum", "plan", "--curriculum-freeze-statistics"],
          "--curriculum-freeze-statistics without --curriculum reverse"),
         (["--curriculum", "reverse", "--curriculum-freeze-statistics", "--policies", "ppo"],
@@ -193,6 +200,7 @@ def test_the_command_line_options_become_the_curriculum_settings() -> None:
     assert _curriculum("reverse", None, threshold=0.25) == PlanStarts(reverse=True, threshold=0.25)
     assert _curriculum("reverse", None) == PlanStarts(reverse=True)
     assert _curriculum("reverse", None, freeze_statistics=True) == PlanStarts(reverse=True, freeze_statistics=True)
+    assert _curriculum("reverse", None, judged_starts="newest") == PlanStarts(reverse=True, judged_starts="newest")
     assert _curriculum(None, None) == "scene" and _curriculum("none", None) is None
 
 
@@ -234,6 +242,37 @@ def test_a_held_judge_counts_the_episodes_that_end_at_the_time_limit_within_the_
     assert venv.window == 0.5
     venv._judge(np.arange(4), [held, fell, fell, down])
     assert venv.window == 0.5
+
+
+@pytest.mark.parametrize("judged_starts", ["newest", "window"])
+def test_a_newest_band_judge_counts_only_the_starts_the_last_widening_added(states, judged_starts) -> None:
+    from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.plan_start_envs import PlanStartEnvs
+
+    curriculum = PlanStarts(1.0, reverse=True, window=0.25, judged=4, judged_starts=judged_starts)
+    venv = PlanStartEnvs(ChainCartVecEnv(16, SWINGUP, seed=3), states, curriculum, seed=2)
+    observations = venv.reset()
+    first_window_start = venv._first_index()
+    succeeded, failed = [{"is_success": True}] * 16, [{"is_success": False}] * 16
+    venv._judge(np.arange(4), succeeded)  # before the first widening the whole window counts
+    assert venv.window == 0.5
+    newest = np.zeros(16, dtype=bool)
+    while newest.sum() < 4 or (~newest).sum() < 4:  # fresh starts in both bands of the window
+        venv._start_on_plan(np.arange(16), observations)
+        newest = venv._start_index < first_window_start
+    for i, k in enumerate(venv._start_index):  # the recorded start is where the env is
+        np.testing.assert_array_equal(venv.venv.get_attr("model_state", indices=i)[0], states[k])
+    older, added = np.flatnonzero(~newest)[:4], np.flatnonzero(newest)[:4]
+    venv._judge(older, succeeded)  # four successes from the older band
+    if judged_starts == "window":
+        assert venv.window == 0.75  # enough on the whole window
+        return
+    assert venv.window == 0.5 and venv._judged == 0  # not counted
+    venv._judge(added, failed)  # four failures from the newest band: judged, not passed
+    assert venv.window == 0.5 and venv._judged == 0 and len(venv.windows) == 2
+    second_window_start = venv._first_index()
+    venv._judge(added, succeeded)
+    assert venv.window == 0.75 and venv._band_end == second_window_start  # the next band is the one just added
 
 
 def test_a_curriculum_log_is_written_beside_the_training(tmp_path) -> None:

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from chaincart_env.errors import ChainCartError, InvalidInputError
-from chaincart_env.tools.compare.curriculum import CURRICULA, JUDGES
+from chaincart_env.tools.compare.curriculum import CURRICULA, JUDGED_STARTS, JUDGES
 from chaincart_env.tools.compare.imitation import SCENE_IMITATIONS
 from chaincart_env.tools.compare.recipes import GENERIC
 from chaincart_env.tools.compare.scene_options import add_scene_options, config_from_options, parse_value
@@ -121,6 +121,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--curriculum-threshold", type=float, default=None, metavar="T",
                         help="with --curriculum reverse: the share of 256 plan-start episodes that must pass for the "
                         "window to widen, in (0, 1] (default: 0.5)")
+    parser.add_argument("--curriculum-judged-starts", choices=JUDGED_STARTS, default=None,
+                        help="with --curriculum reverse: which plan-start episodes the widening counts: window = every "
+                        "one; newest = those started in the band the last widening added (before the first widening, "
+                        "the whole window), so that the window grows only once the policy holds the newest band "
+                        "(default: window)")
     parser.add_argument("--curriculum-freeze-statistics", action="store_true",
                         help="with --curriculum reverse and a recipe that normalises observations: stop counting the "
                         "normalisation statistics at the first widening and clip at 100 standard deviations, so that "
@@ -281,17 +286,19 @@ def _curriculum(
     window: Optional[float] = None,
     threshold: Optional[float] = None,
     freeze_statistics: bool = False,
+    judged_starts: Optional[str] = None,
 ) -> Any:
     """``--curriculum``, ``--plan-fraction`` and the reverse curriculum's ``--curriculum-judge``,
-    ``--curriculum-window``, ``--curriculum-threshold`` and ``--curriculum-freeze-statistics``
-    as ``run_compare``'s ``curriculum``."""
+    ``--curriculum-window``, ``--curriculum-threshold``, ``--curriculum-freeze-statistics`` and
+    ``--curriculum-judged-starts`` as ``run_compare``'s ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
 
     if fraction is not None and name not in ("plan", "reverse"):
         raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan or reverse: expected "
                                 "--curriculum plan or reverse with it")
     reverse_only = {"--curriculum-judge": judge, "--curriculum-window": window, "--curriculum-threshold": threshold,
-                    "--curriculum-freeze-statistics": True if freeze_statistics else None}
+                    "--curriculum-freeze-statistics": True if freeze_statistics else None,
+                    "--curriculum-judged-starts": judged_starts}
     for option, value in reverse_only.items():
         if value is not None and name != "reverse":
             shown = "" if value is True else f" {value}" if isinstance(value, str) else f" {value:g}"
@@ -312,6 +319,8 @@ def _curriculum(
         settings["threshold"] = threshold
     if freeze_statistics:
         settings["freeze_statistics"] = True
+    if judged_starts is not None:
+        settings["judged_starts"] = judged_starts
     return PlanStarts(**settings)
 
 
@@ -339,7 +348,8 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         hyperparameters, algo_hyperparameters = _algo_kwargs(args.algo_kwargs)
         sweeps = _sweeps(args.sweeps)
         curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge, args.curriculum_window,
-                                 args.curriculum_threshold, args.curriculum_freeze_statistics)
+                                 args.curriculum_threshold, args.curriculum_freeze_statistics,
+                                 args.curriculum_judged_starts)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     if args.policies is not None:

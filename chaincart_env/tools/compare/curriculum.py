@@ -34,7 +34,7 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "CURRICULA", "FROZEN_CLIP", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene",
+    "CURRICULA", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene",
     "plan_states", "scene_curriculum", "scene_training_reward",
 ]  # fmt: skip
 
@@ -42,6 +42,8 @@ __all__ = [
 CURRICULA = ("none", "plan", "reverse")
 #: What a reverse curriculum counts as a passed plan-start episode (:class:`PlanStarts`).
 JUDGES = ("success", "held")
+#: Which plan-start episodes a reverse curriculum judges (:class:`PlanStarts`).
+JUDGED_STARTS = ("window", "newest")
 #: How many standard deviations frozen statistics let an observation reach (SB3's
 #: ``VecNormalize`` clips at 10): the starts of the widened windows lie far outside the
 #: balance's spread, and clipped they would all read alike.
@@ -62,6 +64,11 @@ class PlanStarts:
     (the episode reached its time limit within the scene's ``fall_limit``, which must
     be set: the chain was caught and never fell). ``held`` serves exploring policies,
     whose noise keeps a held chain outside the tight success tolerances.
+    ``judged_starts`` says which of them count: ``window`` (every start in the window)
+    or ``newest`` (only starts in the band the last widening added; the whole first
+    window before it). Judged on the whole window, a widening can pass on the old
+    bands while the policy fails from the new one; judged on the newest band, the
+    window grows only once the policy holds what the last widening asked.
 
     ``freeze_statistics`` (reverse curricula of agents whose recipe normalises
     observations): the normalisation statistics stop counting at the first widening and
@@ -78,6 +85,7 @@ class PlanStarts:
     judged: int = 256
     judge: str = "success"
     freeze_statistics: bool = False
+    judged_starts: str = "window"
 
     def __post_init__(self) -> None:
         for name in ("fraction", "window", "threshold"):
@@ -96,6 +104,9 @@ class PlanStarts:
             raise InvalidInputError(f"plan-start judged = {self.judged!r}: expected an integer >= 1 (episodes)")
         if self.judge not in JUDGES:
             raise InvalidInputError(f"plan-start judge = {self.judge!r}: expected one of {', '.join(JUDGES)}")
+        if self.judged_starts not in JUDGED_STARTS:
+            raise InvalidInputError(f"plan-start judged_starts = {self.judged_starts!r}: expected one of "
+                                    f"{', '.join(JUDGED_STARTS)}")
 
     @property
     def name(self) -> str:

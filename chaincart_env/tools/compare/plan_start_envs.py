@@ -55,6 +55,8 @@ class PlanStartEnvs(VecEnvWrapper):
         self.windows: list[tuple[int, float]] = [(0, self.window)]
         self._on_plan = np.zeros(self.num_envs, dtype=bool)
         self._judged = self._successes = 0
+        self._start_index = np.zeros(self.num_envs, dtype=np.int64)  # each env's plan start
+        self._band_end = self.states.shape[0]  # the newest band ends before this plan step
 
     def _first_index(self) -> int:
         """The earliest plan step the draw may pick (the window's start)."""
@@ -73,19 +75,25 @@ class PlanStartEnvs(VecEnvWrapper):
         for i, k in chosen:
             native.env_method("set_state", self.states[k], indices=i)
             self._on_plan[i] = True
+            self._start_index[i] = k
         fresh = native._batch.observations()
         for i, _ in chosen:
             observations[i] = fresh[i]
         self.plan_episodes += len(chosen)
 
     def _judge(self, ended: np.ndarray, infos: list[dict[str, Any]]) -> None:
-        """Counts the ended plan-start episodes; widens the window when enough passed."""
+        """Counts the ended plan-start episodes (with ``judged_starts="newest"`` those
+        started in the newest band); widens the window when enough passed."""
+        newest_only = self.curriculum.judged_starts == "newest"
         for i in ended[self._on_plan[ended]]:
+            if newest_only and self._start_index[i] >= self._band_end:
+                continue
             self._judged += 1
             self._successes += int(self._passed(infos[i]))
         curriculum = self.curriculum
         if self.window < 1.0 and self._judged >= curriculum.judged:
             if self._successes >= curriculum.threshold * self._judged:
+                self._band_end = self._first_index()
                 self.window = min(1.0, self.window + curriculum.window)
                 self.windows.append((self.steps, self.window))
                 print(f"curriculum: {self._successes} of {self._judged} plan-start episodes passed; starts now "
@@ -119,7 +127,8 @@ class PlanStartEnvs(VecEnvWrapper):
 
     # VecEnvWrapper keeps its class's members in an attribute and does not pickle; the
     # checkpoints pickle the training envs, so the wrapper pickles as its parts.
-    _PROGRESS = ("plan_episodes", "steps", "window", "windows", "_on_plan", "_judged", "_successes")
+    _PROGRESS = ("plan_episodes", "steps", "window", "windows", "_on_plan", "_judged", "_successes", "_start_index",
+                 "_band_end")
 
     def __getstate__(self) -> dict[str, Any]:
         return {"venv": self.venv, "states": self.states, "curriculum": self.curriculum,
@@ -129,7 +138,8 @@ class PlanStartEnvs(VecEnvWrapper):
         PlanStartEnvs.__init__(self, state["venv"], state["states"], state["curriculum"], 0)
         self.rng.bit_generator.state = state["rng"]
         for name in self._PROGRESS:
-            setattr(self, name, state[name])
+            if name in state:  # checkpoints from before the newest-band judge lack its two
+                setattr(self, name, state[name])
 
 
 def plan_start_envs_of(envs: Any) -> Optional[PlanStartEnvs]:
