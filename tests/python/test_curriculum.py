@@ -35,6 +35,7 @@ def test_bad_fractions_are_named(fraction) -> None:
         (dict(reverse=True, freeze_statistics=1), "plan-start freeze_statistics = 1: expected true or false"),
         (dict(freeze_statistics=True), "plan-start freeze_statistics = True without reverse"),
         (dict(reverse=True, judged_starts="last"), "plan-start judged_starts = 'last': expected one of window, newest"),
+        (dict(judged_starts="newest"), "plan-start judged_starts = 'newest' without reverse"),
     ],
 )
 def test_bad_reverse_settings_are_named(changes, named) -> None:

@@ -34,8 +34,8 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "CURRICULA", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene",
-    "plan_states", "scene_curriculum", "scene_training_reward",
+    "CURRICULA", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts",
+    "check_plan_scene", "plan_states", "scene_curriculum", "scene_training_reward",
 ]  # fmt: skip
 
 #: The curricula ``compare --curriculum`` offers.
@@ -107,6 +107,9 @@ class PlanStarts:
         if self.judged_starts not in JUDGED_STARTS:
             raise InvalidInputError(f"plan-start judged_starts = {self.judged_starts!r}: expected one of "
                                     f"{', '.join(JUDGED_STARTS)}")
+        if self.judged_starts != "window" and not self.reverse:
+            raise InvalidInputError(f"plan-start judged_starts = {self.judged_starts!r} without reverse: expected a "
+                                    "reverse curriculum, whose widenings are what is judged")
 
     @property
     def name(self) -> str:
