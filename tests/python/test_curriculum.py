@@ -273,7 +273,7 @@ def test_a_newest_band_judge_counts_only_the_starts_the_last_widening_added(stat
     assert venv.window == 0.5 and venv._judged == 0 and len(venv.windows) == 2
     second_window_start = venv._first_index()
     venv._judge(added, succeeded)
-    assert venv.window == 0.75 and venv._band_end == second_window_start  # the next band is the one just added
+    assert venv.window == 0.75 and venv._newest_band_end() == second_window_start  # the band just added
 
 
 def test_a_curriculum_log_is_written_beside_the_training(tmp_path) -> None:

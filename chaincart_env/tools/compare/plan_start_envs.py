@@ -56,12 +56,20 @@ class PlanStartEnvs(VecEnvWrapper):
         self._on_plan = np.zeros(self.num_envs, dtype=bool)
         self._judged = self._successes = 0
         self._start_index = np.zeros(self.num_envs, dtype=np.int64)  # each env's plan start
-        self._band_end = self.states.shape[0]  # the newest band ends before this plan step
 
-    def _first_index(self) -> int:
-        """The earliest plan step the draw may pick (the window's start)."""
+    def _first_index(self, window: Optional[float] = None) -> int:
+        """The earliest plan step the draw may pick: the start of ``window`` (the current
+        window by default)."""
         last = self.states.shape[0] - 1
-        return max(0, min(last, int(math.floor((1.0 - self.window) * last + 1e-9))))
+        share = self.window if window is None else window
+        return max(0, min(last, int(math.floor((1.0 - share) * last + 1e-9))))
+
+    def _newest_band_end(self) -> int:
+        """The plan step before which the newest band ends: the previous window's start
+        (past the plan's end before the first widening: the whole window is new)."""
+        if len(self.windows) < 2:
+            return self.states.shape[0]
+        return self._first_index(self.windows[-2][1])
 
     def _start_on_plan(self, envs: np.ndarray, observations: np.ndarray) -> None:
         """Moves each of ``envs`` (just reset) onto the plan with probability ``fraction``."""
@@ -84,16 +92,15 @@ class PlanStartEnvs(VecEnvWrapper):
     def _judge(self, ended: np.ndarray, infos: list[dict[str, Any]]) -> None:
         """Counts the ended plan-start episodes (with ``judged_starts="newest"`` those
         started in the newest band); widens the window when enough passed."""
-        newest_only = self.curriculum.judged_starts == "newest"
+        band_end = self._newest_band_end() if self.curriculum.judged_starts == "newest" else None
         for i in ended[self._on_plan[ended]]:
-            if newest_only and self._start_index[i] >= self._band_end:
+            if band_end is not None and self._start_index[i] >= band_end:
                 continue
             self._judged += 1
             self._successes += int(self._passed(infos[i]))
         curriculum = self.curriculum
         if self.window < 1.0 and self._judged >= curriculum.judged:
             if self._successes >= curriculum.threshold * self._judged:
-                self._band_end = self._first_index()
                 self.window = min(1.0, self.window + curriculum.window)
                 self.windows.append((self.steps, self.window))
                 print(f"curriculum: {self._successes} of {self._judged} plan-start episodes passed; starts now "
@@ -127,8 +134,7 @@ class PlanStartEnvs(VecEnvWrapper):
 
     # VecEnvWrapper keeps its class's members in an attribute and does not pickle; the
     # checkpoints pickle the training envs, so the wrapper pickles as its parts.
-    _PROGRESS = ("plan_episodes", "steps", "window", "windows", "_on_plan", "_judged", "_successes", "_start_index",
-                 "_band_end")
+    _PROGRESS = ("plan_episodes", "steps", "window", "windows", "_on_plan", "_judged", "_successes", "_start_index")
 
     def __getstate__(self) -> dict[str, Any]:
         return {"venv": self.venv, "states": self.states, "curriculum": self.curriculum,
@@ -138,7 +144,7 @@ class PlanStartEnvs(VecEnvWrapper):
         PlanStartEnvs.__init__(self, state["venv"], state["states"], state["curriculum"], 0)
         self.rng.bit_generator.state = state["rng"]
         for name in self._PROGRESS:
-            if name in state:  # checkpoints from before the newest-band judge lack its two
+            if name in state:  # checkpoints from before the newest-band judge lack the starts
                 setattr(self, name, state[name])
 
 
