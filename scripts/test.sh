@@ -29,11 +29,12 @@ if [ "${FORCE:-0}" != 1 ] && [ -f "$passed" ] && [ -f .venv/.chaincart-setup ] &
 fi
 log=target/cargo-test.log
 rust_tests() {
-    # The library's unit tests, the integration tests and the doc tests; the examples
-    # and benchmarks are type-checked (building them would only compile the engine
-    # again, and they are not tests). rustdoc runs only where a doc comment holds a
-    # code block other than `text` (today none: half a minute of CPU for no test).
-    cargo test -p chaincart --lib --tests &&
+    # The library's test binary (its unit tests and tests/it, which src/lib.rs includes)
+    # and the doc tests; the examples and benchmarks are type-checked (building them
+    # would only compile the engine again, and they are not tests). rustdoc runs only
+    # where a doc comment holds a code block other than `text` (today none: half a
+    # minute of CPU for no test).
+    cargo test -p chaincart --lib &&
         { ! doc_examples || cargo test -p chaincart --doc; } &&
         cargo check --examples --benches
 }

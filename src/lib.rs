@@ -42,6 +42,15 @@ pub mod tridiagonal;
 #[cfg(feature = "python")]
 mod python;
 
+// The integration tests (tests/it/) are a module of the unit-test binary: one test
+// binary compiles the crate's generic code once instead of twice. They reach the crate
+// by its name, as users do.
+#[cfg(test)]
+extern crate self as chaincart;
+#[cfg(test)]
+#[path = "../tests/it/main.rs"]
+mod integration_tests;
+
 pub use error::{ChainError, InputError, IntegrationFailure, Result};
 pub use geometry::{Geometry, Planar, Spatial};
 pub use integrate::{Method, StepOptions, Stepper};

@@ -1,7 +1,7 @@
 //! Batch stepping: same results as stepping each env alone, bit-identical for any
 //! thread count, failures isolated to their env (allocation: tests/it/allocations/).
 
-use crate::common;
+use super::common;
 
 use chaincart::engine::CHUNK;
 use chaincart::integrate::StepStatus;

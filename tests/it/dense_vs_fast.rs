@@ -1,7 +1,7 @@
 //! The O(n) tension form against the paper's dense eq. (ELwm), on random states,
 //! forces, masses and lengths.
 
-use crate::common;
+use super::common;
 
 use chaincart::dense::dense_derivative;
 use chaincart::SpatialChain;

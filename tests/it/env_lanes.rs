@@ -6,7 +6,7 @@
 //! a blow-up isolated to its env; and the f32 mode (deterministic, accurate on the
 //! paper's scenes within the bound published in docs/simd.md).
 
-use crate::common;
+use super::common;
 
 use chaincart::engine::MIN_LANE_ENVS;
 use chaincart::env::{

@@ -5,7 +5,7 @@
 //! NaN, never a panic. The table printed here is the one published in README.md
 //! (the f32 rows in docs/simd.md).
 
-use crate::common;
+use super::common;
 
 use chaincart::engine::ChainBatch;
 use chaincart::integrate::{Guard, GuardedStepper, StepStatus};

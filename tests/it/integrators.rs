@@ -1,6 +1,6 @@
 //! Integrators against closed-form solutions, invariants and each other.
 
-use crate::common;
+use super::common;
 
 use chaincart::geometry::{Geometry, Layout, Vector};
 use chaincart::{ChainParams, Method, PlanarChain, SpatialChain, StepOptions, Stepper};

@@ -2,7 +2,7 @@
 //! bit-identical states and statuses for every compiled kernel, lane width, chain
 //! size and scene, with per-lane parameters; failures isolated to their lane.
 
-use crate::common;
+use super::common;
 
 use chaincart::geometry::{Geometry, Vector};
 use chaincart::integrate::{Guard, GuardedStepper, StepStatus};

@@ -1,5 +1,7 @@
-//! The integration tests, one binary: each file of this folder is a module, so the
-//! crate is linked once for all of them.
+//! The integration tests: each file of this folder is a module. `src/lib.rs` includes
+//! this file as a module of the library's unit-test binary, so that the crate's generic
+//! code is compiled once for the unit and the integration tests; they reach the crate by
+//! its name (`chaincart::`), as users do, and their helpers by `super::`.
 
 mod common;
 

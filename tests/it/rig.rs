@@ -4,7 +4,7 @@
 //! and driven motion, and the env batch's invariants (the ideal rig changes no bit,
 //! a vector of envs equals the envs alone, seeds reproduce).
 
-use crate::common;
+use super::common;
 
 use chaincart::dense::{dense_derivative_damped, elwm_damping_moments, elwm_system};
 use chaincart::env::{AutoresetMode, EnvBatch, Start, StepOutputs, TaskConfig};

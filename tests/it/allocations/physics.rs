@@ -1,7 +1,7 @@
 //! The physics step loop allocates nothing.
 
 use super::counter::allocations_of;
-use crate::common::batches::{forces, random_batch};
+use super::super::common::batches::{forces, random_batch};
 use chaincart::engine::CHUNK;
 use chaincart::integrate::{Guard, GuardedStepper};
 use chaincart::lanes::Precision;
