@@ -45,6 +45,9 @@ fn time_scaling(py: Python<'_>, form: &str, n_links: usize, min_time: f64) -> Py
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    // `get_type` below panics if the exceptions' module cannot be imported; importing it
+    // here first turns any such failure into the ImportError that caused it.
+    py.import("chaincart_env.errors")?;
     m.add("ChainCartError", py.get_type::<ChainCartError>())?;
     m.add("InvalidInputError", py.get_type::<InvalidInputError>())?;
     m.add("InvalidTypeError", py.get_type::<InvalidTypeError>())?;

@@ -162,3 +162,27 @@ def test_an_install_whose_numpy_cannot_be_imported_says_so_without_a_panic(insta
     last = done.stderr.strip().splitlines()[-1]
     assert last.startswith("ModuleNotFoundError: chaincart_env needs numpy, a required dependency"), last
     assert "pip install numpy" in last
+
+
+NATIVE_WITHOUT_ITS_ERRORS = """
+import importlib.machinery, importlib.util, pathlib, sys, types
+(folder,) = importlib.util.find_spec("chaincart_env").submodule_search_locations
+library = next(pathlib.Path(folder).glob("_core*.so"))
+package = types.ModuleType("chaincart_env")  # the package's folder, its __init__ not run
+package.__path__ = [folder]
+sys.modules["chaincart_env"] = package
+sys.modules["chaincart_env.errors"] = None  # the exceptions' module cannot be imported
+loader = importlib.machinery.ExtensionFileLoader("chaincart_env._core", str(library))
+importlib.util.module_from_spec(importlib.util.spec_from_file_location("chaincart_env._core", library, loader=loader))
+"""
+
+
+def test_the_native_module_whose_exceptions_cannot_be_imported_raises_that_import_error(
+    installed: Path, tmp_path: Path
+) -> None:
+    # The native module's own initialisation, reached past the package's checks.
+    done = run(installed, tmp_path, "-c", NATIVE_WITHOUT_ITS_ERRORS)
+    assert done.returncode == 1
+    assert "panicked" not in done.stderr and "PanicException" not in done.stderr, done.stderr[-2000:]
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("ModuleNotFoundError: import of chaincart_env.errors halted"), last
