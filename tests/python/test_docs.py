@@ -23,9 +23,13 @@ def test_the_docs_have_python_examples() -> None:
 
 @pytest.mark.parametrize("example", EXAMPLES, ids=str)
 def test_python_block_runs_and_prints_what_it_documents(
-    example: CodeExample, eval_example: EvalExample, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    example: CodeExample, eval_example: EvalExample, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    request: pytest.FixtureRequest,
 ) -> None:
     monkeypatch.chdir(tmp_path)  # blocks that write files write them here
+    if "ray.init(" in example.source:
+        # Beside another user's Ray cluster, named by RAY_ADDRESS: the block starts its own.
+        monkeypatch.setenv("RAY_ADDRESS", request.getfixturevalue("foreign_ray_cluster"))
     run_example(example, eval_example)
 
 
