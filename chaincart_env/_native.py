@@ -13,9 +13,9 @@ def load_native_module() -> ModuleType:
     """``chaincart_env._core``; where it is not built, a ``ModuleNotFoundError`` that
     says how to build it (in a source checkout) or to reinstall (elsewhere).
 
-    numpy is imported first: the native module's initialisation reaches Python code
-    that needs it, and without numpy that would end in a Rust panic rather than a
-    Python error naming what is missing."""
+    numpy is imported first: the native module's initialisation imports Python code
+    that needs it, and would raise that code's ImportError; this one says what to
+    install."""
     try:
         importlib.import_module("numpy")
     except ImportError as error:
