@@ -34,10 +34,12 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "CURRICULA", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts",
-    "check_plan_scene", "plan_states", "scene_curriculum", "scene_training_reward",
+    "CURRICULA", "CURRICULUM_FILE", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts",
+    "check_plan_scene", "plan_states", "scene_curriculum", "scene_training_reward", "window_start",
 ]  # fmt: skip
 
+#: A training run's record of its reverse curriculum's windows (``env_steps,window`` rows).
+CURRICULUM_FILE = "curriculum.csv"
 #: The curricula ``compare --curriculum`` offers.
 CURRICULA = ("none", "plan", "reverse")
 #: What a reverse curriculum counts as a passed plan-start episode (:class:`PlanStarts`).
@@ -153,6 +155,12 @@ def scene_curriculum(scene: Optional[str]) -> Optional[PlanStarts]:
 def scene_training_reward(scene: Optional[str]) -> Optional[str]:
     """The reward ``scene``'s agents train on when it is not the scene's, or ``None``."""
     return SCENE_TRAINING_REWARDS.get(scene or "")
+
+
+def window_start(last: int, share: float) -> int:
+    """The earliest step of a plan of steps ``0..last`` in its last ``share`` (counted from
+    the plan's end, as a reverse curriculum's windows are)."""
+    return max(0, min(last, int(math.floor((1.0 - share) * last + 1e-9))))
 
 
 def check_plan_scene(config: Any) -> None:

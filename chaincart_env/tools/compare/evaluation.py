@@ -97,8 +97,12 @@ def _spatial_force(force: np.ndarray) -> np.ndarray:
     return np.array([force[0], 0.0]) if force.shape[0] == 1 else force
 
 
-def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[int]) -> Rollouts:
-    """Runs ``policy`` (deterministic) for one episode from each seeded start."""
+def rollout(
+    policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[int], start_states: Optional[np.ndarray] = None
+) -> Rollouts:
+    """Runs ``policy`` (deterministic) for one episode from each seeded start;
+    ``start_states`` (model layout, one row per seed) replaces the seeded starts' states
+    (the draws of a randomised scene stay the seed's)."""
     from chaincart_env.env import action_space, observation_space
     from chaincart_env.residual import on_plain_env
 
@@ -109,6 +113,10 @@ def rollout(policy: Policy, name: str, config: ChainCartConfig, seeds: Sequence[
     model = config.make_model()
     batch = config.make_batch(n, "same_step")
     obs = batch.reset(list(seeds), None)
+    if start_states is not None:
+        for i, state in enumerate(np.asarray(start_states, dtype=np.float64).reshape(n, -1)):
+            batch.set_state(i, state)
+        obs = batch.observations()
     bind = getattr(policy, "bind", None)
     if callable(bind):  # a policy that reads the true parameters (the oracle LQR)
         bind(batch)

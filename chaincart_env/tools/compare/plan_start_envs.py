@@ -4,7 +4,6 @@ plan: the curriculum of :mod:`chaincart_env.tools.compare.curriculum` as an SB3
 
 from __future__ import annotations
 
-import math
 from typing import Any, Optional
 
 import numpy as np
@@ -13,12 +12,11 @@ from stable_baselines3.common.vec_env import VecEnvWrapper, unwrap_vec_wrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
 from chaincart_env.errors import InvalidInputError
-from chaincart_env.tools.compare.curriculum import FROZEN_CLIP, SEED_OFFSET, PlanStarts
+from chaincart_env.tools.compare.curriculum import CURRICULUM_FILE, FROZEN_CLIP, SEED_OFFSET, PlanStarts, window_start
 
 __all__ = ["CURRICULUM_FILE", "FreezeStatisticsOnWidening", "PlanStartEnvs", "plan_start_envs_of", "write_curriculum_log"]
 
 #: The curriculum's windows over training, in the training directory.
-CURRICULUM_FILE = "curriculum.csv"
 
 
 class PlanStartEnvs(VecEnvWrapper):
@@ -60,9 +58,7 @@ class PlanStartEnvs(VecEnvWrapper):
     def _first_index(self, window: Optional[float] = None) -> int:
         """The earliest plan step the draw may pick: the start of ``window`` (the current
         window by default)."""
-        last = self.states.shape[0] - 1
-        share = self.window if window is None else window
-        return max(0, min(last, int(math.floor((1.0 - share) * last + 1e-9))))
+        return window_start(self.states.shape[0] - 1, self.window if window is None else window)
 
     def _newest_band_end(self) -> int:
         """The plan step before which the newest band ends: the previous window's start

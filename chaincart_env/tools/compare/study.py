@@ -15,6 +15,7 @@ from typing import Any, Mapping, Optional, Sequence
 from chaincart_env.config import ChainCartConfig
 from chaincart_env.pretrained_agents import is_pretrained_slot, parse_pretrained_slot, pretrained
 from chaincart_env.tools.compare.cell_runner import map_cells
+from chaincart_env.tools.compare.curriculum import CURRICULUM_FILE, PlanStarts
 from chaincart_env.tools.compare.evaluation import (
     EPISODE_COLUMNS,
     METRIC_COLUMNS,
@@ -27,6 +28,14 @@ from chaincart_env.tools.compare.evaluation import (
 )
 from chaincart_env.tools.compare.filmstrip import write_filmstrip
 from chaincart_env.tools.compare.layout import TrainingRun, seed_directory
+from chaincart_env.tools.compare.plan_bands import (
+    BAND_COLUMNS,
+    BANDS_FILE,
+    band_cells,
+    band_rows,
+    evaluate_band_cell,
+    widest_window,
+)
 from chaincart_env.tools.compare.policy_sources import PolicySource
 from chaincart_env.tools.compare.run_files import EVALUATIONS_FILE, RUN_FILE, read_evaluations, read_json_object
 from chaincart_env.tools.compare.study_plots import plot_errors, plot_evaluation_curves, plot_sweep
@@ -46,7 +55,7 @@ from chaincart_env.tools.controllers import build_model_based, label_of
 __all__ = [
     "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES", "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation",
     "SweepPoint", "TrainedPolicy", "describe", "evaluate_cell", "evaluate_study", "evaluate_study_at", "lqr_baseline",
-    "model_based_sources", "policy_label", "pretrained_policies", "seed_directory", "trained_policies",
+    "model_based_sources", "plan_band_reaches", "policy_label", "pretrained_policies", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
 #: What the evaluation of a study writes.
@@ -54,7 +63,8 @@ EVALUATION_FILES = (
     "comparison.csv", "comparison.md", "episodes.csv", "seeds.csv", "errors.png", "filmstrip.png",
     "sweeps.csv", "sweep_summary.csv", "evaluation_curve.png", "report.md", SUMMARY_FIGURE,
 )
-#: Success per (start, target) pair, written besides them on goal-conditioned scenes.
+#: Success per (start, target) pair, written besides them on goal-conditioned scenes
+#: (and ``plan_bands.csv`` where an agent trained with a reverse curriculum).
 TRANSITIONS_FILE = "transitions.csv"
 #: The files of :data:`EVALUATION_FILES` that only a study with a learned policy writes.
 TRAINING_EVALUATION_FILES = ("seeds.csv", "evaluation_curve.png")
@@ -126,6 +136,25 @@ def trained_policies(out: Path, runs: Sequence[TrainingRun]) -> list[TrainedPoli
                 bests.append(TrainedPolicy(f"{label} best", run.seed, best))
         policies += finals + bests
     return policies
+
+
+def plan_band_reaches(out: Path, runs: Sequence[TrainingRun]) -> dict[str, tuple[float, float]]:
+    """The trained policies (final and best, by name) of the runs that trained with a
+    reverse curriculum: the widest window each run reached and its widening step."""
+    reaches: dict[str, tuple[float, float]] = {}
+    for run in runs:
+        directory = run.directory(out)
+        info = read_json_object(directory / RUN_FILE)
+        record = info.get("curriculum")
+        if not isinstance(record, dict) or record.get("kind") != "plan" or not record.get("reverse"):
+            continue
+        curriculum = PlanStarts.from_record(record)
+        label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
+        reach = (widest_window(directory / CURRICULUM_FILE, curriculum), curriculum.window)
+        reaches[TrainedPolicy(label, run.seed, PolicySource.of_run(directory)).name] = reach
+        if PolicySource.best_of_run(directory) is not None:
+            reaches[TrainedPolicy(f"{label} best", run.seed, PolicySource.of_run(directory)).name] = reach
+    return reaches
 
 
 def pretrained_policies(config: ChainCartConfig, names: Sequence[str]) -> list[TrainedPolicy]:
@@ -327,6 +356,12 @@ def evaluate_study(
     aggregates = _aggregate_rows(summaries, trained)
     if trained:
         write_csv(into / "seeds.csv", aggregates, AGGREGATE_COLUMNS)
+    # Agents of a reverse curriculum: how far back along the plan they swing up from.
+    bands = band_cells(config, plan_band_reaches(out, runs), eval_seed)
+    plan_bands = band_rows(bands, map_cells(evaluate_band_cell, bands, shared=sources, distributed=distributed,
+                                            torch_threads=torch_threads)) if bands else []
+    if plan_bands:
+        write_csv(into / BANDS_FILE, plan_bands, BAND_COLUMNS)
 
     rows = _sweep_rows(points, all_runs[len(sources):], trained)
     summaries_by_axis: dict[str, tuple[str, Sequence[dict[str, Any]]]] = {}
@@ -369,7 +404,7 @@ def evaluate_study(
     write_report(
         into, title=title, verdict=verdict.lines,
         setup=notes + seed_lines(aggregates), comparison=summaries,
-        sweeps=summaries_by_axis, training=training_notes, transitions=transitions,
+        sweeps=summaries_by_axis, training=training_notes, transitions=transitions, plan_bands=plan_bands,
         pictures=[(SUMMARY_FIGURE, "summary"), ("evaluation_curve.png", "deterministic evaluation during training"),
                   *[(f"sweep_{axis}.png", f"success vs {SWEEP_AXES[axis].label}") for axis in sweeps],
                   ("errors.png", "e_q(t) and e_w(t) from the first start"),

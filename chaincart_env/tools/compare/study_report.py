@@ -9,6 +9,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from chaincart_env.tools.compare.plan_bands import bands_markdown
 from chaincart_env.tools.compare.tables import (
     left_out_note,
     markdown_table,
@@ -101,12 +102,15 @@ def write_report(
     training: Sequence[str],
     pictures: Sequence[tuple[str, str]],
     transitions: Sequence[dict[str, Any]] = (),
+    plan_bands: Sequence[dict[str, Any]] = (),
 ) -> str:
     """Writes ``report.md`` into ``directory``: the verdict (lines of Markdown), the
     setup, the comparison on the main starts, one table per sweep axis, training notes
     and the pictures (``(file, caption)``; only files that exist are linked). Returns
     the text. ``transitions``: success per policy and (start, target) pair
-    (:func:`~chaincart_env.tools.compare.evaluation.transition_table`), shown after the comparison."""
+    (:func:`~chaincart_env.tools.compare.evaluation.transition_table`), shown after the comparison;
+    ``plan_bands``: success from starts along the plan
+    (:func:`~chaincart_env.tools.compare.plan_bands.band_rows`), after them."""
     setup = [*setup, *_left_out_notes(comparison, sweeps)]
     parts = [f"# {title}\n\n", "## Verdict\n\n", *[f"{line}\n" for line in verdict], "\n## Setup\n\n",
              *[f"{line}\n\n" for line in setup], "## On the evaluation starts\n\n",
@@ -114,6 +118,9 @@ def write_report(
     if transitions:
         parts.append("\n## Per transition (successes / episodes)\n\n")
         parts.append(transitions_markdown(transitions))
+    if plan_bands:
+        parts.append("\n## Along the plan (starts in bands of the planner's plan, from its end)\n\n")
+        parts.append(bands_markdown(plan_bands))
     for axis, (label, rows) in sweeps.items():
         parts.append(f"\n## Sweep: {label}\n\n")
         parts.append(sweep_markdown(rows, label, notes=False))
