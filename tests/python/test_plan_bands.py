@@ -77,7 +77,9 @@ def test_the_lqr_catches_the_chain_from_the_plans_end_and_not_from_its_swing() -
     assert row["held_rate"] == "" and row["success_rate"] == 1.0
 
 
-def test_a_reverse_curriculum_study_reports_its_agents_success_along_the_plan(tmp_path: Path) -> None:
+def test_a_reverse_curriculum_study_reports_its_agents_success_along_the_plan(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from chaincart_env.__main__ import main
 
     tiny = ["--timesteps", "256", "--num-envs", "4", "--eval-episodes", "2", "--eval-starts", "2",
@@ -87,6 +89,7 @@ def test_a_reverse_curriculum_study_reports_its_agents_success_along_the_plan(tm
             "--set", "max_episode_steps=60"]  # fmt: skip
     out = tmp_path / "run"
     assert main(["compare", "--scene", "swingup-2", "--policies", "ppo", *tiny, "--out", str(out)]) == 0
+    assert f"{BANDS_FILE} and a folder per training run in" in capsys.readouterr().out
     with (out / BANDS_FILE).open(newline="") as file:
         rows = list(csv.DictReader(file))
     assert list(rows[0]) == list(BAND_COLUMNS)

@@ -45,6 +45,7 @@ from chaincart_env.tools.compare.shaping import Shaping, scene_shaping
 from chaincart_env.tools.compare.study import (
     EVALUATION_FILES,
     StudyEvaluation,
+    conditional_files_in,
     describe,
     evaluate_study,
     evaluate_study_at,
@@ -441,7 +442,8 @@ def _run(config: ChainCartConfig, out: Path, run: dict[str, Any], resume: bool) 
     run["wall_time_s"] = round(run.get("wall_time_s", 0.0) + total, 2)
     _set_status(out, run, "done")
     folders = " and a folder per training run" if StudySettings(run["settings"]).learned() else ""
-    print(f"wall time {total:.1f} s; wrote {', '.join(OUTPUT_FILES)}{folders} in {out}")
+    written = OUTPUT_FILES + conditional_files_in(out)
+    print(f"wall time {total:.1f} s; wrote {', '.join(written)}{folders} in {out}")
     return summaries
 
 
@@ -736,5 +738,5 @@ def run_evaluate(
     options = dict(runs=runs, model_based=settings.model_based(), eval_seed=first, eval_episodes=episodes,
                    sweeps=sweeps, into=into)
     evaluation = evaluate_study_at(address, directory, config, torch_threads=torch_threads, **options)
-    print(f"wrote {', '.join(EVALUATION_FILES)} in {into}")
+    print(f"wrote {', '.join(EVALUATION_FILES + conditional_files_in(into))} in {into}")
     return evaluation.summaries

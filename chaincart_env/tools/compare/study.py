@@ -53,9 +53,10 @@ from chaincart_env.tools.compare.verdict import Standing, main_setting_values, m
 from chaincart_env.tools.controllers import build_model_based, label_of
 
 __all__ = [
-    "AGGREGATE_COLUMNS", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES", "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation",
-    "SweepPoint", "TrainedPolicy", "describe", "evaluate_cell", "evaluate_study", "evaluate_study_at", "lqr_baseline",
-    "model_based_sources", "plan_band_reaches", "policy_label", "pretrained_policies", "seed_directory", "trained_policies",
+    "AGGREGATE_COLUMNS", "CONDITIONAL_EVALUATION_FILES", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES",
+    "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation", "SweepPoint", "TrainedPolicy", "conditional_files_in",
+    "describe", "evaluate_cell", "evaluate_study", "evaluate_study_at", "lqr_baseline", "model_based_sources",
+    "plan_band_reaches", "policy_label", "pretrained_policies", "seed_directory", "trained_policies",
 ]  # fmt: skip
 
 #: What the evaluation of a study writes.
@@ -66,6 +67,15 @@ EVALUATION_FILES = (
 #: Success per (start, target) pair, written besides them on goal-conditioned scenes
 #: (and ``plan_bands.csv`` where an agent trained with a reverse curriculum).
 TRANSITIONS_FILE = "transitions.csv"
+#: The tables only some studies write besides :data:`EVALUATION_FILES`.
+CONDITIONAL_EVALUATION_FILES = (TRANSITIONS_FILE, BANDS_FILE)
+
+
+def conditional_files_in(into: Path) -> tuple[str, ...]:
+    """The files of :data:`CONDITIONAL_EVALUATION_FILES` an evaluation wrote into ``into``."""
+    return tuple(name for name in CONDITIONAL_EVALUATION_FILES if (Path(into) / name).is_file())
+
+
 #: The files of :data:`EVALUATION_FILES` that only a study with a learned policy writes.
 TRAINING_EVALUATION_FILES = ("seeds.csv", "evaluation_curve.png")
 #: Columns of ``seeds.csv``: each trained policy's numbers aggregated over training seeds.
