@@ -56,7 +56,7 @@ __all__ = [
     "AGGREGATE_COLUMNS", "CONDITIONAL_EVALUATION_FILES", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES",
     "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation", "SweepPoint", "TrainedPolicy", "conditional_files_in",
     "describe", "evaluate_cell", "evaluate_study", "evaluate_study_at", "lqr_baseline", "model_based_sources",
-    "plan_band_reaches", "policy_label", "pretrained_policies", "seed_directory", "trained_policies",
+    "plan_band_reaches", "policy_label", "pretrained_policies", "seed_directory", "trained_name", "trained_policies",
 ]  # fmt: skip
 
 #: What the evaluation of a study writes.
@@ -64,8 +64,7 @@ EVALUATION_FILES = (
     "comparison.csv", "comparison.md", "episodes.csv", "seeds.csv", "errors.png", "filmstrip.png",
     "sweeps.csv", "sweep_summary.csv", "evaluation_curve.png", "report.md", SUMMARY_FIGURE,
 )
-#: Success per (start, target) pair, written besides them on goal-conditioned scenes
-#: (and ``plan_bands.csv`` where an agent trained with a reverse curriculum).
+#: Success per (start, target) pair, written besides them on goal-conditioned scenes.
 TRANSITIONS_FILE = "transitions.csv"
 #: The tables only some studies write besides :data:`EVALUATION_FILES`.
 CONDITIONAL_EVALUATION_FILES = (TRANSITIONS_FILE, BANDS_FILE)
@@ -127,7 +126,12 @@ class TrainedPolicy:
     @property
     def name(self) -> str:
         """``"<label> (seed <seed>)"``, the policy's row in the tables."""
-        return f"{self.label} (seed {self.seed})"
+        return trained_name(self.label, self.seed)
+
+
+def trained_name(label: str, seed: int) -> str:
+    """A trained policy's row in the tables: ``"<label> (seed <seed>)"``."""
+    return f"{label} (seed {seed})"
 
 
 def trained_policies(out: Path, runs: Sequence[TrainingRun]) -> list[TrainedPolicy]:
@@ -161,9 +165,9 @@ def plan_band_reaches(out: Path, runs: Sequence[TrainingRun]) -> dict[str, tuple
         curriculum = PlanStarts.from_record(record)
         label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
         reach = (widest_window(directory / CURRICULUM_FILE, curriculum), curriculum.window)
-        reaches[TrainedPolicy(label, run.seed, PolicySource.of_run(directory)).name] = reach
+        reaches[trained_name(label, run.seed)] = reach
         if PolicySource.best_of_run(directory) is not None:
-            reaches[TrainedPolicy(f"{label} best", run.seed, PolicySource.of_run(directory)).name] = reach
+            reaches[trained_name(f"{label} best", run.seed)] = reach
     return reaches
 
 
