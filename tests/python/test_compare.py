@@ -9,6 +9,7 @@ import json
 import math
 import pathlib
 import subprocess
+import tempfile
 
 import numpy as np
 import pytest
@@ -53,10 +54,27 @@ def read_csv(path: pathlib.Path) -> tuple[list[str], list[dict[str, str]]]:
 
 
 @pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
-    out = tmp_path_factory.mktemp("compare")
-    assert main(["compare", *TINY, "--out", str(out)]) == 0
-    return out
+def tiny_run_and_temp(tmp_path_factory: pytest.TempPathFactory) -> tuple[pathlib.Path, pathlib.Path]:
+    """The tiny study's folder, and the temporary directory it ran with (Python's
+    ``tempfile`` pointed at a folder of its own)."""
+    out, temp = tmp_path_factory.mktemp("compare"), tmp_path_factory.mktemp("tempdir")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(tempfile, "tempdir", str(temp))
+        assert main(["compare", *TINY, "--out", str(out)]) == 0
+    return out, temp
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tiny_run_and_temp: tuple[pathlib.Path, pathlib.Path]) -> pathlib.Path:
+    return tiny_run_and_temp[0]
+
+
+def test_training_leaves_no_log_folders_in_the_temporary_directory(
+    tiny_run_and_temp: tuple[pathlib.Path, pathlib.Path],
+) -> None:
+    # SB3 makes an SB3-<date> folder there at every learn() of a model without a logger.
+    _, temp = tiny_run_and_temp
+    assert not list(temp.glob("SB3-*"))
 
 
 def test_compare_writes_every_output_with_sane_values(tiny_run: pathlib.Path) -> None:

@@ -11,6 +11,7 @@ from typing import Any, Mapping, Optional, Sequence, TextIO
 
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecMonitor
 
@@ -377,6 +378,9 @@ def train(
     start = time.perf_counter()
     callbacks = [logger, evaluation, checkpoints, *_anchoring(imitation, directory), *mirror,
                  *_statistics_freeze(curriculum)]
+    # Without a logger of its own a model gets SB3's, which makes a folder in the temporary
+    # directory at every learn(); this one has SB3's outputs at verbose=0 (none) and no folder.
+    model.set_logger(Logger(folder=None, output_formats=[]))
     model.learn(total_timesteps=max(0, planned - resumed_from), callback=callbacks,
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)
     write_curriculum_log(model.get_env(), directory / CURRICULUM_FILE)
