@@ -34,8 +34,9 @@ import numpy as np
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "CURRICULA", "CURRICULUM_FILE", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA", "SCENE_TRAINING_REWARDS", "PlanStarts",
-    "check_plan_scene", "plan_states", "scene_curriculum", "scene_training_reward", "window_start",
+    "CURRICULA", "CURRICULUM_FILE", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA",
+    "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_states", "scene_curriculum",
+    "scene_training_reward", "window_start",
 ]  # fmt: skip
 
 #: A training run's record of its reverse curriculum's windows (``env_steps,window`` rows).

@@ -16,8 +16,6 @@ from chaincart_env.tools.compare.curriculum import CURRICULUM_FILE, FROZEN_CLIP,
 
 __all__ = ["CURRICULUM_FILE", "FreezeStatisticsOnWidening", "PlanStartEnvs", "plan_start_envs_of", "write_curriculum_log"]
 
-#: The curriculum's windows over training, in the training directory.
-
 
 class PlanStartEnvs(VecEnvWrapper):
     """The native ``ChainCartVecEnv`` ``venv`` (or its
