@@ -238,7 +238,9 @@ def test_render_section_reports_every_view_with_the_3d_goal() -> None:
         assert f"| {scene} | env | 480x240 |" in text and f"| {scene} | vector, 4 tiles | 960x480 |" in text
 
 
-def test_learners_section_times_each_installed_learner_and_names_the_missing(monkeypatch) -> None:
+def test_learners_section_times_each_installed_learner_and_names_the_missing(monkeypatch, tmp_path) -> None:
+    import tempfile
+
     from chaincart_env.tools.bench import learners
     from chaincart_env.tools.bench.bench_report import Report
     from chaincart_env.tools.bench.suite import BenchContext, BenchSettings
@@ -255,6 +257,7 @@ def test_learners_section_times_each_installed_learner_and_names_the_missing(mon
     monkeypatch.setattr(learners, "measure_learner", lambda learner, steps, repeats: real(
         learner, steps, repeats, clock=lambda: float(next(ticks))))
     ctx = BenchContext(BenchSettings(quick=True), Report(echo=False))
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     learners.learners_section(ctx)
     rates = ctx.results["learners"]
     assert rates == {("SB3 PPO", 4): 16 * 4, ("SB3 SAC", 64): 256 * 8}  # one rollout; 256 x n_envs / 8 steps
@@ -262,3 +265,4 @@ def test_learners_section_times_each_installed_learner_and_names_the_missing(mon
     assert "| SB3 SAC | 64 | 0.01562 |" in text
     assert "Not installed, not measured: Nowhere PPO" in text
     assert sac.gradient_steps_per_env_step == 1 / 64 and ppo.gradient_steps_per_env_step == 10 / 512
+    assert not list(tmp_path.glob("SB3-*"))  # no log folder of SB3's in the temporary directory

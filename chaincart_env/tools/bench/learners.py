@@ -106,6 +106,7 @@ def measure_learner(learner: Learner, env_steps: int, repeats: int,
 
     from chaincart_env import ChainCartConfig
     from chaincart_env.sb3 import ChainCartVecEnv
+    from chaincart_env.tools.compare.training import quiet_logger
 
     _one_jax_thread()
     threads = torch.get_num_threads()
@@ -114,6 +115,7 @@ def measure_learner(learner: Learner, env_steps: int, repeats: int,
         algorithm = getattr(importlib.import_module(learner.module), learner.cls)
         venv = ChainCartVecEnv(learner.n_envs, ChainCartConfig(scene=SCENE), seed=0)
         model = algorithm("MlpPolicy", venv, seed=0, verbose=0, **learner.keywords)
+        model.set_logger(quiet_logger())
         model.learn(env_steps)
         best = 0.0
         for _ in range(repeats):

@@ -37,6 +37,7 @@ __all__ = [
     "TRAINING_EPISODE_COLUMNS",
     "EpisodeCsvLogger",
     "TrainingResult",
+    "quiet_logger",
     "train",
 ]
 
@@ -178,6 +179,13 @@ def _new_agent(
     if statistics is not None:  # rewards are normalised by their discounted return, with the agent's discount
         statistics.gamma = float(getattr(model, "gamma", statistics.gamma))
     return model
+
+
+def quiet_logger() -> Logger:
+    """A logger for an SB3 model that writes nothing, as SB3's own at ``verbose=0``. Without
+    a logger of its own a model gets SB3's, which makes a folder in the temporary
+    directory at every ``learn()``; this one makes none."""
+    return Logger(folder=None, output_formats=[])
 
 
 def _anchoring(imitation: Optional[Imitation], directory: Path) -> list[BaseCallback]:
@@ -378,9 +386,7 @@ def train(
     start = time.perf_counter()
     callbacks = [logger, evaluation, checkpoints, *_anchoring(imitation, directory), *mirror,
                  *_statistics_freeze(curriculum)]
-    # Without a logger of its own a model gets SB3's, which makes a folder in the temporary
-    # directory at every learn(); this one has SB3's outputs at verbose=0 (none) and no folder.
-    model.set_logger(Logger(folder=None, output_formats=[]))
+    model.set_logger(quiet_logger())
     model.learn(total_timesteps=max(0, planned - resumed_from), callback=callbacks,
                 progress_bar=progress_bar, reset_num_timesteps=not resuming)
     write_curriculum_log(model.get_env(), directory / CURRICULUM_FILE)
