@@ -52,6 +52,7 @@ from chaincart_env.tools.compare.study import (
     lqr_baseline,
     model_based_sources,
     policy_label,
+    run_label,
 )  # fmt: skip
 from chaincart_env.tools.compare.study_plots import plot_learning_curve
 from chaincart_env.tools.compare.sweeps import DEFAULT_SWEEPS, SWEEP_AXES
@@ -318,7 +319,7 @@ def _training_notes(run: dict[str, Any]) -> list[str]:
     for info in run["seed_runs"].values():
         evaluations = info.get("evaluations") or {}
         best = evaluations.get("best")
-        line = (f"{policy_label(str(info['algo']), str(info.get('trainer', 'sb3')))}, seed {info['seed']}: "
+        line = (f"{run_label(info)}, seed {info['seed']}: "
                 f"{info['timesteps_trained']} timesteps in {info['training_wall_time_s']} s of training "
                 f"({info['training_episodes']} training episodes)")
         if best:

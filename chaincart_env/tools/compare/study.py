@@ -56,7 +56,8 @@ __all__ = [
     "AGGREGATE_COLUMNS", "CONDITIONAL_EVALUATION_FILES", "EVALUATION_FILES", "TRAINING_EVALUATION_FILES",
     "TRANSITIONS_FILE", "EvaluationCell", "StudyEvaluation", "SweepPoint", "TrainedPolicy", "conditional_files_in",
     "describe", "evaluate_cell", "evaluate_study", "evaluate_study_at", "lqr_baseline", "model_based_sources",
-    "plan_band_reaches", "policy_label", "pretrained_policies", "seed_directory", "trained_name", "trained_policies",
+    "plan_band_reaches", "policy_label", "pretrained_policies", "run_label", "seed_directory", "trained_name",
+    "trained_policies",
 ]  # fmt: skip
 
 #: What the evaluation of a study writes.
@@ -90,6 +91,11 @@ def policy_label(algo: str, trainer: str = "sb3") -> str:
     """The trained policy's name in tables and plots: ``PPO``, ``PPO robust``, or
     ``PPO (RLlib)``."""
     return label_of(algo.lower()) + (" (RLlib)" if trainer == "rllib" else "")
+
+
+def run_label(info: Mapping[str, Any]) -> str:
+    """:func:`policy_label` of a training run's record (its ``run.json``)."""
+    return policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
 
 
 def describe(config: ChainCartConfig) -> str:
@@ -143,7 +149,7 @@ def trained_policies(out: Path, runs: Sequence[TrainingRun]) -> list[TrainedPoli
         for run in (r for r in runs if r.algo == algo):
             directory = run.directory(out)
             info = read_json_object(directory / RUN_FILE)
-            label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
+            label = run_label(info)
             finals.append(TrainedPolicy(label, run.seed, PolicySource.of_run(directory)))
             best = PolicySource.best_of_run(directory)
             if best is not None:
@@ -152,9 +158,12 @@ def trained_policies(out: Path, runs: Sequence[TrainingRun]) -> list[TrainedPoli
     return policies
 
 
-def plan_band_reaches(out: Path, runs: Sequence[TrainingRun]) -> dict[str, tuple[float, float]]:
-    """The trained policies (final and best, by name) of the runs that trained with a
+def plan_band_reaches(
+    out: Path, runs: Sequence[TrainingRun], trained: Sequence[TrainedPolicy]
+) -> dict[str, tuple[float, float]]:
+    """The ``trained`` policies (final and best, by name) of the runs that trained with a
     reverse curriculum: the widest window each run reached and its widening step."""
+    names = {t.name for t in trained}
     reaches: dict[str, tuple[float, float]] = {}
     for run in runs:
         directory = run.directory(out)
@@ -163,11 +172,11 @@ def plan_band_reaches(out: Path, runs: Sequence[TrainingRun]) -> dict[str, tuple
         if not isinstance(record, dict) or record.get("kind") != "plan" or not record.get("reverse"):
             continue
         curriculum = PlanStarts.from_record(record)
-        label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
         reach = (widest_window(directory / CURRICULUM_FILE, curriculum), curriculum.window)
-        reaches[trained_name(label, run.seed)] = reach
-        if PolicySource.best_of_run(directory) is not None:
-            reaches[trained_name(f"{label} best", run.seed)] = reach
+        label = run_label(info)
+        for name in (trained_name(label, run.seed), trained_name(f"{label} best", run.seed)):
+            if name in names:  # the best only where the run kept one
+                reaches[name] = reach
     return reaches
 
 
@@ -295,7 +304,7 @@ def _evaluation_curves(out: Path, runs: Sequence[TrainingRun]) -> dict[str, dict
         log = run.directory(out) / EVALUATIONS_FILE
         if log.is_file():
             info = read_json_object(run.directory(out) / RUN_FILE)
-            label = policy_label(str(info["algo"]), str(info.get("trainer", "sb3")))
+            label = run_label(info)
             curves.setdefault(label, {})[str(run.seed)] = read_evaluations(log)
     return curves
 
@@ -371,7 +380,7 @@ def evaluate_study(
     if trained:
         write_csv(into / "seeds.csv", aggregates, AGGREGATE_COLUMNS)
     # Agents of a reverse curriculum: how far back along the plan they swing up from.
-    bands = band_cells(config, plan_band_reaches(out, runs), eval_seed)
+    bands = band_cells(config, plan_band_reaches(out, runs, trained), eval_seed)
     plan_bands = band_rows(bands, map_cells(evaluate_band_cell, bands, shared=sources, distributed=distributed,
                                             torch_threads=torch_threads)) if bands else []
     if plan_bands:
