@@ -1,7 +1,7 @@
 //! The physics step loop allocates nothing.
 
-use super::counter::allocations_of;
 use super::super::common::batches::{forces, random_batch};
+use super::counter::allocations_of;
 use chaincart::engine::CHUNK;
 use chaincart::integrate::{Guard, GuardedStepper};
 use chaincart::lanes::Precision;
