@@ -173,7 +173,10 @@ def normalization_arrays(statistics: Any) -> tuple[dict[str, np.ndarray], Option
     rms = statistics.obs_rms
     if isinstance(rms, dict):
         raise InvalidInputError("VecNormalize of a Dict observation space: expected Box observations")
-    arrays = {"obs_mean": np.asarray(rms.mean, dtype=np.float64), "obs_var": np.asarray(rms.var, dtype=np.float64)}
+    from chaincart_env.tools.compare.normalization import observation_variance
+
+    arrays = {"obs_mean": np.asarray(rms.mean, dtype=np.float64),
+              "obs_var": np.asarray(observation_variance(statistics), dtype=np.float64)}  # any floor applied
     return arrays, dict(clip_obs=float(statistics.clip_obs), epsilon=float(statistics.epsilon),
                         count=float(rms.count))
 

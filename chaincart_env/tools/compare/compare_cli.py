@@ -130,6 +130,11 @@ def _configure_compare(parser: argparse.ArgumentParser) -> None:
                         help="with --curriculum reverse and a recipe that normalises observations: stop counting the "
                         "normalisation statistics at the first widening and clip at 100 standard deviations, so that "
                         "the wider starts do not rescale what the policy learned to balance on (default: off)")
+    parser.add_argument("--curriculum-spread-floor", type=float, default=None, metavar="S",
+                        help="with --curriculum plan or reverse and a recipe that normalises observations: divide each "
+                        "observation component by at least S times its spread along the plan, in [0, 1], so that the "
+                        "statistics of a balance do not magnify what barely moves near the target into hundreds of "
+                        "standard deviations along the plan (default: 0, none)")
     parser.add_argument("--plan-fraction", type=float, default=None, metavar="F",
                         help="with --curriculum plan or reverse: the share of training episodes that start on the plan, in "
                         "(0, 1] (default: 0.5)")
@@ -287,15 +292,18 @@ def _curriculum(
     threshold: Optional[float] = None,
     freeze_statistics: bool = False,
     judged_starts: Optional[str] = None,
+    spread_floor: Optional[float] = None,
 ) -> Any:
-    """``--curriculum``, ``--plan-fraction`` and the reverse curriculum's ``--curriculum-judge``,
-    ``--curriculum-window``, ``--curriculum-threshold``, ``--curriculum-freeze-statistics`` and
-    ``--curriculum-judged-starts`` as ``run_compare``'s ``curriculum``."""
+    """``--curriculum``, ``--plan-fraction``, ``--curriculum-spread-floor`` and the reverse
+    curriculum's ``--curriculum-judge``, ``--curriculum-window``, ``--curriculum-threshold``,
+    ``--curriculum-freeze-statistics`` and ``--curriculum-judged-starts`` as
+    ``run_compare``'s ``curriculum``."""
     from chaincart_env.tools.compare.curriculum import PlanStarts
 
-    if fraction is not None and name not in ("plan", "reverse"):
-        raise InvalidInputError(f"--plan-fraction {fraction:g} without --curriculum plan or reverse: expected "
-                                "--curriculum plan or reverse with it")
+    for option, share in {"--plan-fraction": fraction, "--curriculum-spread-floor": spread_floor}.items():
+        if share is not None and name not in ("plan", "reverse"):
+            raise InvalidInputError(f"{option} {share:g} without --curriculum plan or reverse: expected "
+                                    "--curriculum plan or reverse with it")
     reverse_only = {"--curriculum-judge": judge, "--curriculum-window": window, "--curriculum-threshold": threshold,
                     "--curriculum-freeze-statistics": True if freeze_statistics else None,
                     "--curriculum-judged-starts": judged_starts}
@@ -321,6 +329,8 @@ def _curriculum(
         settings["freeze_statistics"] = True
     if judged_starts is not None:
         settings["judged_starts"] = judged_starts
+    if spread_floor is not None:
+        settings["spread_floor"] = spread_floor
     return PlanStarts(**settings)
 
 
@@ -349,7 +359,7 @@ def _run_compare_command(args: argparse.Namespace, parser: argparse.ArgumentPars
         sweeps = _sweeps(args.sweeps)
         curriculum = _curriculum(args.curriculum, args.plan_fraction, args.curriculum_judge, args.curriculum_window,
                                  args.curriculum_threshold, args.curriculum_freeze_statistics,
-                                 args.curriculum_judged_starts)
+                                 args.curriculum_judged_starts, args.curriculum_spread_floor)
     except (ChainCartError, TypeError) as error:
         parser.error(str(error))
     if args.policies is not None:

@@ -35,7 +35,7 @@ from chaincart_env.errors import InvalidInputError
 
 __all__ = [
     "CURRICULA", "CURRICULUM_FILE", "FROZEN_CLIP", "JUDGED_STARTS", "JUDGES", "SCENE_CURRICULA",
-    "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_states", "scene_curriculum",
+    "SCENE_TRAINING_REWARDS", "PlanStarts", "check_plan_scene", "plan_observations", "plan_states", "scene_curriculum",
     "scene_training_reward", "window_start",
 ]  # fmt: skip
 
@@ -79,7 +79,17 @@ class PlanStarts:
     target, so the statistics' spread is the balance's, small; counting the wider starts
     of the next windows lifts it many times over, which rescales what the policy sees
     near the target and undid the balance it learned on ``swingup-3``. Frozen, the balance's inputs stay as learned and the new starts read
-    as large inputs, not clipped ones."""
+    as large inputs, not clipped ones.
+
+    ``spread_floor`` (plan starts of agents whose recipe normalises observations; 0 for
+    none): from the first step, the spread the statistics divide each observation
+    component by is at least ``spread_floor`` times that component's spread over the
+    plan's states (:func:`plan_observations`). Near the target the vertical components of
+    upright links barely move (a spread of 0.01 on ``swingup-3``), so the statistics of a
+    balance magnify them a hundredfold, and the plan's whip reads as inputs of 50 to 300
+    standard deviations: past the tenth of the plan nearest the target, clipped. The
+    floor leaves the components a balance steers by (the links' horizontal directions, the
+    spins) at their own spread and bounds the rest."""
 
     fraction: float = 0.5
     reverse: bool = False
@@ -89,6 +99,7 @@ class PlanStarts:
     judge: str = "success"
     freeze_statistics: bool = False
     judged_starts: str = "window"
+    spread_floor: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("fraction", "window", "threshold"):
@@ -103,6 +114,11 @@ class PlanStarts:
         if self.freeze_statistics and not self.reverse:
             raise InvalidInputError("plan-start freeze_statistics = True without reverse: expected a reverse "
                                     "curriculum, whose first widening is when the statistics freeze")
+        if isinstance(self.spread_floor, bool) or not isinstance(self.spread_floor, (int, float)) or not (
+            math.isfinite(self.spread_floor) and 0.0 <= self.spread_floor <= 1.0
+        ):
+            raise InvalidInputError(f"plan-start spread_floor = {self.spread_floor!r}: expected a number in [0, 1] "
+                                    "(a share of each observation's spread along the plan; 0 for none)")
         if isinstance(self.judged, bool) or not isinstance(self.judged, int) or self.judged < 1:
             raise InvalidInputError(f"plan-start judged = {self.judged!r}: expected an integer >= 1 (episodes)")
         if self.judge not in JUDGES:
@@ -162,6 +178,20 @@ def window_start(last: int, share: float) -> int:
     """The earliest step of a plan of steps ``0..last`` in its last ``share`` (counted from
     the plan's end, as a reverse curriculum's windows are)."""
     return max(0, min(last, int(math.floor((1.0 - share) * last + 1e-9))))
+
+
+def plan_observations(config: Any, states: np.ndarray) -> np.ndarray:
+    """What the scene's env observes at each of ``states`` (model layout, one per row),
+    shape ``(len(states), obs_dim)``, without noise."""
+    from chaincart_env.sb3 import ChainCartVecEnv
+
+    probe = ChainCartVecEnv(1, config.replace(obs_noise=None), seed=0)
+    probe.reset()
+    observations = np.empty((len(states), config.obs_dim), dtype=np.float64)
+    for row, state in enumerate(states):
+        probe.env_method("set_state", state, indices=0)
+        observations[row] = probe._batch.observations()[0]
+    return observations
 
 
 def check_plan_scene(config: Any) -> None:

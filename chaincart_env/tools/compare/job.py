@@ -536,9 +536,11 @@ def _training_settings(
             warm_start = replace(warm_start, **imitation)
         scene_methods = CONTROLLERS[algo].takes_scene_methods
         starts = chosen_curriculum if scene_methods else given_curriculum
-        if starts is not None and starts.get("freeze_statistics") and recipe.normalize is None:
-            raise InvalidInputError(f"--curriculum-freeze-statistics for {algo}, whose recipe ({recipe.source}) does "
-                                    "not normalise observations: expected a recipe with normalize")
+        for key, option in (("freeze_statistics", "--curriculum-freeze-statistics"),
+                            ("spread_floor", "--curriculum-spread-floor")):
+            if starts is not None and starts.get(key) and recipe.normalize is None:
+                raise InvalidInputError(f"{option} for {algo}, whose recipe ({recipe.source}) does not normalise "
+                                        "observations: expected a recipe with normalize")
         return dict(timesteps=recipe.timesteps if timesteps is None else timesteps,
                     num_envs=recipe.num_envs if num_envs is None else num_envs,
                     hyperparameters=keywords, recipe=recipe.source, normalize=recipe.normalize,

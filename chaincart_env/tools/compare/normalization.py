@@ -7,6 +7,9 @@ beside every model file (``vecnormalize.pkl`` beside ``model.zip``,
 ``best_vecnormalize.pkl`` beside ``best_model.zip``; SB3's ``VecNormalize.save``) and a
 loaded agent is a :class:`NormalizedPolicy` that normalises with them, frozen. A model
 without a statistics file loads as the bare SB3 model.
+
+A curriculum's ``spread_floor`` trains on :class:`FlooredVecNormalize`: the same
+statistics, divided by a spread no smaller than a floor per component.
 """
 
 from __future__ import annotations
@@ -23,13 +26,48 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from chaincart_env.errors import InvalidInputError
 
 __all__ = [
-    "NormalizedPolicy", "copy_agent", "load_statistics", "normalization_file", "normalized_envs", "read_statistics",
-    "save_agent", "with_statistics",
+    "FlooredVecNormalize", "NormalizedPolicy", "copy_agent", "load_statistics", "normalization_file",
+    "normalized_envs", "observation_variance", "read_statistics", "save_agent", "with_statistics",
 ]  # fmt: skip
 
-def normalized_envs(envs: VecEnv, setting: Optional[Mapping[str, Any]]) -> VecEnv:
-    """``envs`` in ``VecNormalize`` with ``setting``'s keywords (``envs`` as they are for ``None``)."""
-    return envs if setting is None else VecNormalize(envs, **setting)
+
+class FlooredVecNormalize(VecNormalize):
+    """SB3's ``VecNormalize`` whose observations are divided by a spread of at least
+    ``sqrt(variance_floor)`` per component (the statistics themselves count as SB3's do).
+    The floor pickles with the statistics, so a saved agent normalises as it trained."""
+
+    def __init__(self, venv: VecEnv, variance_floor: np.ndarray, **kwargs: Any) -> None:
+        super().__init__(venv, **kwargs)
+        floor = np.asarray(variance_floor, dtype=np.float64)
+        if floor.shape != self.observation_space.shape or not np.all(np.isfinite(floor) & (floor >= 0.0)):
+            raise InvalidInputError(f"variance floor of shape {floor.shape}: expected finite values >= 0 of the "
+                                    f"observations' shape {self.observation_space.shape}")
+        self.variance_floor = floor
+
+    def _normalize_obs(self, obs: np.ndarray, obs_rms: Any) -> np.ndarray:
+        spread = np.sqrt(np.maximum(obs_rms.var, self.variance_floor) + self.epsilon)
+        return np.clip((obs - obs_rms.mean) / spread, -self.clip_obs, self.clip_obs)
+
+    def _unnormalize_obs(self, obs: np.ndarray, obs_rms: Any) -> np.ndarray:
+        return obs * np.sqrt(np.maximum(obs_rms.var, self.variance_floor) + self.epsilon) + obs_rms.mean
+
+
+def normalized_envs(
+    envs: VecEnv, setting: Optional[Mapping[str, Any]], variance_floor: Optional[np.ndarray] = None
+) -> VecEnv:
+    """``envs`` in ``VecNormalize`` with ``setting``'s keywords (``envs`` as they are for
+    ``None``); in :class:`FlooredVecNormalize` when ``variance_floor`` is given."""
+    if setting is None:
+        return envs
+    return VecNormalize(envs, **setting) if variance_floor is None else FlooredVecNormalize(
+        envs, variance_floor, **setting)
+
+
+def observation_variance(statistics: VecNormalize) -> np.ndarray:
+    """The variance ``statistics`` divide observations by (before ``epsilon``): the counted
+    one, raised to the floor of a :class:`FlooredVecNormalize`."""
+    rms: Any = statistics.obs_rms
+    return np.maximum(rms.var, getattr(statistics, "variance_floor", 0.0))
 
 
 def normalization_file(model_path: Path) -> Path:

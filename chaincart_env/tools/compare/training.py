@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Optional, Sequence, TextIO
 
+import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import Logger
@@ -134,6 +135,19 @@ def check_keywords(algo: str, hyperparameters: Mapping[str, Any]) -> None:
     sb3_keywords(hyperparameters, f"{algo} keywords")
 
 
+def _variance_floor(config: ChainCartConfig, plan: Any, curriculum: Optional[PlanStarts], envs: Any) -> Any:
+    """The normalisation's variance floor of a curriculum's ``spread_floor`` (``None``
+    without one): the share of each env observation's spread along ``plan``, squared; the
+    components wrappers append (history, time, a base's command) keep their counted spread."""
+    if curriculum is None or not curriculum.spread_floor:
+        return None
+    from chaincart_env.tools.compare.curriculum import plan_observations
+
+    floor = np.zeros(envs.observation_space.shape, dtype=np.float64)
+    floor[: config.obs_dim] = (curriculum.spread_floor * plan_observations(config, plan).std(axis=0)) ** 2
+    return floor
+
+
 def _new_agent(
     algo: str, config: ChainCartConfig, seed: int, num_envs: int, kwargs: dict[str, Any],
     normalize: Optional[Mapping[str, Any]] = None, curriculum: Optional[PlanStarts] = None,
@@ -166,7 +180,8 @@ def _new_agent(
 
         native = shaped_envs(native, shaping, plan)
     # VecNormalize outside VecMonitor, as in the zoo: the episode log keeps the rewards trained on, unscaled.
-    venv = normalized_envs(VecMonitor(native), normalize)
+    monitored = VecMonitor(native)
+    venv = normalized_envs(monitored, normalize, _variance_floor(config, plan, curriculum, monitored))
     try:
         model = algorithm_class(algo)("MlpPolicy", venv, seed=seed, device="cpu", verbose=0, **keywords)
     except TypeError as error:  # an unknown or ill-typed keyword
@@ -351,6 +366,9 @@ def train(
     residual = _check_residual(residual, imitation, curriculum, mirror_weight)
     if curriculum is not None and curriculum.freeze_statistics and normalize is None:
         raise InvalidInputError(f"a curriculum freezing the observation statistics with {algo}'s recipe, which does "
+                                "not normalise observations: expected a recipe with normalize")
+    if curriculum is not None and curriculum.spread_floor and normalize is None:
+        raise InvalidInputError(f"a curriculum flooring the observation spread with {algo}'s recipe, which does "
                                 "not normalise observations: expected a recipe with normalize")
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")

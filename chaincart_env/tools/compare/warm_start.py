@@ -61,5 +61,21 @@ def warm_start(model: Any, source: Path) -> Path:
         raise InvalidInputError(f"warm start {path}: {first_line}; expected an agent of the same algorithm with the "
                                 "same observation and action spaces") from None
     if statistics is not None:
+        _check_floors(path, statistics, normalizer)
         normalizer.obs_rms, normalizer.ret_rms = statistics.obs_rms, statistics.ret_rms
     return path
+
+
+def _check_floors(path: Path, statistics: Any, normalizer: Any) -> None:
+    """Refuses a warm start whose agent divided its observations by other spreads than the
+    new agent's statistics would (a spread floor on one side only, or another floor)."""
+    import numpy as np
+
+    saved: Any = getattr(statistics, "variance_floor", None)
+    new: Any = getattr(normalizer, "variance_floor", None)
+    if (saved is None) != (new is None) or (saved is not None and not np.array_equal(saved, new)):
+        raise InvalidInputError(
+            f"warm start {path}: its observation spread floor ({'none' if saved is None else 'set'}) differs from the "
+            f"new agent's ({'none' if new is None else 'set'}); expected the same --curriculum-spread-floor on the "
+            "same scene"
+        )
