@@ -118,8 +118,8 @@ def _train(directory, spread_floor: float, **extra):
 
     curriculum = PlanStarts(1.0, reverse=True, window=0.02, spread_floor=spread_floor)  # starts near the top
     # Episodes end at the fall, so that the starts near the top keep the counted spread small.
-    return train(SWINGUP.replace(fall_limit=0.3), timesteps=128, num_envs=2, seed=5, directory=directory, eval_seeds=[1_000_000],
-                 eval_every=10_000, checkpoint_every=10_000, progress_bar=False, hyperparameters=TINY,
+    return train(SWINGUP.replace(fall_limit=0.3), timesteps=128, num_envs=2, seed=5, directory=directory,
+                 eval_seeds=[1_000_000], eval_every=10_000, checkpoint_every=10_000, progress_bar=False, hyperparameters=TINY,
                  normalize=NORMALIZE, curriculum=curriculum, **extra)
 
 
@@ -154,16 +154,19 @@ def test_a_floor_needs_a_recipe_that_normalises(tmp_path) -> None:
               curriculum=PlanStarts(1.0, spread_floor=0.1))
 
 
-def test_an_exported_agent_normalises_as_the_floored_statistics_do() -> None:
+def test_an_exported_agent_normalises_as_the_floored_statistics_do(tmp_path) -> None:
     from stable_baselines3 import PPO
 
     from chaincart_env.pretrained_agents import PretrainedPolicy
+    from chaincart_env.tools.compare.normalization import read_statistics
     from chaincart_env.tools.export_agent import agent_record
 
     var = np.full(8, 1e-4)
     statistics = _floored(np.full(8, 0.09), var)
     model = PPO("MlpPolicy", statistics.venv, seed=0, device="cpu", policy_kwargs=dict(net_arch=[8]))
-    record, arrays = agent_record(model, statistics, SWINGUP, "test")
+    statistics.save(str(tmp_path / "vecnormalize.pkl"))  # exported as export-agent reads it: without envs
+    loaded = read_statistics((tmp_path / "vecnormalize.pkl").read_bytes())
+    record, arrays = agent_record(model, loaded, SWINGUP, "test")
     agent = PretrainedPolicy(json.loads(json.dumps(record)), arrays)
     observations = np.random.default_rng(2).normal(0.0, 0.5, (20, 8))
     np.testing.assert_allclose(agent.normalize(observations), statistics.normalize_obs(observations), rtol=1e-6)

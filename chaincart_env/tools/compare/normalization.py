@@ -27,7 +27,8 @@ from chaincart_env.errors import InvalidInputError
 
 __all__ = [
     "FlooredVecNormalize", "NormalizedPolicy", "copy_agent", "load_statistics", "normalization_file",
-    "normalized_envs", "observation_variance", "read_statistics", "save_agent", "with_statistics",
+    "normalized_envs", "observation_variance", "read_statistics", "save_agent", "variance_floor_of",
+    "with_statistics",
 ]  # fmt: skip
 
 
@@ -63,11 +64,19 @@ def normalized_envs(
         envs, variance_floor, **setting)
 
 
+def variance_floor_of(statistics: VecNormalize) -> Optional[np.ndarray]:
+    """The variance floor of a :class:`FlooredVecNormalize`, ``None`` for SB3's own. (No
+    ``getattr`` with a default: on statistics loaded without envs, SB3's wrapper looks a
+    missing attribute up in envs that are not there, without end.)"""
+    return statistics.variance_floor if isinstance(statistics, FlooredVecNormalize) else None
+
+
 def observation_variance(statistics: VecNormalize) -> np.ndarray:
     """The variance ``statistics`` divide observations by (before ``epsilon``): the counted
     one, raised to the floor of a :class:`FlooredVecNormalize`."""
     rms: Any = statistics.obs_rms
-    return np.maximum(rms.var, getattr(statistics, "variance_floor", 0.0))
+    floor = variance_floor_of(statistics)
+    return np.asarray(rms.var) if floor is None else np.maximum(rms.var, floor)
 
 
 def normalization_file(model_path: Path) -> Path:

@@ -54,6 +54,8 @@ def warm_start(model: Any, source: Path) -> Path:
             f"new agent {'does not normalise' if normalizer is None else 'normalises'}; expected an agent trained with "
             "the same normalisation"
         )
+    if statistics is not None:
+        _check_floors(path, statistics, normalizer)
     try:
         model.set_parameters(str(path), exact_match=True, device="cpu")
     except (ValueError, RuntimeError, KeyError) as error:
@@ -61,7 +63,6 @@ def warm_start(model: Any, source: Path) -> Path:
         raise InvalidInputError(f"warm start {path}: {first_line}; expected an agent of the same algorithm with the "
                                 "same observation and action spaces") from None
     if statistics is not None:
-        _check_floors(path, statistics, normalizer)
         normalizer.obs_rms, normalizer.ret_rms = statistics.obs_rms, statistics.ret_rms
     return path
 
@@ -71,9 +72,11 @@ def _check_floors(path: Path, statistics: Any, normalizer: Any) -> None:
     new agent's statistics would (a spread floor on one side only, or another floor)."""
     import numpy as np
 
-    saved: Any = getattr(statistics, "variance_floor", None)
-    new: Any = getattr(normalizer, "variance_floor", None)
-    if (saved is None) != (new is None) or (saved is not None and not np.array_equal(saved, new)):
+    from chaincart_env.tools.compare.normalization import variance_floor_of
+
+    saved, new = variance_floor_of(statistics), variance_floor_of(normalizer)
+    same = saved is None and new is None or saved is not None and new is not None and np.array_equal(saved, new)
+    if not same:
         raise InvalidInputError(
             f"warm start {path}: its observation spread floor ({'none' if saved is None else 'set'}) differs from the "
             f"new agent's ({'none' if new is None else 'set'}); expected the same --curriculum-spread-floor on the "
