@@ -119,8 +119,17 @@ def _train(directory, spread_floor: float, **extra):
     curriculum = PlanStarts(1.0, reverse=True, window=0.02, spread_floor=spread_floor)  # starts near the top
     # Episodes end at the fall, so that the starts near the top keep the counted spread small.
     return train(SWINGUP.replace(fall_limit=0.3), timesteps=128, num_envs=2, seed=5, directory=directory,
-                 eval_seeds=[1_000_000], eval_every=10_000, checkpoint_every=10_000, progress_bar=False, hyperparameters=TINY,
-                 normalize=NORMALIZE, curriculum=curriculum, **extra)
+                 eval_seeds=[1_000_000], eval_every=10_000, checkpoint_every=10_000, progress_bar=False,
+                 hyperparameters=TINY, normalize=NORMALIZE, curriculum=curriculum, **extra)
+
+
+def test_a_floored_run_is_seeded(tmp_path) -> None:
+    first, second = (_train(tmp_path / name, 0.1).model for name in ("first", "second"))
+    np.testing.assert_array_equal(first.get_vec_normalize_env().variance_floor,
+                                  second.get_vec_normalize_env().variance_floor)
+    np.testing.assert_array_equal(first.get_vec_normalize_env().obs_rms.var, second.get_vec_normalize_env().obs_rms.var)
+    for (name, weights), (_, again) in zip(first.policy.state_dict().items(), second.policy.state_dict().items()):
+        assert (weights == again).all(), name
 
 
 def test_a_run_divides_by_the_share_of_the_plans_spread_and_its_saved_agent_too(states, tmp_path) -> None:
