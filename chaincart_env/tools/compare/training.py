@@ -364,12 +364,12 @@ def train(
 
     cls = algorithm_class(algo)
     residual = _check_residual(residual, imitation, curriculum, mirror_weight)
-    if curriculum is not None and curriculum.freeze_statistics and normalize is None:
-        raise InvalidInputError(f"a curriculum freezing the observation statistics with {algo}'s recipe, which does "
-                                "not normalise observations: expected a recipe with normalize")
-    if curriculum is not None and curriculum.spread_floor and normalize is None:
-        raise InvalidInputError(f"a curriculum flooring the observation spread with {algo}'s recipe, which does "
-                                "not normalise observations: expected a recipe with normalize")
+    acting_on_statistics = {"freezing the observation statistics": curriculum and curriculum.freeze_statistics,
+                            "flooring the observation spread": curriculum and curriculum.spread_floor}
+    for setting, asked in acting_on_statistics.items():
+        if asked and normalize is None:
+            raise InvalidInputError(f"a curriculum {setting} with {algo}'s recipe, which does not normalise "
+                                    "observations: expected a recipe with normalize")
     if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
         raise InvalidInputError(f"timesteps = {timesteps!r}: expected an integer >= 1")
     kwargs = dict(hyperparameters or {})  # on top of SB3's defaults; a scene's recipe comes from the caller
