@@ -184,6 +184,11 @@ def test_compare_records_the_curriculum_and_refuses_it_where_it_cannot_serve() -
          "--curriculum-freeze-statistics without --curriculum reverse"),
         (["--curriculum", "reverse", "--curriculum-freeze-statistics", "--policies", "ppo"],
          "--curriculum-freeze-statistics for ppo, whose recipe (ppo.yml: ChainCart-swingup-2-v0) does not normalise"),
+        (["--curriculum-spread-floor", "0.1"], "--curriculum-spread-floor 0.1 without --curriculum plan or reverse"),
+        (["--curriculum", "none", "--curriculum-spread-floor", "0.1"], "without --curriculum plan or reverse"),
+        (["--curriculum", "reverse", "--curriculum-spread-floor", "2"], "plan-start spread_floor = 2.0"),
+        (["--curriculum", "plan", "--curriculum-spread-floor", "0.1", "--policies", "ppo"],
+         "--curriculum-spread-floor for ppo, whose recipe (ppo.yml: ChainCart-swingup-2-v0) does not normalise"),
     ],
 )
 def test_the_command_line_names_bad_curriculum_options(argv, named, capsys, tmp_path) -> None:
@@ -202,6 +207,8 @@ def test_the_command_line_options_become_the_curriculum_settings() -> None:
     assert _curriculum("reverse", None) == PlanStarts(reverse=True)
     assert _curriculum("reverse", None, freeze_statistics=True) == PlanStarts(reverse=True, freeze_statistics=True)
     assert _curriculum("reverse", None, judged_starts="newest") == PlanStarts(reverse=True, judged_starts="newest")
+    assert _curriculum("plan", None, spread_floor=0.1) == PlanStarts(spread_floor=0.1)
+    assert _curriculum("reverse", 1.0, spread_floor=0.2) == PlanStarts(1.0, reverse=True, spread_floor=0.2)
     assert _curriculum(None, None) == "scene" and _curriculum("none", None) is None
 
 

@@ -37,31 +37,6 @@ def test_the_setting_round_trips_through_its_record_and_older_records_have_none(
     assert PlanStarts.from_record(older).spread_floor == 0.0
 
 
-@pytest.mark.parametrize(
-    "argv, named",
-    [
-        (["--curriculum-spread-floor", "0.1"], "--curriculum-spread-floor 0.1 without --curriculum plan or reverse"),
-        (["--curriculum", "none", "--curriculum-spread-floor", "0.1"], "without --curriculum plan or reverse"),
-        (["--curriculum", "reverse", "--curriculum-spread-floor", "2"], "plan-start spread_floor = 2.0"),
-        (["--curriculum", "plan", "--curriculum-spread-floor", "0.1", "--policies", "ppo"],
-         "--curriculum-spread-floor for ppo, whose recipe (ppo.yml: ChainCart-swingup-2-v0) does not normalise"),
-    ],
-)
-def test_the_command_line_names_a_bad_spread_floor(argv, named, capsys, tmp_path) -> None:
-    from chaincart_env.tools.compare.compare_cli import compare_main
-
-    with pytest.raises(SystemExit):
-        compare_main(["--scene", "swingup-2", "--out", str(tmp_path), *argv])
-    assert named in capsys.readouterr().err
-
-
-def test_the_option_becomes_the_setting() -> None:
-    from chaincart_env.tools.compare.compare_cli import _curriculum
-
-    assert _curriculum("plan", None, spread_floor=0.1) == PlanStarts(spread_floor=0.1)
-    assert _curriculum("reverse", 1.0, spread_floor=0.2) == PlanStarts(1.0, reverse=True, spread_floor=0.2)
-
-
 def test_the_plan_observations_are_what_the_env_observes_there_without_noise(states) -> None:
     from chaincart_env.sb3 import ChainCartVecEnv
 
