@@ -200,6 +200,7 @@ class ChainCartConfig:
     reward: str = _UNSET
     success_hold: float = _UNSET
     fall_limit: float = _UNSET
+    fall_hold: float = _UNSET
     transitions: Optional[tuple[tuple[Any, Any], ...]] = _UNSET
     goal_observation: bool = _UNSET
     diagnostics: bool = _UNSET

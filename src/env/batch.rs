@@ -44,8 +44,8 @@ pub struct Snapshot {
     pub ended: Vec<bool>,
     /// Per env: consecutive steps within the success tolerances.
     pub held: Vec<u32>,
-    /// Per env: a step of the episode came within `fall_limit`.
-    pub caught: Vec<bool>,
+    /// Per env: consecutive steps within `fall_limit`, counted up to where a fall is armed.
+    pub caught: Vec<u16>,
     /// Per env: the episode's (start, target) pair of a goal-conditioned task.
     pub goal: Vec<u16>,
     /// Per env: the episode's control delay (control periods).
@@ -128,6 +128,7 @@ macro_rules! ctx {
             base: &$b.base,
             reward: $b.reward,
             hold_steps: $b.task.hold_steps(),
+            fall_arm_steps: $b.task.fall_arm_steps(),
             mode: $b.mode,
             diagnostics: $b.diagnostics,
             widths: $b.widths,
@@ -596,6 +597,7 @@ impl<G: LaneScene> EnvBatch<G> {
                 base,
                 reward,
                 hold_steps: task.hold_steps(),
+                fall_arm_steps: task.fall_arm_steps(),
                 mode,
                 diagnostics,
                 widths,

@@ -368,10 +368,14 @@ pub struct TaskConfig {
     /// Seconds the errors must have stayed within the tolerances at the end of an
     /// episode for a success (0: the last step alone).
     pub success_hold: f64,
-    /// An episode whose `e_q` has come within this bound ends (terminated, "fell") at
-    /// the first later step beyond it: a balance or a caught swing-up that is lost
-    /// ends there instead of running on (0: never).
+    /// An episode whose `e_q` has come within this bound (for `fall_hold`) ends
+    /// (terminated, "fell") at the first later step beyond it: a balance or a caught
+    /// swing-up that is lost ends there instead of running on (0: never).
     pub fall_limit: f64,
+    /// Seconds `e_q` must stay within `fall_limit` before a later step beyond it is a
+    /// fall (0: one step), so that a swing passing through the limit on its way up
+    /// does not count as a catch that was lost.
+    pub fall_hold: f64,
     /// Goal-conditioned tasks: the (start, target) pairs every reset draws from (the
     /// `target` and `start` fields then hold the first pair's).
     pub transitions: Option<Transitions>,
@@ -417,6 +421,7 @@ impl TaskConfig {
             success: SuccessTolerances::default(),
             success_hold: 0.0,
             fall_limit: 0.0,
+            fall_hold: 0.0,
             transitions: None,
             goal_observation: false,
             reality: RealityGap::default(),
@@ -490,6 +495,7 @@ impl TaskConfig {
         check_positive("success_tolerances.e_w", self.success.e_w)?;
         check_non_negative("success_hold", self.success_hold)?;
         check_non_negative("fall_limit", self.fall_limit)?;
+        check_non_negative("fall_hold", self.fall_hold)?;
         check_precision(self.precision, self.step_options.method, &self.guard)?;
         check_non_negative("max_acceleration", self.max_acceleration)?;
         check_non_negative("max_voltage", self.max_voltage)?;
@@ -529,6 +535,13 @@ impl TaskConfig {
     pub fn hold_steps(&self) -> u32 {
         let periods = (self.success_hold / self.dt - 1e-9).ceil();
         periods.clamp(1.0, u32::MAX as f64) as u32
+    }
+
+    /// Consecutive steps within `fall_limit` that arm a fall: `fall_hold` in control
+    /// periods (rounded up), at least one step.
+    pub fn fall_arm_steps(&self) -> u16 {
+        let periods = (self.fall_hold / self.dt - 1e-9).ceil();
+        periods.clamp(1.0, u16::MAX as f64) as u16
     }
 
     /// The target of pair `goal` of a goal-conditioned task, else the target.

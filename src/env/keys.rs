@@ -528,6 +528,19 @@ pub const CONFIG_KEYS: &[ConfigKey] = &[
         }),
     },
     ConfigKey {
+        name: "fall_hold",
+        kind: KeyKind::Number,
+        default: KeyValue::Float(0.0),
+        expected: "a finite number >= 0",
+        help: "s e_q must have stayed within fall_limit before a later step beyond it is a \
+               fall, so that a swing passing through the limit on its way up is not a lost \
+               catch (0: one step)",
+        goes_to: Destination::Task(|t, s| {
+            t.fall_hold = s.number()?;
+            Ok(())
+        }),
+    },
+    ConfigKey {
         name: "transitions",
         kind: KeyKind::Transitions,
         default: KeyValue::None,
@@ -1017,9 +1030,10 @@ mod expected_text {
 
     #[test]
     fn task_checks_say_what_the_table_says() {
-        let cases: [(&str, Spoiler); 7] = [
+        let cases: [(&str, Spoiler); 8] = [
             ("start_noise", Box::new(|t| t.start_noise = -1.0)),
             ("fall_limit", Box::new(|t| t.fall_limit = -1.0)),
+            ("fall_hold", Box::new(|t| t.fall_hold = -1.0)),
             ("dt", Box::new(|t| t.dt = 0.0)),
             ("max_force", Box::new(|t| t.max_force = -1.0)),
             ("track_limit", Box::new(|t| t.track_limit = 0.0)),

@@ -32,8 +32,9 @@ pub(super) struct Slot {
     pub steps: u64,
     /// Consecutive steps up to now within the success tolerances.
     pub held: u32,
-    /// A step of this episode came within `fall_limit` (see [`TaskConfig::fall_limit`]).
-    pub caught: bool,
+    /// Consecutive steps of this episode within `fall_limit` so far, counted up to
+    /// [`TaskConfig::fall_arm_steps`], where a fall is armed and the count stays.
+    pub caught: u16,
     /// Goal-conditioned tasks: the episode's (start, target) pair.
     pub goal: u16,
     /// The episode has ended and the env has not been reset since.
@@ -408,6 +409,8 @@ pub(super) struct Ctx<'a, G: Geometry> {
     pub reward: RewardSpec,
     /// [`TaskConfig::hold_steps`].
     pub hold_steps: u32,
+    /// [`TaskConfig::fall_arm_steps`].
+    pub fall_arm_steps: u16,
     pub mode: AutoresetMode,
     pub diagnostics: bool,
     pub widths: Widths,
@@ -656,7 +659,7 @@ pub(super) fn reset_env<G: Geometry>(ctx: &Ctx<'_, G>, e: &mut EnvMut<'_>) {
     e.slot.delay = ctx.task.reality.draw_action_delay(e.start_rng) as u32;
     e.slot.steps = 0;
     e.slot.held = 0;
-    e.slot.caught = false;
+    e.slot.caught = 0;
     e.slot.ended = false;
     if let (Some(p), Some(rng)) = (e.params.as_mut(), e.param_rng.as_deref_mut()) {
         p.sample(&ctx.task.reality.randomize, ctx.truth, ctx.chain.rig(), rng);
@@ -848,7 +851,7 @@ fn score<G: Geometry>(
     let steps = slot.steps;
     let task = ctx.task;
     let off_track = !failed && m.x_max > task.track_limit;
-    let fell = !failed && !off_track && falls(task.fall_limit, m.e_q, slot);
+    let fell = !failed && !off_track && falls(task.fall_limit, ctx.fall_arm_steps, m.e_q, slot);
     let terminated = failed || off_track || fell;
     let truncated = steps >= task.max_episode_steps;
     *o.reward = if failed { 0.0 } else { m.reward };
@@ -887,17 +890,25 @@ fn score<G: Geometry>(
 }
 
 /// Whether a step that reached `e_q` ends its episode by a fall: beyond `limit` after
-/// an earlier step came within it (`limit` 0: never). Marks the slot caught.
+/// `arm_steps` consecutive earlier steps within it (`limit` 0: never). Counts those
+/// steps in the slot; a step beyond the limit before the fall is armed starts the count
+/// again.
 #[inline(always)]
-fn falls(limit: f64, e_q: f64, slot: &mut Slot) -> bool {
+fn falls(limit: f64, arm_steps: u16, e_q: f64, slot: &mut Slot) -> bool {
     if limit <= 0.0 {
         return false;
     }
+    let armed = slot.caught >= arm_steps;
     if e_q <= limit {
-        slot.caught = true;
+        if !armed {
+            slot.caught += 1;
+        }
         return false;
     }
-    slot.caught
+    if !armed {
+        slot.caught = 0;
+    }
+    armed
 }
 
 /// One control period of one env (or its next-step autoreset).

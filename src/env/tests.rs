@@ -654,7 +654,17 @@ fn a_batch_from_a_checked_task_is_the_batch_new_builds_and_a_bad_task_fails_its_
 /// target with `fall_limit` until the first termination (or 300 steps); the step
 /// index, events and `e_q` of each env at its end.
 fn unforced_until_ended(start: Start, fall_limit: f64) -> Vec<(Option<usize>, u8, f64)> {
+    unforced_until_ended_held(start, fall_limit, 0.0)
+}
+
+/// [`unforced_until_ended`] with a `fall_hold` of `hold` seconds.
+fn unforced_until_ended_held(
+    start: Start,
+    fall_limit: f64,
+    hold: f64,
+) -> Vec<(Option<usize>, u8, f64)> {
     let mut t = task(2);
+    t.fall_hold = hold;
     t.start = start;
     t.start_noise = 0.05;
     t.max_episode_steps = 1000;
@@ -692,6 +702,24 @@ fn a_lost_balance_ends_the_episode_as_a_fall() {
     }
     // Without the limit the same chains fall over and the episodes run on.
     for (k, ..) in unforced_until_ended(Start::Target, 0.0) {
+        assert_eq!(k, None);
+    }
+}
+
+#[test]
+fn a_fall_counts_only_after_the_chain_stayed_within_the_limit_for_the_hold() {
+    let dt = task(2).dt;
+    let unheld = unforced_until_ended(Start::Target, 0.5);
+    // Step k ends the episode: steps 0..k (k of them) were within the limit.
+    let within: Vec<usize> = unheld.iter().map(|end| end.0.unwrap()).collect();
+    let shortest = *within.iter().min().unwrap();
+    assert!(shortest > 2, "fell after {shortest} steps");
+    // A hold the chains met: the same falls at the same steps.
+    let met = unforced_until_ended_held(Start::Target, 0.5, (shortest as f64 - 0.5) * dt);
+    assert_eq!(met, unheld);
+    // A hold longer than every chain stayed within: no fall is ever armed.
+    let longest = *within.iter().max().unwrap();
+    for (k, ..) in unforced_until_ended_held(Start::Target, 0.5, (longest as f64 + 0.5) * dt) {
         assert_eq!(k, None);
     }
 }

@@ -559,7 +559,14 @@ impl PyEnvBatch {
         let steps: PyReadonlyArray1<'_, u64> = get("steps")?.extract()?;
         let ended: PyReadonlyArray1<'_, bool> = get("ended")?.extract()?;
         let held: PyReadonlyArray1<'_, u32> = get("held")?.extract()?;
-        let caught: PyReadonlyArray1<'_, bool> = get("caught")?.extract()?;
+        // A snapshot taken before the fall's hold time existed flags a catch: one step.
+        let caught: Vec<u16> = match get("caught")?.extract::<PyReadonlyArray1<'_, u16>>() {
+            Ok(counts) => counts.as_array().to_vec(),
+            Err(_) => {
+                let flags: PyReadonlyArray1<'_, bool> = get("caught")?.extract()?;
+                flags.as_array().iter().map(|&f| u16::from(f)).collect()
+            }
+        };
         let goal: PyReadonlyArray1<'_, u16> = get("goal")?.extract()?;
         // A snapshot taken before per-episode delays existed has none: the fixed delay.
         let action_delays = match snapshot.get_item("action_delays")? {
@@ -615,7 +622,7 @@ impl PyEnvBatch {
             steps: steps.as_array().to_vec(),
             ended: ended.as_array().to_vec(),
             held: held.as_array().to_vec(),
-            caught: caught.as_array().to_vec(),
+            caught,
             goal: goal.as_array().to_vec(),
             action_delays,
             param_rng: rng_rows(&param_rng),

@@ -39,11 +39,11 @@ KEYWORDS = [
 def test_the_config_has_the_agreed_keyword_names() -> None:
     names = [f.name for f in dataclasses.fields(ChainCartConfig) if f.init]
     assert names[: len(KEYWORDS)] == KEYWORDS
-    # The only extras: success tolerances, the reward kind, the success hold, the fall limit, the
-    # goal-conditioned task's pairs and observation, the diagnostics switch, the
+    # The only extras: success tolerances, the reward kind, the success hold, the fall limit
+    # and its hold, the goal-conditioned task's pairs and observation, the diagnostics switch, the
     # physics' precision, the reality-gap keywords, exactly those the core defines, in
     # its order, the rendered view, the real rig's effects and its encoders.
-    task = ["reward", "success_hold", "fall_limit", "transitions", "goal_observation"]
+    task = ["reward", "success_hold", "fall_limit", "fall_hold", "transitions", "goal_observation"]
     rig = ["joint_damping", "cart_viscous_friction", "cart_coulomb_friction", "coulomb_velocity", "actuation"]
     rig += ["max_acceleration", "max_voltage", "motor"]
     rig += ["angle_encoder_counts", "cart_encoder_counts", "velocity_filter", "angle_encoder_reference"]
@@ -213,7 +213,7 @@ BEFORE = json.loads((Path(__file__).parent / "data" / "config_before.json").read
 #: Keys added after the fixture was saved, with the default that keeps every result.
 ADDED_SINCE = {
     "precision": "f64", "render_view": None, "force_noise": None,
-    "reward": "exp", "success_hold": 0.0, "fall_limit": 0.0, "transitions": None, "goal_observation": False,
+    "reward": "exp", "success_hold": 0.0, "fall_limit": 0.0, "fall_hold": 0.0, "transitions": None, "goal_observation": False,
     "joint_damping": 0.0, "cart_viscous_friction": 0.0, "cart_coulomb_friction": 0.0,
     "coulomb_velocity": 0.01, "actuation": "force", "max_acceleration": 10.0, "max_voltage": 12.0,
     "motor": (0.02, 2.0, 5.0, 0.02, 5.0),

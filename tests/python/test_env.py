@@ -208,6 +208,49 @@ def test_a_lost_balance_ends_the_episode_as_a_fall_with_fall_limit() -> None:
     assert not terminated and steps == 500 and not info["fell"]
 
 
+def test_a_fall_hold_arms_the_fall_only_after_that_long_within_the_limit() -> None:
+    def unforced_end(**keywords: float) -> tuple[int, bool]:
+        env = ChainCartEnv(n_links=2, start_noise=0.05, track_limit=1e300, fall_limit=0.5, **keywords)
+        env.reset(seed=3)
+        for steps in range(1, 201):
+            _, _, terminated, _, info = env.step(np.zeros(1, np.float32))
+            if terminated:
+                return steps, info["fell"]
+        return 0, False
+
+    steps, fell = unforced_end()
+    assert fell and steps > 3
+    dt = ChainCartEnv(n_links=2).config.dt
+    # Within the limit for steps - 1 steps before the fall: a shorter hold arms it in time.
+    assert unforced_end(fall_hold=(steps - 1.5) * dt) == (steps, True)
+    assert unforced_end(fall_hold=(steps - 0.5) * dt) == (0, False)
+
+
+def test_a_snapshot_keeps_the_steps_counted_toward_the_fall_hold() -> None:
+    config = ChainCartConfig(n_links=2, start_noise=0.05, track_limit=1e300, fall_limit=0.5, fall_hold=0.2)
+    batch = config.make_batch(2, "disabled")
+    batch.reset([3, 4], None)
+    zeros = np.zeros((2, 1), np.float32)
+    for _ in range(5):  # within the limit, not yet armed (10 steps)
+        batch.step(zeros)
+    snap = batch.snapshot()
+    assert snap["caught"].tolist() == [5, 5]
+
+    def terminations() -> list[list[bool]]:  # up to the first episode's end
+        ends = [batch.step(zeros)[2].tolist()]
+        while len(ends) < 150 and not any(ends[-1]):
+            ends.append(batch.step(zeros)[2].tolist())
+        return ends
+
+    ahead = terminations()
+    assert len(ahead) < 150
+    batch.restore(snap)
+    assert terminations() == ahead
+    # A snapshot from before the hold existed flags a catch: it restores as one step within.
+    batch.restore({**snap, "caught": snap["caught"] > 0})
+    assert batch.snapshot()["caught"].tolist() == [1, 1]
+
+
 def test_a_copy_taken_after_the_catch_falls_where_the_original_falls() -> None:
     env = ChainCartEnv(n_links=2, start_noise=0.05, track_limit=1e300, fall_limit=0.5)
     env.reset(seed=3)
