@@ -106,8 +106,9 @@ class ChainCartEnv(JsonSpec, EnvOfBatch, FrontEnd, gym.Env[np.ndarray, np.ndarra
       more than 0.5 rad in one integrator step, where the result would be finite but wrong;
       ``info["numerical_failure"]``): the observation is then the last good state,
       never NaN. With ``fall_limit > 0``, also a fall: ``e_q`` beyond ``fall_limit``
-      after an earlier step of the episode came within it (``info["fell"]``), so that
-      a lost balance ends the episode instead of running on.
+      after the episode's chain stayed within it for ``fall_hold`` seconds (one step
+      by default; ``info["fell"]``), so that a lost balance ends the episode instead
+      of running on, while a swing passing through the limit on its way up does not.
     * Truncation: ``max_episode_steps`` steps.
 
     On the last step ``info`` holds ``is_success`` (truncated, not terminated, and the
