@@ -533,15 +533,20 @@ impl TaskConfig {
     /// Consecutive steps within the tolerances that end a successful episode: the
     /// hold time in control periods (rounded up), at least the last step.
     pub fn hold_steps(&self) -> u32 {
-        let periods = (self.success_hold / self.dt - 1e-9).ceil();
-        periods.clamp(1.0, u32::MAX as f64) as u32
+        self.periods_in(self.success_hold)
+            .clamp(1.0, u32::MAX as f64) as u32
     }
 
     /// Consecutive steps within `fall_limit` that arm a fall: `fall_hold` in control
     /// periods (rounded up), at least one step.
     pub fn fall_arm_steps(&self) -> u16 {
-        let periods = (self.fall_hold / self.dt - 1e-9).ceil();
-        periods.clamp(1.0, u16::MAX as f64) as u16
+        self.periods_in(self.fall_hold).clamp(1.0, u16::MAX as f64) as u16
+    }
+
+    /// Control periods that cover `seconds`, rounded up (a rounding error's worth over
+    /// a whole number of periods does not add one).
+    fn periods_in(&self, seconds: f64) -> f64 {
+        (seconds / self.dt - 1e-9).ceil()
     }
 
     /// The target of pair `goal` of a goal-conditioned task, else the target.

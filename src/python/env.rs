@@ -560,10 +560,11 @@ impl PyEnvBatch {
         let ended: PyReadonlyArray1<'_, bool> = get("ended")?.extract()?;
         let held: PyReadonlyArray1<'_, u32> = get("held")?.extract()?;
         // A snapshot taken before the fall's hold time existed flags a catch: one step.
-        let caught: Vec<u16> = match get("caught")?.extract::<PyReadonlyArray1<'_, u16>>() {
+        let caught_item = get("caught")?;
+        let caught: Vec<u16> = match caught_item.extract::<PyReadonlyArray1<'_, u16>>() {
             Ok(counts) => counts.as_array().to_vec(),
             Err(_) => {
-                let flags: PyReadonlyArray1<'_, bool> = get("caught")?.extract()?;
+                let flags: PyReadonlyArray1<'_, bool> = caught_item.extract()?;
                 flags.as_array().iter().map(|&f| u16::from(f)).collect()
             }
         };
